@@ -1,0 +1,19 @@
+// The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
+#include <CLI/CLI.hpp>
+
+#include "render_command.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"pathtracer: a progressive CPU path tracer"};
+  app.require_subcommand(1);
+  pt::RenderOptions render_options;
+  pt::add_render_command(app, render_options);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;  // --help exits 0; a bad flag is bad input (2)
+  }
+  if (app.got_subcommand("render")) return pt::run_render(render_options);
+  return 2;
+}

@@ -1,0 +1,30 @@
+// `pathtracer render`: the headless renderer.
+#pragma once
+#include <optional>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace pt {
+
+struct RenderOptions {
+  std::string scene = "cornell";
+  std::optional<int> width, height, bounces, rr_depth;
+  std::optional<long long> spp;
+  std::optional<double> time_seconds, target_relmse;
+  std::optional<std::string> estimator;
+  std::optional<unsigned long long> seed;
+  int threads = 0;
+  std::string png, pfm;
+  float exposure = 0.f;
+  std::string tonemap = "clamp";
+  bool quiet = false;
+};
+
+void add_render_command(CLI::App& app, RenderOptions& options);
+// Exit status: 0 done, 1 output could not be written, 2 bad input (scene file or options).
+int run_render(const RenderOptions& options);
+
+}  // namespace pt

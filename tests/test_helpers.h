@@ -1,0 +1,63 @@
+// Shared helpers of the test suites: small scenes built in code, and rendering into a film.
+#pragma once
+#include <memory>
+
+#include "film.h"
+#include "renderer.h"
+#include "scene.h"
+
+namespace pt::test {
+
+// A closed sphere of the given material around a camera at its centre: the furnace.
+inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_depth, Estimator est,
+                               double scale = 1.0, DVec3 offset = DVec3(0.0)) {
+  SceneDesc s;
+  s.camera.position = offset;
+  s.camera.look_at = offset + DVec3(0, 0, -scale);
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_deg = 90;
+  s.width = s.height = 8;
+  s.render.max_bounces = bounces;
+  s.render.russian_roulette_depth = rr_depth;
+  s.render.estimator = est;
+  MaterialDesc m;
+  m.name = "furnace";
+  m.albedo = albedo;
+  m.emission = emission;
+  m.two_sided = true;  // seen from inside
+  s.materials.push_back(m);
+  ShapeDesc sphere;
+  sphere.type = ShapeType::Sphere;
+  sphere.center = offset + DVec3(0.1, -0.2, 0.05) * scale;  // camera off-centre: cosines vary
+  sphere.radius = 1.0 * scale;
+  s.shapes.push_back(sphere);
+  return s;
+}
+
+// Image mean and its standard error from the film's per-pixel variance (pixels are independent).
+struct MeanWithError {
+  glm::dvec3 mean{0.0}, std_error{0.0};
+};
+
+inline MeanWithError film_mean(const Film& film) {
+  MeanWithError r;
+  glm::dvec3 var(0.0);
+  const double n = static_cast<double>(film.pixel_count());
+  for (size_t i = 0; i < film.pixel_count(); ++i) {
+    r.mean += glm::dvec3(film.mean(i));
+    var += film.variance_of_mean(i);
+  }
+  r.mean /= n;
+  r.std_error = glm::sqrt(var) / n;
+  return r;
+}
+
+inline Film render_film(const SceneDesc& desc, int spp, int threads = 0) {
+  const auto scene = compile_scene(desc);
+  Film film(desc.width, desc.height);
+  Renderer renderer(threads);
+  renderer.render_pass(*scene, film, spp);
+  return film;
+}
+
+}  // namespace pt::test

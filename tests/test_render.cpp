@@ -1,0 +1,161 @@
+// Whole-renderer tests: the analytic furnace for every estimator, agreement between estimators on the canonical
+// scenes, and bit-identical images for any thread count.
+#include <doctest/doctest.h>
+
+#include <cstring>
+
+#include "image_io.h"
+#include "scene_json.h"
+#include "test_helpers.h"
+
+using namespace pt;
+using namespace pt::test;
+
+namespace {
+const Estimator kAll[] = {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis};
+}
+
+TEST_CASE("furnace: a closed emitting sphere gives Le·(1−ρ^(k+1))/(1−ρ) for every estimator") {
+  // Inside a closed sphere of uniform emission Le and albedo ρ every path sees Le at each vertex, so the
+  // radiance after k bounces is the geometric series Le·Σρ^j. Tolerance: 4 standard errors of the image mean
+  // (from the film's own variance) plus 1e-5 relative for float rounding (the cosine estimator has zero variance).
+  const Rgb Le(1.f, 0.5f, 2.f);
+  for (float rho : {0.5f, 0.9f}) {
+    for (int k : {0, 1, 3, 10}) {
+      for (Estimator est : kAll) {
+        const Film film = render_film(furnace_scene(Le, Rgb(rho), k, -1, est), 256);
+        const MeanWithError m = film_mean(film);
+        const double series = (1.0 - std::pow(rho, k + 1)) / (1.0 - rho);
+        for (int c = 0; c < 3; ++c) {
+          const double expected = Le[c] * series;
+          INFO(std::string(to_string(est)) << " rho " << rho << " k " << k << " channel " << c << ": " << m.mean[c] << " vs "
+                              << expected << " (SE " << m.std_error[c] << ")");
+          CHECK(std::abs(m.mean[c] - expected) <= 4 * m.std_error[c] + 1e-5 * expected);
+        }
+        CHECK(film.rejected() == 0);
+      }
+    }
+  }
+}
+
+TEST_CASE("furnace: Russian roulette with no bounce limit converges to Le/(1−ρ)") {
+  const Rgb Le(1.f);
+  for (float rho : {0.5f, 0.9f}) {
+    for (Estimator est : kAll) {
+      const Film film = render_film(furnace_scene(Le, Rgb(rho), 1 << 30, 0, est), 1024);
+      const MeanWithError m = film_mean(film);
+      const double expected = 1.0 / (1.0 - rho);
+      INFO(std::string(to_string(est)) << " rho " << rho << ": " << m.mean.x << " vs " << expected << " (SE " << m.std_error.x << ")");
+      CHECK(m.std_error.x > 0.0);  // roulette makes it random even for the cosine estimator
+      CHECK(std::abs(m.mean.x - expected) <= 4 * m.std_error.x);
+    }
+  }
+}
+
+namespace {
+
+// Pixel-block means with standard errors from a film (blocks of b×b pixels).
+struct Blocks {
+  std::vector<glm::dvec3> mean, var;
+};
+Blocks blocks_of(const Film& f, int b) {
+  const int bw = f.width() / b, bh = f.height() / b;
+  Blocks r{std::vector<glm::dvec3>(bw * bh, glm::dvec3(0)), std::vector<glm::dvec3>(bw * bh, glm::dvec3(0))};
+  for (int y = 0; y < bh * b; ++y)
+    for (int x = 0; x < bw * b; ++x) {
+      const size_t i = static_cast<size_t>(y) * f.width() + x;
+      const int k = (y / b) * bw + x / b;
+      r.mean[k] += glm::dvec3(f.mean(i)) / double(b * b);
+      r.var[k] += f.variance_of_mean(i) / double(b * b * b * b);
+    }
+  return r;
+}
+
+void check_estimators_agree(const char* scene_name, int size, int spp) {
+  SceneDesc desc = load_scene(scene_name);
+  desc.width = desc.height = size;
+  std::vector<Film> films;
+  for (Estimator est : kAll) {
+    desc.render.estimator = est;
+    films.push_back(render_film(desc, spp));
+    CHECK(films.back().rejected() == 0);
+  }
+  // Compare every estimator with MIS on 8×8-pixel blocks: z = Δ/√(σa²+σb²) from the films' own variances.
+  // 3 channels × (size/8)² blocks × 3 pairs ≈ 150 z-scores: |z| < 4.5 for all (a two-sided 4.5σ event has
+  // probability 7e-6 each, 1e-3 for the set) and the mean z² must be near 1 (it is ≈ 1 ± 0.2 for agreeing
+  // estimators; a bias of one standard error anywhere pushes it well above 1.5).
+  const Blocks ref = blocks_of(films[3], 8);
+  for (int e = 0; e < 3; ++e) {
+    const Blocks b = blocks_of(films[e], 8);
+    double z2 = 0, zmax = 0;
+    int n = 0;
+    for (size_t k = 0; k < b.mean.size(); ++k)
+      for (int c = 0; c < 3; ++c) {
+        const double s = std::sqrt(b.var[k][c] + ref.var[k][c]);
+        if (!(s > 0)) continue;
+        const double z = (b.mean[k][c] - ref.mean[k][c]) / s;
+        z2 += z * z;
+        zmax = std::max(zmax, std::abs(z));
+        ++n;
+      }
+    INFO(scene_name << ": " << to_string(kAll[e]) << " vs mis: max |z| " << zmax << ", mean z² " << z2 / n << " over " << n);
+    CHECK(n > 0);
+    CHECK(zmax < 4.5);
+    CHECK(z2 / n < 1.6);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("agreement: the four estimators agree on cornell") { check_estimators_agree("cornell", 32, 512); }
+
+TEST_CASE("agreement: the four estimators agree on cornell-spheres") {
+  check_estimators_agree("cornell-spheres", 32, 512);
+}
+
+TEST_CASE("determinism: identical images for 1, 2 and 3 threads and any pass split") {
+  SceneDesc desc = load_scene("cornell-spheres");
+  desc.width = 40;  // not a multiple of the tile size
+  desc.height = 24;
+  const auto scene = compile_scene(desc);
+  std::vector<std::vector<float>> images;
+  for (int threads : {1, 2, 3}) {
+    Film film(desc.width, desc.height);
+    Renderer r(threads);
+    r.render_pass(*scene, film, 3);
+    r.render_pass(*scene, film, 5);
+    images.push_back(film.mean_image());
+  }
+  {
+    Film film(desc.width, desc.height);
+    Renderer r(2);
+    r.render_pass(*scene, film, 8);  // same samples, one pass
+    images.push_back(film.mean_image());
+  }
+  for (size_t i = 1; i < images.size(); ++i)
+    CHECK(std::memcmp(images[0].data(), images[i].data(), images[0].size() * sizeof(float)) == 0);
+  // And the PFM files written from them are byte-identical.
+  const std::string a = "determinism_a.pfm", b = "determinism_b.pfm";
+  write_pfm(a, Image{desc.width, desc.height, images[0]});
+  write_pfm(b, Image{desc.width, desc.height, images[2]});
+  const Image ia = read_pfm(a), ib = read_pfm(b);
+  CHECK(std::memcmp(ia.rgb.data(), ib.rgb.data(), ia.rgb.size() * sizeof(float)) == 0);
+  // A different seed gives a different image.
+  desc.render.seed = 1;
+  Film other(desc.width, desc.height);
+  Renderer(2).render_pass(*compile_scene(desc), other, 8);
+  CHECK(std::memcmp(images[0].data(), other.mean_image().data(), images[0].size() * sizeof(float)) != 0);
+}
+
+TEST_CASE("renderer: a cancelled pass stops early and leaves a consistent film") {
+  SceneDesc desc = load_scene("cornell");
+  desc.width = desc.height = 64;
+  const auto scene = compile_scene(desc);
+  Film film(64, 64);
+  Renderer r(2);
+  std::atomic<bool> cancel{true};
+  const PassStats ps = r.render_pass(*scene, film, 100, &cancel);
+  CHECK(ps.cancelled);
+  CHECK(ps.samples == 0);
+  CHECK(film.total_count() == 0);
+}

@@ -1,0 +1,547 @@
+// Scene files: the built-in scenes, the JSON round trip, and the error messages of malformed input.
+#include <doctest/doctest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "scene.h"
+#include "scene_json.h"
+
+using namespace pt;
+
+namespace {
+
+// The message of the SceneError thrown by parse_scene, or "" when it parses.
+std::string parse_error(const std::string& text, const std::string& source = "test.json") {
+  try {
+    parse_scene(text, source);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  REQUIRE_MESSAGE(at != std::string::npos, "test bug: '" << from << "' not in the base scene");
+  return text.replace(at, from.size(), to);
+}
+
+uint32_t bits(float f) { return std::bit_cast<uint32_t>(f); }
+uint64_t bits(double d) { return std::bit_cast<uint64_t>(d); }
+
+// Bit-exact comparison (so -0 ≠ +0 and 0.1f ≠ the nearest double of 0.1).
+void check_same(Vec3 a, Vec3 b, const std::string& what) {
+  INFO(what);
+  CHECK(bits(a.x) == bits(b.x));
+  CHECK(bits(a.y) == bits(b.y));
+  CHECK(bits(a.z) == bits(b.z));
+}
+void check_same(DVec3 a, DVec3 b, const std::string& what) {
+  INFO(what);
+  CHECK(bits(a.x) == bits(b.x));
+  CHECK(bits(a.y) == bits(b.y));
+  CHECK(bits(a.z) == bits(b.z));
+}
+
+void check_same_scene(const SceneDesc& a, const SceneDesc& b) {
+  check_same(a.camera.position, b.camera.position, "camera.position");
+  check_same(a.camera.look_at, b.camera.look_at, "camera.look_at");
+  check_same(a.camera.up, b.camera.up, "camera.up");
+  CHECK(bits(a.camera.fov_deg) == bits(b.camera.fov_deg));
+  CHECK(a.camera.fov_axis == b.camera.fov_axis);
+  CHECK(a.width == b.width);
+  CHECK(a.height == b.height);
+  CHECK(a.render.max_bounces == b.render.max_bounces);
+  CHECK(a.render.estimator == b.render.estimator);
+  CHECK(a.render.russian_roulette_depth == b.render.russian_roulette_depth);
+  CHECK(a.render.seed == b.render.seed);
+  check_same(a.background, b.background, "background");
+  REQUIRE(a.materials.size() == b.materials.size());
+  for (size_t i = 0; i < a.materials.size(); ++i) {
+    const MaterialDesc &m = a.materials[i], &n = b.materials[i];
+    INFO("material " << i << " " << m.name);
+    CHECK(m.name == n.name);
+    CHECK(m.type == n.type);
+    check_same(m.albedo, n.albedo, "albedo");
+    check_same(m.emission, n.emission, "emission");
+    CHECK(m.two_sided == n.two_sided);
+    CHECK(bits(m.ior) == bits(n.ior));
+  }
+  REQUIRE(a.shapes.size() == b.shapes.size());
+  for (size_t i = 0; i < a.shapes.size(); ++i) {
+    const ShapeDesc &s = a.shapes[i], &t = b.shapes[i];
+    INFO("shape " << i);
+    CHECK(s.type == t.type);
+    for (int k = 0; k < 4; ++k) check_same(s.vertices[k], t.vertices[k], "vertex " + std::to_string(k));
+    check_same(s.center, t.center, "center");
+    CHECK(bits(s.radius) == bits(t.radius));
+    CHECK(s.material == t.material);
+  }
+}
+
+DVec3 polygon_normal(const ShapeDesc& s) {
+  return glm::normalize(glm::cross(s.vertices[1] - s.vertices[0], s.vertices[2] - s.vertices[0]));
+}
+
+int material_index(const SceneDesc& s, const std::string& name) {
+  for (size_t i = 0; i < s.materials.size(); ++i)
+    if (s.materials[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+// A small valid scene; the malformed cases below each change one piece of it.
+const std::string kBase = R"({
+  "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+  "film": {"width": 64, "height": 48},
+  "render": {"max_bounces": 4, "estimator": "nee", "russian_roulette_depth": 2, "seed": 7},
+  "background": [0, 0, 0],
+  "materials": {
+    "white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]},
+    "lamp": {"type": "diffuse", "emission": [1, 1, 1], "two_sided": false},
+    "glass": {"type": "dielectric", "ior": 1.5}
+  },
+  "shapes": [
+    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
+    {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "lamp"},
+    {"type": "quad", "vertices": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "material": "glass"}
+  ]
+})";
+
+struct BadCase {
+  const char* from;    // text in kBase ...
+  const char* to;      // ... replaced by this
+  const char* path;    // expected JSON path in the message ("" for document-level errors)
+  const char* reason;  // a phrase the reason must contain
+};
+
+const BadCase kBadCases[] = {
+    // Syntax.
+    {R"("fov_deg": 40})", R"("fov_deg": 40)", "line 16", "unexpected end of input"},
+    {R"("seed": 7})", R"("seed": 7,})", "line 4", "syntax error"},
+    {R"("glass": {"type": "dielectric", "ior": 1.5})", R"("glass": {"type": "dielectric", "ior": 1.5}})", "line 10",
+     "syntax error"},
+    // Unknown and duplicate keys.
+    {R"("film": {)", R"("flim": {"width": 1}, "film": {)", "flim", "unknown key"},
+    {R"("fov_deg": 40})", R"("fov_deg": 40, "foo": 1})", "camera.foo", "unknown key"},
+    {R"("seed": 7)", R"("seed": 7, "spp": 16)", "render.spp", "unknown key"},
+    {R"("radius": 1,)", R"("radius": 1, "radius": 2,)", "shapes[0].radius", "duplicate key"},
+    {R"("glass": {)", R"("white": {"type": "mirror"}, "glass": {)", "materials.white", "duplicate key"},
+    {R"("ior": 1.5})", R"("ior": 1.5, "roughness": 0.1})", "materials.glass.roughness", "unknown key"},
+    // Keys that do not apply to the type.
+    {R"("albedo": [0.5, 0.5, 0.5]})", R"("albedo": [0.5, 0.5, 0.5], "ior": 1.3})", "materials.white.ior",
+     "does not apply to a diffuse material"},
+    {R"("type": "dielectric", )", R"("type": "dielectric", "albedo": [1, 1, 1], )", "materials.glass.albedo",
+     "does not apply to a dielectric material"},
+    {R"([0, 1, 0]], "material": "lamp")", R"([0, 1, 0]], "radius": 2, "material": "lamp")", "shapes[1].radius",
+     "does not apply to a triangle"},
+    // Numbers: finite, in range, integers.
+    {R"("radius": 1,)", R"("radius": 1e999,)", "shapes[0].radius", "finite"},
+    {R"([0, 1, 0]], "material": "lamp")", R"([0, -1e400, 0]], "material": "lamp")", "shapes[1].vertices[2][1]",
+     "finite"},
+    {R"("emission": [1, 1, 1])", R"("emission": [1, 1e39, 1])", "materials.lamp.emission[1]", "finite"},
+    {R"("radius": 1,)", R"("radius": -1,)", "shapes[0].radius", "must be finite and > 0"},
+    {R"("radius": 1,)", R"("radius": 0,)", "shapes[0].radius", "must be finite and > 0"},
+    {R"("width": 64)", R"("width": 0)", "film.width", "must be in [1, 16384]"},
+    {R"("width": 64)", R"("width": 1e10)", "film.width", "out of range"},
+    {R"("height": 48)", R"("height": 48.5)", "film.height", "expected an integer, got 48.5"},
+    {R"("max_bounces": 4)", R"("max_bounces": 2.5)", "render.max_bounces", "expected an integer"},
+    {R"("max_bounces": 4)", R"("max_bounces": -1)", "render.max_bounces", ">= 0"},
+    {R"("russian_roulette_depth": 2)", R"("russian_roulette_depth": -2)", "render.russian_roulette_depth", "-1"},
+    {R"("seed": 7)", R"("seed": -7)", "render.seed", "non-negative integer"},
+    // Wrong JSON types and array lengths.
+    {R"("radius": 1,)", R"("radius": "1",)", "shapes[0].radius", "expected a number, got string"},
+    {R"("center": [0, 0, 0])", R"("center": [0, 0])", "shapes[0].center", "expected an array of 3 numbers, got 2"},
+    {R"("center": [0, 0, 0])", R"("center": 0)", "shapes[0].center", "expected an array of 3 numbers, got number"},
+    {R"("emission": [1, 1, 1])", R"("emission": [1, "1", 1])", "materials.lamp.emission[1]",
+     "expected a number, got string"},
+    {R"("two_sided": false)", R"("two_sided": "yes")", "materials.lamp.two_sided", "expected true or false"},
+    {R"("material": "white"})", R"("material": 0})", "shapes[0].material", "expected a string, got number"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})", R"("white": 3)", "materials.white",
+     "expected an object, got number"},
+    {R"([[0, 0, 0], [1, 0, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1]])", "shapes[1].vertices",
+     "exactly 3 vertices, got 4"},
+    {R"([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0, 0], [1, 1, 0]])", "shapes[2].vertices",
+     "exactly 4 vertices, got 3"},
+    {R"([[0, 0, 0], [1, 0, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0], [0, 1, 0]])", "shapes[1].vertices[1]",
+     "3 numbers"},
+    // Enumerations.
+    {R"("estimator": "nee")", R"("estimator": "bdpt")", "render.estimator", "unknown estimator \"bdpt\""},
+    {R"("fov_deg": 40})", R"("fov_deg": 40, "fov_axis": "diagonal"})", "camera.fov_axis", "unknown fov_axis"},
+    {R"("type": "sphere")", R"("type": "cube")", "shapes[0].type", "unknown shape type \"cube\""},
+    {R"("type": "diffuse", "albedo")", R"("type": "lambert", "albedo")", "materials.white.type",
+     "unknown material type"},
+    // Missing and empty.
+    {R"({"type": "sphere", )", R"({)", "shapes[0].type", "missing required key"},
+    {R"("vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], )", "", "shapes[1].vertices", "missing required key"},
+    {R"(, "material": "white"})", "}", "shapes[0].material", "missing required key"},
+    {R"("position": [0, 0, 5], )", "", "camera.position", "missing required key"},
+    {R"(, "fov_deg": 40})", "}", "camera.fov_deg", "missing required key"},
+    {R"("materials": {)", R"("materials_": {)", "materials_", "unknown key"},
+    {R"("shapes": [)", R"("shapes_": [)", "shapes_", "unknown key"},
+    {R"("film": {"width": 64, "height": 48},)", R"("film": {"width": 64, "height": 48}, "materials": {},)",
+     "materials", "duplicate key"},
+    // Semantic (validate_scene).
+    {R"("material": "white"})", R"("material": "foo"})", "shapes[0].material", "unknown material \"foo\""},
+    {R"([[0, 0, 0], [1, 0, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0, 0], [2, 0, 0]])", "shapes[1].vertices",
+     "degenerate"},
+    {R"([[0, 0, 0], [1, 0, 0], [0, 1, 0]])", R"([[1, 1, 1], [1, 1, 1], [0, 1, 0]])", "shapes[1].vertices",
+     "degenerate"},
+    {R"([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]])",
+     "shapes[2].vertices", "degenerate"},
+    {R"([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])",
+     "shapes[2].vertices", "folded"},
+    {R"("albedo": [0.5, 0.5, 0.5])", R"("albedo": [0.5, 1.5, 0.5])", "materials.white.albedo", "[0, 1]"},
+    {R"("emission": [1, 1, 1])", R"("emission": [1, -1, 1])", "materials.lamp.emission", ">= 0"},
+    {R"("ior": 1.5)", R"("ior": 0)", "materials.glass.ior", "> 0"},
+    {R"("background": [0, 0, 0])", R"("background": [0, -0.5, 0])", "background", ">= 0"},
+    {R"("look_at": [0, 0, 0])", R"("look_at": [0, 0, 5])", "camera.look_at", "must differ from camera.position"},
+    {R"("up": [0, 1, 0])", R"("up": [0, 0, 2])", "camera.up", "parallel"},
+    {R"("fov_deg": 40)", R"("fov_deg": 180)", "camera.fov_deg", "(0, 180)"},
+};
+
+}  // namespace
+
+TEST_CASE("scene_json: the base scene of the malformed cases is valid") {
+  CHECK(parse_error(kBase) == "");
+}
+
+TEST_CASE("scene_json: malformed scenes name the source, the JSON path and the reason") {
+  for (const BadCase& c : kBadCases) {
+    const std::string text = replaced(kBase, c.from, c.to);
+    const std::string msg = parse_error(text);
+    INFO("case: " << c.from << " -> " << c.to << "\nmessage: " << msg);
+    REQUIRE(!msg.empty());
+    const std::string prefix = std::string("test.json: ") + c.path + (std::string(c.path).rfind("line ", 0) == 0 ? "" : ": ");
+    CHECK(msg.rfind(prefix, 0) == 0);
+    CHECK(msg.find(c.reason) != std::string::npos);
+  }
+}
+
+TEST_CASE("scene_json: document-level errors") {
+  const auto check = [](const std::string& text, const std::string& prefix, const std::string& reason) {
+    const std::string msg = parse_error(text, "bad.json");
+    INFO("text: " << text << "\nmessage: " << msg);
+    CHECK(msg.rfind(prefix, 0) == 0);
+    CHECK(msg.find(reason) != std::string::npos);
+  };
+  check("", "bad.json: line 1, column 1: ", "unexpected end of input");
+  check("[1, 2]", "bad.json: ", "the top level must be an object, got array");
+  check(kBase + " x", "bad.json: line 16, column 3: ", "syntax error");
+  check("{\"camera\": {\"position\": [0, 0, 5], \"look_at\": [0, 0, 0], \"fov_deg\": 40}, \"shapes\": []}",
+        "bad.json: materials: ", "missing required key");
+  check(replaced(kBase, R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]},)", R"("": {"type": "diffuse"},)"),
+        "bad.json: materials: ", "must not be empty");
+  // No materials at all, and no shapes at all.
+  const std::string camera = R"("camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_deg": 40})";
+  check("{" + camera + R"(, "materials": {}, "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "a"}]})",
+        "bad.json: materials: ", "at least one material");
+  check("{" + camera + R"(, "materials": {"a": {"type": "diffuse"}}, "shapes": []})", "bad.json: shapes: ",
+        "at least one shape");
+  check("{" + camera + R"(, "materials": {"a": {"type": "diffuse"}}})", "bad.json: shapes: ", "missing required key");
+  check("{" + camera + R"(, "materials": {"a": {"type": "diffuse"}}, "shapes": {"a": 1}})", "bad.json: shapes: ",
+        "expected an array, got object");
+  check(R"({"materials": {"a": {"type": "diffuse"}}, "shapes": []})", "bad.json: camera: ", "missing required key");
+  // Invalid UTF-8 inside a string is a syntax error.
+  check("{\"camera\": \"\xff\"}", "bad.json: line 1, column ", "UTF-8");
+}
+
+TEST_CASE("scene_json: defaults of optional fields") {
+  const SceneDesc s = parse_scene(R"({
+    "camera": {"position": [1, 2, 3], "look_at": [1, 2, 0], "fov_deg": 50},
+    "materials": {"d": {"type": "diffuse"}, "m": {"type": "mirror"}, "g": {"type": "dielectric"}},
+    "shapes": [{"type": "sphere", "center": [0, 0, -1], "radius": 0.5, "material": "g"}]
+  })", "defaults");
+  const SceneDesc d;
+  CHECK(s.camera.up == DVec3(0, 1, 0));
+  CHECK(s.camera.fov_axis == FovAxis::Vertical);
+  CHECK(s.width == 512);
+  CHECK(s.height == 512);
+  CHECK(s.render.max_bounces == d.render.max_bounces);
+  CHECK(s.render.estimator == d.render.estimator);
+  CHECK(s.render.russian_roulette_depth == d.render.russian_roulette_depth);
+  CHECK(s.render.seed == d.render.seed);
+  CHECK(s.background == Rgb(0.f));
+  REQUIRE(s.materials.size() == 3);
+  CHECK(s.materials[0].name == "d");
+  CHECK(s.materials[0].albedo == Rgb(0.8f));
+  CHECK(s.materials[1].albedo == Rgb(1.f));
+  CHECK(s.materials[2].ior == 1.5f);
+  for (const MaterialDesc& m : s.materials) {
+    CHECK(m.emission == Rgb(0.f));
+    CHECK(!m.two_sided);
+  }
+  CHECK(s.shapes[0].material == 2);
+}
+
+TEST_CASE("scene_json: integral numbers are accepted for integer fields, in any JSON spelling") {
+  const std::string text = replaced(replaced(kBase, R"("width": 64)", R"("width": 64.0)"), R"("seed": 7)",
+                                    R"("seed": 18446744073709551615)");
+  const SceneDesc s = parse_scene(replaced(text, R"("height": 48)", R"("height": 4.8e1)"), "t");
+  CHECK(s.width == 64);
+  CHECK(s.height == 48);
+  CHECK(s.render.seed == std::numeric_limits<uint64_t>::max());
+}
+
+TEST_CASE("scene_json: materials keep the file's order") {
+  const SceneDesc s = parse_scene(R"({
+    "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_deg": 40},
+    "materials": {"zeta": {"type": "diffuse"}, "alpha": {"type": "mirror"}, "mid": {"type": "diffuse"}},
+    "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "mid"},
+               {"type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "zeta"}]
+  })", "order");
+  REQUIRE(s.materials.size() == 3);
+  CHECK(s.materials[0].name == "zeta");
+  CHECK(s.materials[1].name == "alpha");
+  CHECK(s.materials[2].name == "mid");
+  CHECK(s.shapes[0].material == 2);
+  CHECK(s.shapes[1].material == 0);
+}
+
+TEST_CASE("scene_json: built-in scenes") {
+  const std::vector<std::string> names = builtin_scene_names();
+  CHECK(names == std::vector<std::string>{"cornell", "cornell-spheres", "shadertoy"});
+  for (const std::string& name : names) {
+    INFO(name);
+    SceneDesc s;
+    REQUIRE_NOTHROW(s = load_scene(name));
+    CHECK(validate_scene(s) == "");
+    CHECK_NOTHROW(compile_scene(s));
+  }
+}
+
+TEST_CASE("scene_json: cornell is the Cornell box data") {
+  const SceneDesc s = load_scene("cornell");
+  CHECK(s.shapes.size() >= 16);
+  REQUIRE(s.materials.size() == 4);
+  CHECK(s.camera.position == DVec3(278, 273, -800));
+  CHECK(s.camera.look_at == DVec3(278, 273, 0));
+  CHECK(s.camera.up == DVec3(0, 1, 0));
+  CHECK(s.camera.fov_deg == 39.3077);
+  CHECK(s.camera.fov_axis == FovAxis::Vertical);
+  CHECK(s.width == 512);
+  CHECK(s.height == 512);
+  CHECK(s.render.max_bounces == 64);
+  CHECK(s.render.estimator == Estimator::Mis);
+  CHECK(s.render.russian_roulette_depth == 3);
+  CHECK(s.background == Rgb(0.f));
+  const int white = material_index(s, "white"), red = material_index(s, "red"), green = material_index(s, "green"),
+            light = material_index(s, "light");
+  REQUIRE(white >= 0);
+  REQUIRE(red >= 0);
+  REQUIRE(green >= 0);
+  REQUIRE(light >= 0);
+  CHECK(s.materials[white].albedo == Rgb(0.725f, 0.71f, 0.68f));
+  CHECK(s.materials[red].albedo == Rgb(0.63f, 0.065f, 0.05f));
+  CHECK(s.materials[green].albedo == Rgb(0.14f, 0.45f, 0.091f));
+  CHECK(s.materials[light].emission == Rgb(17.f, 12.f, 4.f));
+  CHECK(s.materials[light].albedo == Rgb(0.f));
+  CHECK(!s.materials[light].two_sided);
+  int lights = 0;
+  for (const ShapeDesc& sh : s.shapes) {
+    CHECK(sh.type == ShapeType::Quad);
+    if (sh.material != light) {
+      CHECK(is_black(s.materials[sh.material].emission));
+      continue;
+    }
+    ++lights;
+    // Both triangles (a,b,c) and (a,c,d) face down.
+    const DVec3 n1 = polygon_normal(sh);
+    const DVec3 n2 = glm::normalize(glm::cross(sh.vertices[2] - sh.vertices[0], sh.vertices[3] - sh.vertices[0]));
+    CHECK(glm::length(n1 - DVec3(0, -1, 0)) < 1e-12);
+    CHECK(glm::length(n2 - DVec3(0, -1, 0)) < 1e-12);
+    for (const DVec3& v : sh.vertices) CHECK(v.y == 548.7);
+  }
+  CHECK(lights == 1);
+  // The red wall (x ≈ 552) is red and the green wall (x = 0) green.
+  for (const ShapeDesc& sh : s.shapes) {
+    if (sh.material == red) CHECK(sh.vertices[0].x > 549.0);
+    if (sh.material == green) CHECK(sh.vertices[0].x == 0.0);
+  }
+}
+
+TEST_CASE("scene_json: shadertoy room") {
+  const SceneDesc s = load_scene("shadertoy");
+  CHECK(s.width == 640);
+  CHECK(s.height == 360);
+  CHECK(s.camera.position == DVec3(0, 0, 0));
+  CHECK(s.camera.look_at == DVec3(0, 0, -1));
+  CHECK(s.camera.fov_deg == 90.0);
+  CHECK(s.camera.fov_axis == FovAxis::Horizontal);
+  CHECK(s.render.max_bounces == 8);
+  CHECK(s.render.estimator == Estimator::Cosine);
+  REQUIRE(s.shapes.size() == 9);
+  int spheres = 0;
+  const DVec3 room_centre(0, 0, -30);
+  for (const ShapeDesc& sh : s.shapes) {
+    const MaterialDesc& m = s.materials[sh.material];
+    if (sh.type == ShapeType::Sphere) {
+      ++spheres;
+      CHECK(sh.radius == 3.0);
+      CHECK(sh.center.y == -9.5);
+      CHECK(sh.center.z == -30.0);
+      continue;
+    }
+    REQUIRE(sh.type == ShapeType::Quad);
+    // Every quad faces into the room.
+    CHECK(glm::dot(polygon_normal(sh), room_centre - sh.vertices[0]) > 0.0);
+    if (!is_black(m.emission)) {
+      CHECK(m.emission == Rgb(20.f, 18.f, 14.f));
+      CHECK(m.two_sided);
+    }
+  }
+  CHECK(spheres == 3);
+}
+
+TEST_CASE("scene_json: cornell-spheres") {
+  const SceneDesc s = load_scene("cornell-spheres");
+  const SceneDesc box = load_scene("cornell");
+  check_same(s.camera.position, box.camera.position, "camera");
+  CHECK(s.render.max_bounces == 64);
+  CHECK(s.render.estimator == Estimator::Mis);
+  const int chrome = material_index(s, "chrome"), glass = material_index(s, "glass");
+  REQUIRE(chrome >= 0);
+  REQUIRE(glass >= 0);
+  CHECK(s.materials[chrome].type == MaterialType::Mirror);
+  CHECK(s.materials[chrome].albedo == Rgb(0.95f));
+  CHECK(s.materials[glass].type == MaterialType::Dielectric);
+  CHECK(s.materials[glass].ior == 1.5f);
+  int spheres = 0, quads = 0;
+  for (const ShapeDesc& sh : s.shapes) {
+    if (sh.type == ShapeType::Quad) ++quads;
+    if (sh.type != ShapeType::Sphere) continue;
+    ++spheres;
+    CHECK(sh.radius == 100.0);
+    if (sh.material == chrome) CHECK(sh.center == DVec3(400, 100, 350));
+    if (sh.material == glass) CHECK(sh.center == DVec3(170, 100, 180));
+  }
+  CHECK(spheres == 2);
+  CHECK(quads == 6);
+}
+
+TEST_CASE("scene_json: round trip of the built-in scenes is exact") {
+  for (const std::string& name : builtin_scene_names()) {
+    INFO(name);
+    const SceneDesc s = load_scene(name);
+    const std::string json = scene_to_json(s);
+    const SceneDesc t = parse_scene(json, "roundtrip");
+    check_same_scene(s, t);
+    CHECK(scene_to_json(t) == json);
+  }
+  // Floats are written in their short form, not as the double nearest to the float.
+  const std::string json = scene_to_json(load_scene("cornell"));
+  CHECK(json.find("[0.725, 0.71, 0.68]") != std::string::npos);
+  CHECK(json.find("[278, 273, -800]") != std::string::npos);
+}
+
+TEST_CASE("scene_json: round trip of awkward values is exact") {
+  SceneDesc s;
+  s.camera.position = {0.1 + 0.2, -0.0, 1e30};
+  s.camera.look_at = {1.0 / 3.0, 5e-324, -7.25};
+  s.camera.up = {std::nextafter(0.0, 1.0), 1.0, 0.1 + 0.7};
+  s.camera.fov_deg = std::nextafter(60.0, 0.0);
+  s.camera.fov_axis = FovAxis::Horizontal;
+  s.width = 1;
+  s.height = 16384;
+  s.render.max_bounces = 0;
+  s.render.estimator = Estimator::Uniform;
+  s.render.russian_roulette_depth = -1;
+  s.render.seed = std::numeric_limits<uint64_t>::max();
+  s.background = {0.1f, 1e-40f, std::numeric_limits<float>::max()};
+  MaterialDesc a;
+  a.name = "quote \" back\\slash ü \t";
+  a.albedo = {1.f / 3.f, std::nextafter(1.f, 0.f), 0.f};
+  a.emission = {-0.f, 0.f, 0.f};
+  a.two_sided = true;
+  MaterialDesc b;
+  b.name = "glass";
+  b.type = MaterialType::Dielectric;
+  b.ior = 1.333333333f;
+  b.emission = {3e38f, 1e-45f, 0.3f};
+  MaterialDesc c;
+  c.name = "mirror";
+  c.type = MaterialType::Mirror;
+  c.albedo = {0.95f, 0.9500001f, 0.1f};
+  s.materials = {a, b, c};
+  ShapeDesc tri;
+  tri.type = ShapeType::Triangle;
+  tri.vertices = {DVec3(0.1, 0.2, 0.3), DVec3(1e-9, 1.0, 1e9), DVec3(-2.5, 0.7, 1.0 / 7.0), DVec3(0.0)};
+  tri.material = 2;
+  ShapeDesc quad;
+  quad.type = ShapeType::Quad;
+  quad.vertices = {DVec3(0, 0, 0), DVec3(0.1, 0, 0), DVec3(0.1, 0.1, 0), DVec3(0, 0.1, 0)};
+  quad.material = 0;
+  ShapeDesc sphere;
+  sphere.type = ShapeType::Sphere;
+  sphere.center = {1e-300, 123456789.123456789, -0.1};
+  sphere.radius = 0.1 + 0.7;
+  sphere.material = 1;
+  s.shapes = {tri, quad, sphere};
+  REQUIRE(validate_scene(s) == "");
+
+  const std::string json = scene_to_json(s);
+  INFO(json);
+  SceneDesc t;
+  REQUIRE_NOTHROW(t = parse_scene(json, "awkward"));
+  check_same_scene(s, t);
+  CHECK(scene_to_json(t) == json);
+}
+
+TEST_CASE("scene_json: scene_to_json rejects a dangling material index") {
+  SceneDesc s = load_scene("cornell");
+  s.shapes[0].material = 99;
+  CHECK_THROWS_AS(scene_to_json(s), std::invalid_argument);
+}
+
+TEST_CASE("scene_json: files and built-in names") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pt_scene_json_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string good = (dir / "good.json").string();
+  const std::string bad = (dir / "bad.json").string();
+  {
+    std::ofstream(good) << scene_to_json(load_scene("shadertoy"));
+    std::ofstream(bad) << replaced(kBase, R"("radius": 1,)", R"("radius": -3,)");
+  }
+  SceneDesc s;
+  REQUIRE_NOTHROW(s = load_scene(good));
+  CHECK(s.width == 640);
+  REQUIRE_NOTHROW(s = load_scene_file(good));
+
+  const auto message = [](const std::string& spec) -> std::string {
+    try {
+      load_scene(spec);
+    } catch (const SceneError& e) {
+      return e.what();
+    }
+    return {};
+  };
+  CHECK(message(bad) == bad + ": shapes[0].radius: must be finite and > 0");
+
+  const std::string missing = (dir / "missing.json").string();
+  std::string msg = message(missing);
+  CHECK(msg.rfind(missing + ": cannot open", 0) == 0);
+  // Anything ending in .json is a file, even without a '/'.
+  msg = message("no-such-scene.json");
+  CHECK(msg.rfind("no-such-scene.json: cannot open", 0) == 0);
+  // Anything with a '/' is a file, even without .json.
+  msg = message(dir.string());
+  CHECK(msg.rfind(dir.string() + ": cannot open", 0) == 0);
+  // Otherwise a built-in name; the error lists them.
+  msg = message("cornel");
+  CHECK(msg.find("cornel") == 0);
+  CHECK(msg.find("cornell, cornell-spheres, shadertoy") != std::string::npos);
+  // Built-in scenes name themselves "builtin:NAME" in messages.
+  CHECK(builtin_scene_json("cornell").has_value());
+  CHECK(!builtin_scene_json("nope").has_value());
+
+  fs::remove_all(dir);
+}

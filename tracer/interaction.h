@@ -1,0 +1,74 @@
+// Surface interaction: the hit point with a bound on its rounding error, the geometric normal, and robust
+// spawning of new rays from it (after pbrt-v4 §6.8: offset along the normal by the error bound, then round away).
+#pragma once
+#include "scene.h"
+
+namespace pt {
+
+// γ(n) = n·u / (1 − n·u), u = 2^-24: the classic bound on n chained float roundings (Higham).
+constexpr float gamma_bound(int n) {
+  constexpr float u = 0x1p-24f;
+  return (n * u) / (1.f - n * u);
+}
+
+struct Interaction {
+  Vec3 p;          // hit point, camera-relative
+  Vec3 p_error;    // per-component bound on |p − true point|
+  Vec3 ng;         // unit front (geometric) normal
+  uint32_t prim;   // global primitive id
+  uint32_t material;
+  bool planar;     // polygons cannot be hit again by a ray leaving them
+};
+
+inline Interaction make_interaction(const Scene& s, const Ray& ray, const Hit& h) {
+  Interaction it;
+  it.prim = h.prim;
+  it.material = s.material_of(h.prim);
+  if (h.prim < s.sphere_begin()) {
+    // Interpolate the hit from the vertices (pbrt-v4 eq. 6.26): its error is γ7·Σ|bᵢ·vᵢ|, independent of t.
+    Vec3 a, b, c;
+    if (h.prim < s.parallelogram_begin()) {
+      const uint32_t i = h.prim;
+      a = s.triangles.v[0][i], b = s.triangles.v[1][i], c = s.triangles.v[2][i];
+      it.ng = s.triangles.normal[i];
+    } else {
+      const uint32_t i = h.prim - s.parallelogram_begin();
+      a = s.parallelograms.v[0][i], b = s.parallelograms.v[1][i], c = s.parallelograms.v[2][i];
+      it.ng = s.parallelograms.normal[i];
+    }
+    it.p = h.b0 * a + h.b1 * b + h.b2 * c;
+    it.p_error = gamma_bound(7) * (glm::abs(h.b0 * a) + glm::abs(h.b1 * b) + glm::abs(h.b2 * c));
+    it.planar = true;
+  } else {
+    // Sphere: recompute in double and project back onto the surface, so the only float error left is the final
+    // rounding of p (bounded by γ3·|p| with margin).
+    const uint32_t i = h.prim - s.sphere_begin();
+    const DVec3 c = s.spheres.center[i];
+    const DVec3 pd = DVec3(ray.o) + static_cast<double>(h.t) * DVec3(ray.d);
+    const DVec3 n = glm::normalize(pd - c);
+    const DVec3 p = c + s.spheres.radius[i] * n;
+    it.p = Vec3(p);
+    it.p_error = gamma_bound(3) * glm::abs(it.p);
+    it.ng = Vec3(n);
+    it.planar = false;
+  }
+  return it;
+}
+
+// Origin for a ray leaving `it` towards direction w: pushed off the surface along the normal by the error bound
+// (to the side w points to), then rounded one ulp further away so the offset survives rounding.
+inline Vec3 offset_ray_origin(const Interaction& it, Vec3 w) {
+  const float dist = glm::dot(glm::abs(it.ng), it.p_error);
+  Vec3 offset = dist * it.ng;
+  if (glm::dot(w, it.ng) < 0.f) offset = -offset;
+  Vec3 po = it.p + offset;
+  for (int k = 0; k < 3; ++k) {
+    if (offset[k] > 0.f) po[k] = next_float_up(po[k]);
+    else if (offset[k] < 0.f) po[k] = next_float_down(po[k]);
+  }
+  return po;
+}
+
+inline uint32_t skip_on_leave(const Interaction& it) { return it.planar ? it.prim : ~0u; }
+
+}  // namespace pt

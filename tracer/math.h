@@ -1,0 +1,54 @@
+// Small vector-math vocabulary shared by the whole tracer (GLM underneath).
+// Conventions: right-handed world, y up; radiance in linear RGB; angles in radians unless named *_deg.
+#pragma once
+#include <glm/glm.hpp>
+#include <glm/gtc/constants.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace pt {
+
+using Vec2 = glm::vec2;
+using Vec3 = glm::vec3;
+using DVec3 = glm::dvec3;
+using Rgb = glm::vec3;  // linear RGB radiance or reflectance
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 0.31830988618379067154f;
+inline constexpr float kInv2Pi = 0.15915494309189533577f;
+inline constexpr float kInv4Pi = 0.07957747154594766788f;
+inline constexpr float kInfinity = std::numeric_limits<float>::infinity();
+// Largest float strictly below 1: keeps a random number in [0,1) after scaling.
+inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
+
+inline float max_component(Vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
+inline float max_abs_component(Vec3 v) { return max_component(glm::abs(v)); }
+inline int max_dimension(Vec3 v) { return v.x > v.y ? (v.x > v.z ? 0 : 2) : (v.y > v.z ? 1 : 2); }
+inline float luminance(Rgb c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+inline bool is_black(Rgb c) { return c.x == 0.f && c.y == 0.f && c.z == 0.f; }
+inline bool is_finite(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+inline float sqr(float x) { return x * x; }
+inline float safe_sqrt(float x) { return std::sqrt(std::max(0.f, x)); }
+
+// Orthonormal basis around a unit vector n (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"):
+// branch-free except for the sign, no singularity.
+struct Frame {
+  Vec3 s, t, n;
+  static Frame from_normal(Vec3 n) {
+    const float sign = std::copysign(1.f, n.z);
+    const float a = -1.f / (sign + n.z);
+    const float b = n.x * n.y * a;
+    return {Vec3(1.f + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            Vec3(b, sign + n.y * n.y * a, -n.y), n};
+  }
+  Vec3 to_local(Vec3 v) const { return {glm::dot(v, s), glm::dot(v, t), glm::dot(v, n)}; }
+  Vec3 to_world(Vec3 v) const { return s * v.x + t * v.y + n * v.z; }
+};
+
+// Float rounding helpers for robust ray spawning (pbrt-v4, section 6.8.6).
+inline float next_float_up(float v) { return std::nextafter(v, kInfinity); }
+inline float next_float_down(float v) { return std::nextafter(v, -kInfinity); }
+
+}  // namespace pt

@@ -1,0 +1,46 @@
+#include "renderer.h"
+
+#include "integrator.h"
+#include "rng.h"
+
+namespace pt {
+
+Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads()) {}
+
+PassStats Renderer::render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel) {
+  const int w = film.width(), h = film.height();
+  const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
+  std::atomic<uint64_t> samples{0}, rays{0};
+  std::atomic<bool> cancelled{false};
+  const Estimator estimator = scene.render.estimator;
+  const uint64_t seed = scene.render.seed;
+
+  pool_.parallel_for(tiles_x * tiles_y, [&](int tile, int /*thread*/) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) {
+      cancelled.store(true, std::memory_order_relaxed);
+      return;
+    }
+    const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
+    const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
+    RayCount count;
+    uint64_t tile_samples = 0;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = x0; x < x1; ++x) {
+        const size_t pixel = static_cast<size_t>(y) * w + x;
+        for (int s = 0; s < spp; ++s) {
+          Pcg32 rng = sample_rng(pixel, film.next_sample_index(pixel), seed);
+          film.note_attempt(pixel);
+          const float jx = rng.next_float(), jy = rng.next_float();
+          const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jx, static_cast<float>(y) + jy);
+          film.add_sample(pixel, estimate_radiance(scene, estimator, ray, rng, count));
+          ++tile_samples;
+        }
+      }
+    }
+    samples.fetch_add(tile_samples, std::memory_order_relaxed);
+    rays.fetch_add(count.rays, std::memory_order_relaxed);
+  });
+  return {samples.load(), rays.load(), cancelled.load()};
+}
+
+}  // namespace pt

@@ -1,0 +1,275 @@
+#include "scene.h"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace pt {
+
+const char* to_string(Estimator e) {
+  switch (e) {
+    case Estimator::Uniform: return "uniform";
+    case Estimator::Cosine: return "cosine";
+    case Estimator::Nee: return "nee";
+    case Estimator::Mis: return "mis";
+  }
+  return "?";
+}
+const char* to_string(MaterialType t) {
+  switch (t) {
+    case MaterialType::Diffuse: return "diffuse";
+    case MaterialType::Mirror: return "mirror";
+    case MaterialType::Dielectric: return "dielectric";
+  }
+  return "?";
+}
+const char* to_string(ShapeType t) {
+  switch (t) {
+    case ShapeType::Triangle: return "triangle";
+    case ShapeType::Quad: return "quad";
+    case ShapeType::Sphere: return "sphere";
+  }
+  return "?";
+}
+bool parse_estimator(const std::string& s, Estimator& out) {
+  for (Estimator e : {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis})
+    if (s == to_string(e)) {
+      out = e;
+      return true;
+    }
+  return false;
+}
+
+namespace {
+
+bool finite3(DVec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite3(Vec3 v) { return is_finite(v); }
+
+// A polygon corner (b−a, c−a) is degenerate when the sine of its angle is below 1e-12 (in double): slivers
+// 10^-7 thin are legitimate geometry, zero-area triangles are not.
+bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c) {
+  const DVec3 e1 = b - a, e2 = c - a;
+  const double l1 = glm::length(e1), l2 = glm::length(e2);
+  if (!(l1 > 0.0) || !(l2 > 0.0)) return true;
+  return !(glm::length(glm::cross(e1, e2)) > 1e-12 * l1 * l2);
+}
+
+// A quad is stored as one parallelogram when d = a + c − b up to rounding of the input (relative 1e-9 of the
+// quad's size); anything else becomes two triangles (a,b,c), (a,c,d).
+bool is_parallelogram(const ShapeDesc& s) {
+  const DVec3 a = s.vertices[0], b = s.vertices[1], c = s.vertices[2], d = s.vertices[3];
+  const double size = std::max(glm::length(c - a), glm::length(d - b));
+  return glm::length(a + c - b - d) <= 1e-9 * size;
+}
+
+}  // namespace
+
+std::string validate_scene(const SceneDesc& s) {
+  std::ostringstream e;
+  const CameraDesc& c = s.camera;
+  if (!finite3(c.position)) return "camera.position: must be finite";
+  if (!finite3(c.look_at)) return "camera.look_at: must be finite";
+  if (!finite3(c.up)) return "camera.up: must be finite";
+  if (!(glm::length(c.look_at - c.position) > 0.0)) return "camera.look_at: must differ from camera.position";
+  const DVec3 f = glm::normalize(c.look_at - c.position);
+  if (!(glm::length(c.up) > 0.0) || glm::length(glm::cross(f, glm::normalize(c.up))) < 1e-9)
+    return "camera.up: must not be zero or parallel to the viewing direction";
+  if (!(c.fov_deg > 0.0 && c.fov_deg < 180.0)) return "camera.fov_deg: must be in (0, 180) degrees";
+  if (s.width < 1 || s.width > 16384) return "film.width: must be in [1, 16384]";
+  if (s.height < 1 || s.height > 16384) return "film.height: must be in [1, 16384]";
+  if (s.render.max_bounces < 0) return "render.max_bounces: must be >= 0";
+  if (s.render.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  if (!finite3(s.background) || glm::any(glm::lessThan(s.background, Vec3(0.f))))
+    return "background: components must be finite and >= 0";
+  if (s.materials.empty()) return "materials: the scene defines no material";
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const MaterialDesc& m = s.materials[i];
+    const std::string p = "materials." + m.name;
+    if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
+        glm::any(glm::greaterThan(m.albedo, Vec3(1.f))))
+      return p + ".albedo: components must be in [0, 1]";
+    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, Vec3(0.f))))
+      return p + ".emission: components must be finite and >= 0";
+    if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
+      return p + ".ior: must be finite and > 0";
+  }
+  if (s.shapes.empty()) return "shapes: the scene has no shape";
+  for (size_t i = 0; i < s.shapes.size(); ++i) {
+    const ShapeDesc& sh = s.shapes[i];
+    const std::string p = "shapes[" + std::to_string(i) + "]";
+    if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
+      return p + ".material: no such material";
+    if (sh.type == ShapeType::Sphere) {
+      if (!finite3(sh.center)) return p + ".center: must be finite";
+      if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return p + ".radius: must be finite and > 0";
+      continue;
+    }
+    const int n = sh.type == ShapeType::Triangle ? 3 : 4;
+    for (int k = 0; k < n; ++k)
+      if (!finite3(sh.vertices[k])) return p + ".vertices[" + std::to_string(k) + "]: must be finite";
+    const auto& v = sh.vertices;
+    if (degenerate_triangle(v[0], v[1], v[2]) || (n == 4 && degenerate_triangle(v[0], v[2], v[3])))
+      return p + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
+    if (n == 4 && !is_parallelogram(sh)) {
+      // Two triangles: their front normals must agree, or the quad folds over itself.
+      const DVec3 n1 = glm::cross(v[1] - v[0], v[2] - v[0]), n2 = glm::cross(v[2] - v[0], v[3] - v[0]);
+      if (glm::dot(n1, n2) <= 0.0) return p + ".vertices: quad is folded or not convex (vertex order?)";
+    }
+  }
+  return {};
+}
+
+uint32_t Scene::material_of(uint32_t prim) const {
+  if (prim < parallelogram_begin()) return triangles.material[prim];
+  if (prim < sphere_begin()) return parallelograms.material[prim - parallelogram_begin()];
+  return spheres.material[prim - sphere_begin()];
+}
+
+namespace {
+
+template <int N>
+void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 origin, uint32_t material) {
+  const DVec3 n = glm::cross(world[1] - world[0], world[2] - world[0]);
+  double area = 0.5 * glm::length(n);
+  if (N == 4) area *= 2.0;  // a parallelogram is twice the triangle (a,b,c)
+  for (int k = 0; k < N; ++k) soa.v[k].push_back(Vec3(world[k] - origin));
+  soa.normal.push_back(Vec3(glm::normalize(n)));
+  soa.area.push_back(static_cast<float>(area));
+  soa.material.push_back(material);
+}
+
+}  // namespace
+
+std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
+  if (std::string err = validate_scene(desc); !err.empty()) throw std::invalid_argument(err);
+  auto scene = std::make_shared<Scene>();
+  Scene& s = *scene;
+  s.render = desc.render;
+  s.background = desc.background;
+  s.width = desc.width;
+  s.height = desc.height;
+  s.world_origin = desc.camera.position;
+  s.camera = Camera::make(desc.camera.look_at - desc.camera.position, desc.camera.up, desc.camera.fov_deg,
+                          desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
+
+  for (const MaterialDesc& m : desc.materials) {
+    s.materials.push_back({m.type, m.albedo, m.emission, m.two_sided, m.ior});
+    if (m.type != MaterialType::Diffuse) s.features.delta_materials = true;
+    if (m.type == MaterialType::Dielectric) s.features.dielectrics = true;
+  }
+
+  const DVec3 o = s.world_origin;
+  for (const ShapeDesc& sh : desc.shapes) {
+    const uint32_t mat = static_cast<uint32_t>(sh.material);
+    const auto& v = sh.vertices;
+    if (sh.type == ShapeType::Triangle) {
+      add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
+    } else if (sh.type == ShapeType::Quad) {
+      if (is_parallelogram(sh)) {
+        add_polygon<4>(s.parallelograms, {v[0], v[1], v[2], v[3]}, o, mat);
+      } else {
+        add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
+        add_polygon<3>(s.triangles, {v[0], v[2], v[3]}, o, mat);
+      }
+    } else {
+      s.spheres.center.push_back(sh.center - o);
+      s.spheres.radius.push_back(sh.radius);
+      s.spheres.material.push_back(mat);
+    }
+  }
+  s.features.triangles = s.triangles.size() > 0;
+  s.features.parallelograms = s.parallelograms.size() > 0;
+  s.features.spheres = s.spheres.size() > 0;
+  s.features.background = !is_black(s.background);
+
+  // Lights: every primitive whose material emits. Selection ∝ emitted power = π·A·mean(Le)·(sides).
+  s.light_of_prim.assign(s.primitive_count(), -1);
+  std::vector<double> power;
+  for (uint32_t prim = 0; prim < s.primitive_count(); ++prim) {
+    const Material& m = s.materials[s.material_of(prim)];
+    if (is_black(m.emission)) continue;
+    double area;
+    if (prim < s.parallelogram_begin()) area = s.triangles.area[prim];
+    else if (prim < s.sphere_begin()) area = s.parallelograms.area[prim - s.parallelogram_begin()];
+    else {
+      const double r = s.spheres.radius[prim - s.sphere_begin()];
+      area = 4.0 * glm::pi<double>() * r * r;
+      s.features.emissive_spheres = true;
+    }
+    s.light_of_prim[prim] = static_cast<int32_t>(s.lights.size());
+    s.lights.push_back({prim, static_cast<float>(area), m.emission, m.two_sided});
+    power.push_back(area * (m.emission.x + m.emission.y + m.emission.z) * (m.two_sided ? 2.0 : 1.0));
+  }
+  double total = 0.0;
+  for (double p : power) total += p;
+  double running = 0.0;
+  for (double p : power) {
+    running += p;
+    s.light_pmf.push_back(static_cast<float>(p / total));
+    s.light_cdf.push_back(static_cast<float>(running / total));
+  }
+  if (!s.light_cdf.empty()) s.light_cdf.back() = 1.f;
+  return scene;
+}
+
+bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const {
+  const RayShear shear(ray.d);
+  bool found = false;
+  PolygonHit ph;
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    if (intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, t_max, ph) &&
+        static_cast<uint32_t>(i) != skip) {
+      t_max = ph.t;
+      hit = {ph.t, static_cast<uint32_t>(i), ph.b0, ph.b1, ph.b2};
+      found = true;
+    }
+  }
+  const uint32_t pb = parallelogram_begin();
+  for (size_t i = 0; i < parallelograms.size(); ++i) {
+    if (intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i], parallelograms.v[2][i],
+                                parallelograms.v[3][i], ray.o, shear, t_max, ph) &&
+        pb + static_cast<uint32_t>(i) != skip) {
+      t_max = ph.t;
+      hit = {ph.t, pb + static_cast<uint32_t>(i), ph.b0, ph.b1, ph.b2};
+      found = true;
+    }
+  }
+  const uint32_t sb = sphere_begin();
+  for (size_t i = 0; i < spheres.size(); ++i) {
+    float t;
+    if (intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t)) {
+      t_max = t;
+      hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f};
+      found = true;
+    }
+  }
+  return found;
+}
+
+bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const {
+  const RayShear shear(ray.d);
+  PolygonHit ph;
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    const uint32_t id = static_cast<uint32_t>(i);
+    if (id != skip_a && id != skip_b &&
+        intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, t_max, ph))
+      return true;
+  }
+  const uint32_t pb = parallelogram_begin();
+  for (size_t i = 0; i < parallelograms.size(); ++i) {
+    const uint32_t id = pb + static_cast<uint32_t>(i);
+    if (id != skip_a && id != skip_b &&
+        intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i], parallelograms.v[2][i],
+                                parallelograms.v[3][i], ray.o, shear, t_max, ph))
+      return true;
+  }
+  const uint32_t sb = sphere_begin();
+  for (size_t i = 0; i < spheres.size(); ++i) {
+    const uint32_t id = sb + static_cast<uint32_t>(i);
+    float t;
+    if (id != skip_a && id != skip_b && intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t))
+      return true;
+  }
+  return false;
+}
+
+}  // namespace pt

@@ -1,0 +1,104 @@
+// The render-ready scene: an immutable snapshot compiled from a validated SceneDesc.
+//
+// All geometry is stored relative to the camera position (subtracted in double at compile time, then rounded to
+// float). Camera rays therefore start exactly at the origin, and the float precision available to a hit point
+// depends on its distance from the camera, not on where the scene sits in the world: a scene translated by 10^6
+// renders the same image.
+//
+// Primitives are kept as structure-of-arrays by type (triangles, parallelograms, spheres) so that later SIMD
+// kernels can test several primitives per instruction; a primitive's global id is its index in the
+// concatenation triangles ‖ parallelograms ‖ spheres.
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "camera.h"
+#include "geometry.h"
+#include "scene_desc.h"
+
+namespace pt {
+
+struct Material {
+  MaterialType type;
+  Rgb albedo;
+  Rgb emission;
+  bool two_sided;
+  float ior;
+};
+
+// Structure of arrays of polygons with N vertices (3: triangles, 4: parallelograms).
+template <int N>
+struct PolygonSoA {
+  std::vector<Vec3> v[N];        // vertex k of every polygon
+  std::vector<Vec3> normal;      // unit front normal normalize((b−a)×(c−a))
+  std::vector<float> area;       // world units²
+  std::vector<uint32_t> material;
+  size_t size() const { return normal.size(); }
+};
+
+struct SphereSoA {
+  std::vector<DVec3> center;  // camera-relative, double: the stable intersection runs in double
+  std::vector<double> radius;
+  std::vector<uint32_t> material;
+  size_t size() const { return center.size(); }
+};
+
+// One emitting primitive. Lights are chosen with probability proportional to emitted power.
+struct Light {
+  uint32_t prim;    // global primitive id
+  float area;       // world units²
+  Rgb emission;
+  bool two_sided;
+};
+
+// What the scene contains, recorded at compile time (the kernels will specialise on it).
+struct SceneFeatures {
+  bool triangles = false, parallelograms = false, spheres = false;
+  bool delta_materials = false, dielectrics = false, emissive_spheres = false, background = false;
+};
+
+struct Hit {
+  float t = kInfinity;
+  uint32_t prim = ~0u;
+  float b0 = 0, b1 = 0, b2 = 0;  // barycentrics for polygons
+};
+
+class Scene {
+ public:
+  Camera camera;
+  RenderSettings render;
+  Rgb background{0.f};
+  int width = 0, height = 0;
+  DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
+
+  std::vector<Material> materials;
+  PolygonSoA<3> triangles;
+  PolygonSoA<4> parallelograms;
+  SphereSoA spheres;
+  SceneFeatures features;
+
+  std::vector<Light> lights;
+  std::vector<int32_t> light_of_prim;  // light index of each primitive, −1 for non-emitters
+  std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
+  std::vector<float> light_pmf;
+
+  uint32_t triangle_begin() const { return 0; }
+  uint32_t parallelogram_begin() const { return static_cast<uint32_t>(triangles.size()); }
+  uint32_t sphere_begin() const { return parallelogram_begin() + static_cast<uint32_t>(parallelograms.size()); }
+  uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
+  uint32_t material_of(uint32_t prim) const;
+
+  // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
+  bool intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const;
+  // Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
+  bool occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const;
+};
+
+// Builds the render-ready scene. The description must already be valid (scene_json validates files; code that
+// builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
+std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc);
+
+// Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
+std::string validate_scene(const SceneDesc& desc);
+
+}  // namespace pt
