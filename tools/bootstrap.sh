@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs the Debian packages the project needs (only the missing ones) and builds it incrementally into
+# build/ (Release). Used by run.sh and test.sh; safe to run again at any time.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(
+  build-essential cmake pkg-config          # toolchain
+  libglm-dev nlohmann-json3-dev libstb-dev  # maths, scene files, PNG
+  libcli11-dev doctest-dev                  # command line, tests
+  libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
+  libosmesa6-dev xvfb libgl1-mesa-dri       # headless GL tests, window tests without a display
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "Installing missing packages: ${missing[*]}" >&2
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build -j"$(nproc)"
