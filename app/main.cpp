@@ -1,6 +1,7 @@
 // The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
 #include <CLI/CLI.hpp>
 
+#include "compare_command.h"
 #include "render_command.h"
 
 int main(int argc, char** argv) {
@@ -8,6 +9,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   pt::RenderOptions render_options;
   pt::add_render_command(app, render_options);
+  pt::CompareOptions compare_options;
+  pt::add_compare_command(app, compare_options);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -15,5 +18,6 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;  // --help exits 0; a bad flag is bad input (2)
   }
   if (app.got_subcommand("render")) return pt::run_render(render_options);
+  if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
   return 2;
 }

@@ -441,7 +441,7 @@ Json to_json(const SceneDesc& s) {
 
 // Pretty printer: a container goes on one line when it fits in kWidth columns (a shape of the canonical scenes
 // does), else one element per line.
-constexpr size_t kWidth = 140;
+constexpr size_t kWidth = 150;
 
 std::string scalar(const Json& v) { return v.dump(-1, ' ', false, Json::error_handler_t::replace); }
 
