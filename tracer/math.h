@@ -4,6 +4,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/constants.hpp>
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -47,8 +48,22 @@ struct Frame {
   Vec3 to_world(Vec3 v) const { return s * v.x + t * v.y + n * v.z; }
 };
 
-// Float rounding helpers for robust ray spawning (pbrt-v4, section 6.8.6).
-inline float next_float_up(float v) { return std::nextafter(v, kInfinity); }
-inline float next_float_down(float v) { return std::nextafter(v, -kInfinity); }
+// Float rounding helpers for robust ray spawning (pbrt-v4, section 6.8.6): the next representable float above
+// (below) v, by stepping the bit pattern; ±0 both step to the smallest denormal. Inline bit arithmetic rather
+// than std::nextafter, which is an out-of-line libm call on the hot path.
+inline float next_float_up(float v) {
+  if (std::isinf(v) && v > 0.f) return v;
+  if (v == -0.f) v = 0.f;
+  uint32_t bits = std::bit_cast<uint32_t>(v);
+  bits = v >= 0.f ? bits + 1 : bits - 1;
+  return std::bit_cast<float>(bits);
+}
+inline float next_float_down(float v) {
+  if (std::isinf(v) && v < 0.f) return v;
+  if (v == 0.f) v = -0.f;
+  uint32_t bits = std::bit_cast<uint32_t>(v);
+  bits = v > 0.f ? bits - 1 : bits + 1;
+  return std::bit_cast<float>(bits);
+}
 
 }  // namespace pt

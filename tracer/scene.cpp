@@ -176,6 +176,8 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
       s.spheres.material.push_back(mat);
     }
   }
+  s.triangle_lanes.assign(s.triangles.v, s.triangles.size());
+  s.parallelogram_lanes.assign(s.parallelograms.v, s.parallelograms.size());
   s.features.triangles = s.triangles.size() > 0;
   s.features.parallelograms = s.parallelograms.size() > 0;
   s.features.spheres = s.spheres.size() > 0;
@@ -211,35 +213,40 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
   return scene;
 }
 
+// Both queries test each primitive type only if the scene has it: a feature the scene lacks costs one
+// well-predicted branch per ray.
 bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const {
   const RayShear shear(ray.d);
   bool found = false;
-  PolygonHit ph;
-  for (size_t i = 0; i < triangles.size(); ++i) {
-    if (intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, t_max, ph) &&
-        static_cast<uint32_t>(i) != skip) {
-      t_max = ph.t;
-      hit = {ph.t, static_cast<uint32_t>(i), ph.b0, ph.b1, ph.b2};
-      found = true;
-    }
+  PolygonHit ph{};
+  uint32_t local = 0;
+  if (features.triangles &&
+      closest_polygon(triangle_lanes, ray.o, shear, skip, t_max, local, ph, [&](uint32_t i, float tm, PolygonHit& h) {
+        return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
+      })) {
+    hit = {ph.t, local, ph.b0, ph.b1, ph.b2};
+    found = true;
   }
   const uint32_t pb = parallelogram_begin();
-  for (size_t i = 0; i < parallelograms.size(); ++i) {
-    if (intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i], parallelograms.v[2][i],
-                                parallelograms.v[3][i], ray.o, shear, t_max, ph) &&
-        pb + static_cast<uint32_t>(i) != skip) {
-      t_max = ph.t;
-      hit = {ph.t, pb + static_cast<uint32_t>(i), ph.b0, ph.b1, ph.b2};
-      found = true;
-    }
+  if (features.parallelograms &&
+      closest_polygon(parallelogram_lanes, ray.o, shear, skip - pb, t_max, local, ph,
+                      [&](uint32_t i, float tm, PolygonHit& h) {
+                        return intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i],
+                                                       parallelograms.v[2][i], parallelograms.v[3][i], ray.o, shear,
+                                                       tm, h);
+                      })) {
+    hit = {ph.t, pb + local, ph.b0, ph.b1, ph.b2};
+    found = true;
   }
-  const uint32_t sb = sphere_begin();
-  for (size_t i = 0; i < spheres.size(); ++i) {
-    float t;
-    if (intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t)) {
-      t_max = t;
-      hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f};
-      found = true;
+  if (features.spheres) {
+    const uint32_t sb = sphere_begin();
+    for (size_t i = 0; i < spheres.size(); ++i) {
+      float t;
+      if (intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t)) {
+        t_max = t;
+        hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f};
+        found = true;
+      }
     }
   }
   return found;
@@ -247,27 +254,29 @@ bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) cons
 
 bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const {
   const RayShear shear(ray.d);
-  PolygonHit ph;
-  for (size_t i = 0; i < triangles.size(); ++i) {
-    const uint32_t id = static_cast<uint32_t>(i);
-    if (id != skip_a && id != skip_b &&
-        intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, t_max, ph))
-      return true;
-  }
+  if (features.triangles &&
+      any_polygon(triangle_lanes, ray.o, shear, skip_a, skip_b, t_max, [&](uint32_t i, float tm, PolygonHit& h) {
+        return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
+      }))
+    return true;
   const uint32_t pb = parallelogram_begin();
-  for (size_t i = 0; i < parallelograms.size(); ++i) {
-    const uint32_t id = pb + static_cast<uint32_t>(i);
-    if (id != skip_a && id != skip_b &&
-        intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i], parallelograms.v[2][i],
-                                parallelograms.v[3][i], ray.o, shear, t_max, ph))
-      return true;
-  }
-  const uint32_t sb = sphere_begin();
-  for (size_t i = 0; i < spheres.size(); ++i) {
-    const uint32_t id = sb + static_cast<uint32_t>(i);
-    float t;
-    if (id != skip_a && id != skip_b && intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t))
-      return true;
+  if (features.parallelograms &&
+      any_polygon(parallelogram_lanes, ray.o, shear, skip_a - pb, skip_b - pb, t_max,
+                  [&](uint32_t i, float tm, PolygonHit& h) {
+                    return intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i],
+                                                   parallelograms.v[2][i], parallelograms.v[3][i], ray.o, shear, tm,
+                                                   h);
+                  }))
+    return true;
+  if (features.spheres) {
+    const uint32_t sb = sphere_begin();
+    for (size_t i = 0; i < spheres.size(); ++i) {
+      const uint32_t id = sb + static_cast<uint32_t>(i);
+      float t;
+      if (id != skip_a && id != skip_b &&
+          intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t))
+        return true;
+    }
   }
   return false;
 }

@@ -15,6 +15,7 @@
 #include "camera.h"
 #include "geometry.h"
 #include "scene_desc.h"
+#include "simd_polygons.h"
 
 namespace pt {
 
@@ -75,6 +76,8 @@ class Scene {
   PolygonSoA<3> triangles;
   PolygonSoA<4> parallelograms;
   SphereSoA spheres;
+  PolygonLanes<3> triangle_lanes;  // the same vertices, padded SoA for the SIMD tests
+  PolygonLanes<4> parallelogram_lanes;
   SceneFeatures features;
 
   std::vector<Light> lights;
