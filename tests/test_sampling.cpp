@@ -203,7 +203,7 @@ TEST_CASE("light sampling: sampled directions follow light_pdf (quad, triangle, 
       "lights",
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
-        if (!sample_light(*scene, ref, choice.next_float(), u, ls)) return false;
+        if (!sample_light(*scene, ref, Vec3(0, 1, 0), choice.next_float(), u, ls)) return false;
         d = ls.wi;
         return true;
       },
@@ -233,7 +233,7 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
       "inside sphere",
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
-        if (!sample_light(*scene, ref, 0.5f, u, ls)) return false;
+        if (!sample_light(*scene, ref, Vec3(0, 1, 0), 0.5f, u, ls)) return false;
         d = ls.wi;
         return true;
       },
@@ -256,4 +256,42 @@ TEST_CASE("rng: sample streams are reproducible and distinct") {
     sum += f;
   }
   CHECK(sum / 1e6 == doctest::Approx(0.5).epsilon(0.003));
+}
+
+TEST_CASE("light sampling: the background as a light, mixed with an area light") {
+  SceneDesc s;
+  s.camera.position = {0, 0, 0};
+  s.camera.look_at = {0, 0, -1};
+  s.background = Rgb(0.2f, 0.3f, 0.4f);
+  s.materials = {MaterialDesc{"e", MaterialType::Diffuse, Rgb(0.f), Rgb(5.f), false, 1.5f}};
+  ShapeDesc quad;  // above the receiver, facing down
+  quad.type = ShapeType::Quad;
+  quad.vertices = {DVec3(-0.5, 1, -0.5), DVec3(-0.5, 1, 0.5), DVec3(0.5, 1, 0.5), DVec3(0.5, 1, -0.5)};
+  s.shapes = {quad};
+  const auto scene = compile_scene(s);
+  REQUIRE(scene->environment_light == 1);
+  const Vec3 ref(0.f), n = glm::normalize(Vec3(0.3f, 1.f, 0.2f));
+  // The environment strategy samples all directions above the receiver, including those the quad covers;
+  // the combined density in those directions is the sum of both strategies' densities.
+  auto total_pdf = [&](Vec3 d) -> double {
+    d = glm::normalize(d);
+    Hit h;
+    const Ray ray{ref, d};
+    double p = environment_pdf(*scene, n, d);
+    if (scene->intersect(ray, kInfinity, ~0u, h)) {
+      const Interaction it = make_interaction(*scene, ray, h);
+      p += light_pdf(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
+    }
+    return p;
+  };
+  Pcg32 choice(3, 3);
+  check_direction_sampler(
+      "background + quad",
+      [&](Vec2 u, Vec3& d) {
+        LightSample ls;
+        if (!sample_light(*scene, ref, n, choice.next_float(), u, ls)) return false;
+        d = ls.wi;
+        return true;
+      },
+      total_pdf);
 }

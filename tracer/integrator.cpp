@@ -31,15 +31,21 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
   float eta_scale = 1.f;      // undoes the 1/η² of refraction when judging the path's worth for roulette
   bool count_emission = true; // camera ray or a delta bounce: no light sample covered this direction
   float bsdf_pdf = 0.f;       // solid-angle pdf of the diffuse sample that produced `ray` (for MIS)
-  Vec3 prev_p(0.f);
+  Vec3 prev_p(0.f), prev_n(0.f);  // the last diffuse vertex (for MIS weights of emission found from it)
   uint32_t skip = ~0u;
 
   for (int depth = 0;; ++depth) {
     Hit h;
     ++count.rays;
     if (!s.intersect(ray, kInfinity, skip, h)) {
-      // The background is not (yet) a sampled light, so every estimator counts it through BSDF sampling.
-      L += beta * s.background;
+      // The background is a light like any other: with light sampling it is counted here only where no light
+      // sample covered it (camera, delta bounce), or MIS-weighted.
+      if (!kLightSampling || count_emission) {
+        L += beta * s.background;
+      } else if constexpr (E == Estimator::Mis) {
+        if (s.environment_light >= 0)
+          L += beta * s.background * power_heuristic(bsdf_pdf, environment_pdf(s, prev_n, ray.d));
+      }
       break;
     }
     const Interaction it = make_interaction(s, ray, h);
@@ -66,15 +72,20 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
         const float u_light = rng.next_float();
         const Vec2 u_point(rng.next_float(), rng.next_float());
         LightSample ls;
-        if (!s.lights.empty() && sample_light(s, it.p, u_light, u_point, ls) && !is_black(ls.Le)) {
+        if (!s.lights.empty() && sample_light(s, it.p, n, u_light, u_point, ls) && !is_black(ls.Le)) {
           const float cos_i = glm::dot(n, ls.wi);
           if (cos_i > 0.f) {  // the BSDF is zero below the surface: no shadow ray
             const Vec3 origin = offset_ray_origin(it, ls.wi);
-            const Vec3 to_light = ls.p - origin;
-            const float dist = glm::length(to_light);
+            Vec3 dir = ls.wi;
+            float t_max = kInfinity;
+            if (ls.prim != kEnvironment) {
+              const Vec3 to_light = ls.p - origin;
+              const float dist = glm::length(to_light);
+              dir = to_light / dist;
+              t_max = dist * kShadowRayShorten;
+            }
             ++count.rays;
-            if (dist > 0.f &&
-                !s.occluded({origin, to_light / dist}, dist * kShadowRayShorten, skip_on_leave(it), ls.prim)) {
+            if (t_max > 0.f && !s.occluded({origin, dir}, t_max, skip_on_leave(it), ls.prim)) {
               float w = 1.f;
               if constexpr (E == Estimator::Mis) w = power_heuristic(ls.pdf, cosine_hemisphere_pdf(cos_i));
               L += beta * f * ls.Le * (cos_i * w / ls.pdf);
@@ -117,6 +128,7 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
     }
     if (is_black(beta)) break;
     prev_p = it.p;
+    prev_n = n;
     ray = {offset_ray_origin(it, wi), wi};
     skip = skip_on_leave(it);
   }

@@ -1,6 +1,8 @@
 // Light sampling for next-event estimation and the matching densities for MIS.
 // A light is chosen with probability ∝ power (Scene::light_pmf); a point on it is then chosen uniformly by area
-// (polygons, or a sphere seen from inside) or uniformly within the cone the sphere subtends (pbrt-v4 §6.2.4).
+// (polygons, or a sphere seen from inside) or uniformly within the cone the sphere subtends (pbrt-v4 §6.2.4);
+// the uniform background is sampled cosine-weighted about the receiver's normal (it is constant, so this is
+// the ideal density for a diffuse receiver: in a white furnace every light sample returns exactly 1).
 // All densities are returned per unit solid angle at the receiving point.
 #pragma once
 #include "interaction.h"
@@ -9,9 +11,9 @@
 namespace pt {
 
 struct LightSample {
-  Vec3 p;          // point on the light (camera-relative)
+  Vec3 p;          // point on the light (camera-relative); unused for the environment
   Vec3 wi;         // unit direction receiver → light
-  float dist;      // distance receiver → light
+  float dist;      // distance receiver → light (infinite for the environment)
   Rgb Le;          // emitted radiance towards the receiver (0 if it sees the back of a one-sided light)
   float pdf;       // solid-angle density including the light choice
   uint32_t prim;   // the light's primitive, excluded from the shadow test
@@ -39,6 +41,12 @@ inline float sphere_one_minus_cos_max(double r2, double d2) {
 // relative margin covers points on the surface that rounding put a hair outside) sample its area instead.
 inline bool sample_sphere_by_cone(double r2, double d2) { return d2 > r2 * (1.0 + 1e-4); }
 
+// Solid-angle density with which sample_light() would produce direction w towards the environment from a
+// receiver with normal n.
+inline float environment_pdf(const Scene& s, Vec3 n, Vec3 w) {
+  return s.light_pmf[s.environment_light] * cosine_hemisphere_pdf(glm::dot(n, w));
+}
+
 // Solid-angle density with which sample_light() would produce the point `p_light` (front normal n_light) of
 // light index li, seen from receiver point `ref`. Used for MIS when a BSDF-sampled ray hits an emitter.
 inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_light) {
@@ -58,13 +66,24 @@ inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_li
   return pmf * dist2 / (cos_l * l.area);
 }
 
-// Samples a point on one light as seen from receiver `ref`. Returns false when no usable sample was produced.
-inline bool sample_light(const Scene& s, Vec3 ref, float u_choice, Vec2 u, LightSample& ls) {
+// Samples a point on one light as seen from receiver `ref` with shading normal `n_ref` (pointing to the side
+// being lit). Returns false when no usable sample was produced.
+inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, Vec2 u, LightSample& ls) {
   const int li = choose_light(s, u_choice);
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
   Vec3 n;
   ls.prim = l.prim;
+  if (l.prim == kEnvironment) {
+    const Vec3 local = sample_cosine_hemisphere(u);
+    if (!(local.z > 0.f)) return false;
+    ls.wi = Frame::from_normal(n_ref).to_world(local);
+    ls.dist = kInfinity;
+    ls.p = Vec3(0.f);
+    ls.Le = l.emission;
+    ls.pdf = pmf * cosine_hemisphere_pdf(local.z);
+    return true;
+  }
   if (l.prim < s.parallelogram_begin()) {
     const uint32_t i = l.prim;
     const Vec2 b = sample_uniform_triangle(u);

@@ -201,6 +201,26 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     s.lights.push_back({prim, static_cast<float>(area), m.emission, m.two_sided});
     power.push_back(area * (m.emission.x + m.emission.y + m.emission.z) * (m.two_sided ? 2.0 : 1.0));
   }
+  // The background, when not black, is a light too (sampled by NEE/MIS). Its power is counted as pbrt-v4
+  // counts a uniform infinite light's, Φ = 4π·πR²·Le for the scene's bounding radius R (camera-centred); only
+  // its ratio to the other lights matters, and any positive choice keeps the estimate unbiased.
+  double r2 = 0.0;
+  for (const auto& arr : s.triangles.v)
+    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
+  for (const auto& arr : s.parallelograms.v)
+    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
+  for (size_t i = 0; i < s.spheres.size(); ++i)
+  {
+    const double r = glm::length(s.spheres.center[i]) + s.spheres.radius[i];
+    r2 = std::max(r2, r * r);
+  }
+  s.bounding_radius = std::sqrt(r2);
+  if (s.features.background) {
+    s.environment_light = static_cast<int>(s.lights.size());
+    s.lights.push_back({kEnvironment, 0.f, s.background, false});
+    const double b = s.background.x + s.background.y + s.background.z;
+    power.push_back(4.0 * glm::pi<double>() * glm::pi<double>() * std::max(r2, 1e-30) * b);
+  }
   double total = 0.0;
   for (double p : power) total += p;
   double running = 0.0;

@@ -44,10 +44,12 @@ struct SphereSoA {
   size_t size() const { return center.size(); }
 };
 
-// One emitting primitive. Lights are chosen with probability proportional to emitted power.
+// One emitting primitive, or the environment (the uniform background radiance, prim = kEnvironment).
+// Lights are chosen with probability proportional to emitted power.
+inline constexpr uint32_t kEnvironment = ~0u;
 struct Light {
-  uint32_t prim;    // global primitive id
-  float area;       // world units²
+  uint32_t prim;    // global primitive id, or kEnvironment
+  float area;       // world units² (0 for the environment)
   Rgb emission;
   bool two_sided;
 };
@@ -84,6 +86,8 @@ class Scene {
   std::vector<int32_t> light_of_prim;  // light index of each primitive, −1 for non-emitters
   std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
   std::vector<float> light_pmf;
+  int environment_light = -1;          // index of the background in `lights`, −1 if the background is black
+  double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
 
   uint32_t triangle_begin() const { return 0; }
   uint32_t parallelogram_begin() const { return static_cast<uint32_t>(triangles.size()); }
