@@ -1,6 +1,7 @@
 // The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
 #include <CLI/CLI.hpp>
 
+#include "bench_command.h"
 #include "compare_command.h"
 #include "render_command.h"
 
@@ -9,6 +10,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   pt::RenderOptions render_options;
   pt::add_render_command(app, render_options);
+  pt::BenchOptions bench_options;
+  pt::add_bench_command(app, bench_options);
   pt::CompareOptions compare_options;
   pt::add_compare_command(app, compare_options);
   try {
@@ -18,6 +21,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;  // --help exits 0; a bad flag is bad input (2)
   }
   if (app.got_subcommand("render")) return pt::run_render(render_options);
+  if (app.got_subcommand("bench")) return pt::run_bench(bench_options);
   if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
   return 2;
 }

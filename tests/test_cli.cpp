@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stb_image.h>
 
@@ -109,4 +110,38 @@ TEST_CASE("cli: --help documents the options, --time stops, progress does not fl
   INFO(target.out << target.err);
   CHECK(target.status == 0);
   CHECK(target.out.find("estimated relMSE") != std::string::npos);
+}
+
+TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
+  std::filesystem::remove_all("bench_quick");
+  const Run r = run("bench --quick --out bench_quick --cache bench_quick/cache --threads 2");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  std::ifstream csv("bench_quick/convergence.csv");
+  std::string line;
+  std::getline(csv, line);
+  CHECK(line == "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s");
+  int rows = 0;
+  std::map<std::string, int> per_series;
+  while (std::getline(csv, line)) {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    REQUIRE(f.size() == 9);
+    ++per_series[f[0] + "/" + f[1]];
+    const double seconds = std::stod(f[4]), rel = std::stod(f[6]), rm = std::stod(f[7]);
+    CHECK(seconds > 0);
+    CHECK(std::isfinite(rel));
+    CHECK(rel > 0);
+    CHECK(rm > 0);
+  }
+  CHECK(per_series.size() == 12);  // 3 scenes × 4 estimators
+  for (const auto& [name, n] : per_series) CHECK(n == 4);  // budgets 1/16, 1/8, 1/4, 1/2 s
+  const std::string summary = slurp("bench_quick/summary.md");
+  CHECK(summary.find("time to 1e-3") != std::string::npos);
+  CHECK(summary.find("Thread scaling") != std::string::npos);
+  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0)
+    for (const char* scene : {"cornell", "cornell-spheres", "shadertoy"})
+      CHECK(std::filesystem::file_size(std::string("bench_quick/convergence-") + scene + ".png") > 1000);
 }

@@ -10,6 +10,7 @@ PACKAGES=(
   libcli11-dev doctest-dev                  # command line, tests
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
   libosmesa6-dev xvfb libgl1-mesa-dri       # headless GL tests, window tests without a display
+  gnuplot-nox                               # the convergence plots of `pathtracer bench`
 )
 
 missing=()
