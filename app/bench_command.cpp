@@ -39,6 +39,9 @@ void add_bench_command(CLI::App& app, BenchOptions& o) {
   b->add_option("--estimators", o.estimators, "Estimators to run")
       ->check(CLI::IsMember({"uniform", "cosine", "nee", "mis"}))
       ->capture_default_str();
+  b->add_option("--samplers", o.samplers, "Samplers to run")
+      ->check(CLI::IsMember({"independent", "sobol"}))
+      ->capture_default_str();
   b->add_option("--max-seconds", o.max_seconds, "Largest wall-clock budget (budgets double from 0.25 s)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -111,7 +114,7 @@ Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions&
 // One progressive render, error recorded at each budget. The clock stops while the error is computed.
 Series run_series(const std::string& name, const SceneDesc& desc, const Image& ref, const std::vector<double>& budgets,
                   Renderer& renderer) {
-  Series s{name, to_string(desc.render.estimator), "independent", renderer.threads(), {}, 0, 0};
+  Series s{name, to_string(desc.render.estimator), to_string(desc.render.sampler), renderer.threads(), {}, 0, 0};
   const auto scene = compile_scene(desc);
   Film film(desc.width, desc.height);
   double elapsed = 0, seconds_per_spp = 0;
@@ -209,11 +212,14 @@ int run_bench(const BenchOptions& o) {
       std::string label;
       const Image ref = reference_for(name, desc, o, renderer, label);
       ref_labels[name] = label;
-      for (const std::string& est : o.estimators) {
-        parse_estimator(est, desc.render.estimator);
-        std::fprintf(stderr, "%s / %s: up to %.2f s...\n", name.c_str(), est.c_str(), budgets.back());
-        all.push_back(run_series(name, desc, ref, budgets, renderer));
-      }
+      for (const std::string& est : o.estimators)
+        for (const std::string& smp : o.samplers) {
+          parse_estimator(est, desc.render.estimator);
+          parse_sampler(smp, desc.render.sampler);
+          std::fprintf(stderr, "%s / %s / %s: up to %.2f s...\n", name.c_str(), est.c_str(), smp.c_str(),
+                       budgets.back());
+          all.push_back(run_series(name, desc, ref, budgets, renderer));
+        }
     }
   } catch (const SceneError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

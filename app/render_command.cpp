@@ -30,6 +30,8 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->check(CLI::Range(0, 1 << 30));
   r->add_option("--estimator", o.estimator, "uniform | cosine | nee | mis (overrides render.estimator)")
       ->check(CLI::IsMember({"uniform", "cosine", "nee", "mis"}));
+  r->add_option("--sampler", o.sampler, "independent | sobol (overrides render.sampler)")
+      ->check(CLI::IsMember({"independent", "sobol"}));
   r->add_option("--rr-depth", o.rr_depth, "Russian roulette from this bounce on; -1 = off (overrides the scene)")
       ->check(CLI::Range(-1, 1 << 30));
   r->add_option("--seed", o.seed, "Random seed (overrides render.seed); same seed, same image");
@@ -72,6 +74,7 @@ int run_render(const RenderOptions& o) {
   if (o.rr_depth) desc.render.russian_roulette_depth = *o.rr_depth;
   if (o.seed) desc.render.seed = *o.seed;
   if (o.estimator) parse_estimator(*o.estimator, desc.render.estimator);
+  if (o.sampler) parse_sampler(*o.sampler, desc.render.sampler);
   if (std::string err = validate_scene(desc); !err.empty()) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;
@@ -116,9 +119,9 @@ int run_render(const RenderOptions& o) {
   progress.finish();
   const double seconds = elapsed();
 
-  std::printf("%s %dx%d %s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
+  std::printf("%s %dx%d %s/%s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
               "%llu non-finite samples rejected\n",
-              o.scene.c_str(), desc.width, desc.height, to_string(desc.render.estimator),
+              o.scene.c_str(), desc.width, desc.height, to_string(desc.render.estimator), to_string(desc.render.sampler),
               static_cast<unsigned long long>(spp), seconds, static_cast<double>(samples) / seconds * 1e-6,
               static_cast<double>(rays) / seconds * 1e-6, film.estimated_relmse(),
               static_cast<unsigned long long>(film.rejected()));

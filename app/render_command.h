@@ -14,7 +14,7 @@ struct RenderOptions {
   std::optional<int> width, height, bounces, rr_depth;
   std::optional<long long> spp;
   std::optional<double> time_seconds, target_relmse;
-  std::optional<std::string> estimator;
+  std::optional<std::string> estimator, sampler;
   std::optional<unsigned long long> seed;
   int threads = 0;
   std::string png, pfm;

@@ -129,14 +129,14 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
     std::stringstream ss(line);
     for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
     REQUIRE(f.size() == 9);
-    ++per_series[f[0] + "/" + f[1]];
+    ++per_series[f[0] + "/" + f[1] + "/" + f[2]];
     const double seconds = std::stod(f[4]), rel = std::stod(f[6]), rm = std::stod(f[7]);
     CHECK(seconds > 0);
     CHECK(std::isfinite(rel));
     CHECK(rel > 0);
     CHECK(rm > 0);
   }
-  CHECK(per_series.size() == 12);  // 3 scenes × 4 estimators
+  CHECK(per_series.size() == 24);  // 3 scenes × 4 estimators × 2 samplers
   for (const auto& [name, n] : per_series) CHECK(n == 4);  // budgets 1/16, 1/8, 1/4, 1/2 s
   const std::string summary = slurp("bench_quick/summary.md");
   CHECK(summary.find("time to 1e-3") != std::string::npos);

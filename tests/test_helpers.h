@@ -20,6 +20,8 @@ inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_dep
   s.render.max_bounces = bounces;
   s.render.russian_roulette_depth = rr_depth;
   s.render.estimator = est;
+  // Tolerances come from the film's per-pixel variance, valid for independent samples (see the Sobol test).
+  s.render.sampler = SamplerType::Independent;
   MaterialDesc m;
   m.name = "furnace";
   m.albedo = albedo;

@@ -74,6 +74,7 @@ Blocks blocks_of(const Film& f, int b) {
 void check_estimators_agree(const char* scene_name, int size, int spp) {
   SceneDesc desc = load_scene(scene_name);
   desc.width = desc.height = size;
+  desc.render.sampler = SamplerType::Independent;  // the film's variance is an honest error bar only for these
   std::vector<Film> films;
   for (Estimator est : kAll) {
     desc.render.estimator = est;
@@ -173,6 +174,7 @@ SceneDesc white_furnace(MaterialType type, Estimator est, float albedo = 1.f) {
   s.render.max_bounces = 1000;
   s.render.russian_roulette_depth = -1;
   s.render.estimator = est;
+  s.render.sampler = SamplerType::Independent;
   MaterialDesc m;
   m.name = "m";
   m.type = type;
@@ -209,4 +211,61 @@ TEST_CASE("white furnace: albedo-1 materials under a uniform background return 1
       CHECK(std::abs(mm.mean.x - 1.0) <= 4 * mm.std_error.x + 1e-4);
     }
   }
+}
+
+TEST_CASE("sobol sampler: unbiased, and lower error than independent samples at equal sample count") {
+  // Scrambled Sobol samples within a pixel are not independent, so the film's variance is no error bar for
+  // them. Instead: 16 renders with different seeds are independent replicas; their spread gives the standard
+  // error of the replica mean. Blocks of 8×8 pixels of cornell (32×32, mis): the replica mean must agree with
+  // a 1024-spp independent render (z from both error bars), and the per-pixel squared error of one 64-spp
+  // Sobol render against the independent 1024-spp image must be smaller than that of a 64-spp independent one.
+  SceneDesc desc = load_scene("cornell");
+  desc.width = desc.height = 32;
+  desc.render.sampler = SamplerType::Independent;
+  const Film reference = render_film(desc, 1024);
+  const Film independent64 = render_film(desc, 64);
+  desc.render.sampler = SamplerType::Sobol;
+  const int replicas = 16, spp = 64;
+  std::vector<std::vector<float>> images;
+  for (int r = 0; r < replicas; ++r) {
+    desc.render.seed = 1000 + r;
+    const Film f = render_film(desc, spp);
+    CHECK(f.rejected() == 0);
+    images.push_back(f.mean_image());
+  }
+  const Blocks ref = blocks_of(reference, 8);
+  const int bw = 4;
+  double z2 = 0, zmax = 0;
+  int n = 0;
+  for (int k = 0; k < bw * bw; ++k)
+    for (int c = 0; c < 3; ++c) {
+      std::vector<double> block_means;
+      for (const auto& img : images) {
+        double m = 0;
+        for (int y = (k / bw) * 8; y < (k / bw + 1) * 8; ++y)
+          for (int x = (k % bw) * 8; x < (k % bw + 1) * 8; ++x) m += img[3 * (y * 32 + x) + c] / 64.0;
+        block_means.push_back(m);
+      }
+      double mean = 0, var = 0;
+      for (double m : block_means) mean += m / replicas;
+      for (double m : block_means) var += (m - mean) * (m - mean) / (replicas - 1);
+      const double z = (mean - ref.mean[k][c]) / std::sqrt(var / replicas + ref.var[k][c]);
+      z2 += z * z;
+      zmax = std::max(zmax, std::abs(z));
+      ++n;
+    }
+  INFO("sobol replicas vs independent: max |z| " << zmax << ", mean z² " << z2 / n);
+  // 48 z-scores with a t-like tail (15 degrees of freedom): |z| < 6 (p < 1e-4 each) and mean z² near 1
+  // (a t15 variable has E[z²] = 15/13 ≈ 1.15).
+  CHECK(zmax < 6.0);
+  CHECK(z2 / n < 1.8);
+  // Error of one Sobol render against the reference vs an independent render of equal spp.
+  double err_sobol = 0, err_indep = 0;
+  const std::vector<float> r_img = reference.mean_image(), i_img = independent64.mean_image();
+  for (size_t i = 0; i < r_img.size(); ++i) {
+    err_sobol += sqr(images[0][i] - r_img[i]);
+    err_indep += sqr(i_img[i] - r_img[i]);
+  }
+  INFO("squared error at 64 spp: sobol " << err_sobol << ", independent " << err_indep);
+  CHECK(err_sobol < err_indep);
 }

@@ -22,8 +22,8 @@ namespace {
 // only has to guard against geometry coplanar with the light (relative, so scale-independent).
 constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
 
-template <Estimator E>
-Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
+template <Estimator E, class Sampler>
+Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
   constexpr bool kLightSampling = E == Estimator::Nee || E == Estimator::Mis;
   const int max_bounces = s.render.max_bounces;
   const int rr_depth = s.render.russian_roulette_depth;
@@ -69,8 +69,8 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
       if (is_black(m.albedo)) break;
       const Rgb f = diffuse_f(m.albedo);
       if constexpr (kLightSampling) {
-        const float u_light = rng.next_float();
-        const Vec2 u_point(rng.next_float(), rng.next_float());
+        const float u_light = rng.next_1d();
+        const Vec2 u_point = rng.next_2d();
         LightSample ls;
         if (!s.lights.empty() && sample_light(s, it.p, n, u_light, u_point, ls) && !is_black(ls.Le)) {
           const float cos_i = glm::dot(n, ls.wi);
@@ -94,7 +94,7 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
         }
       }
       const Frame frame = Frame::from_normal(n);
-      const Vec2 u(rng.next_float(), rng.next_float());
+      const Vec2 u = rng.next_2d();
       Vec3 local;
       if constexpr (E == Estimator::Uniform) {
         local = sample_uniform_hemisphere(u);
@@ -113,7 +113,7 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
       beta *= m.albedo;
       count_emission = true;
     } else {
-      const DeltaSample ds = sample_dielectric(wo, it.ng, m.ior, rng.next_float());
+      const DeltaSample ds = sample_dielectric(wo, it.ng, m.ior, rng.next_1d());
       wi = ds.wi;
       beta *= ds.weight;
       eta_scale *= ds.eta_scale;
@@ -123,7 +123,7 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
     // Russian roulette (unbiased: survivors are re-weighted by 1/q). q ≤ 0.95 so even albedo-1 rooms terminate.
     if (rr_depth >= 0 && depth >= rr_depth) {
       const float q = std::min(0.95f, max_component(beta) * eta_scale);
-      if (!(rng.next_float() < q)) break;
+      if (!(rng.next_1d() < q)) break;
       beta /= q;
     }
     if (is_black(beta)) break;
@@ -137,14 +137,18 @@ Rgb trace(const Scene& s, Ray ray, Pcg32& rng, RayCount& count) {
 
 }  // namespace
 
-Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Pcg32& rng, RayCount& count) {
+template <class Sampler>
+Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count) {
   switch (estimator) {
-    case Estimator::Uniform: return trace<Estimator::Uniform>(scene, ray, rng, count);
-    case Estimator::Cosine: return trace<Estimator::Cosine>(scene, ray, rng, count);
-    case Estimator::Nee: return trace<Estimator::Nee>(scene, ray, rng, count);
-    case Estimator::Mis: return trace<Estimator::Mis>(scene, ray, rng, count);
+    case Estimator::Uniform: return trace<Estimator::Uniform>(scene, ray, sampler, count);
+    case Estimator::Cosine: return trace<Estimator::Cosine>(scene, ray, sampler, count);
+    case Estimator::Nee: return trace<Estimator::Nee>(scene, ray, sampler, count);
+    case Estimator::Mis: return trace<Estimator::Mis>(scene, ray, sampler, count);
   }
   return Rgb(0.f);
 }
+
+template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, IndependentSampler&, RayCount&);
+template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, SobolSampler&, RayCount&);
 
 }  // namespace pt

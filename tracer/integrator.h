@@ -1,6 +1,6 @@
 // The estimators of DESIGN.md: one path per call, returning the radiance estimate along a camera ray.
 #pragma once
-#include "rng.h"
+#include "sampler.h"
 #include "scene.h"
 
 namespace pt {
@@ -10,7 +10,8 @@ struct RayCount {
 };
 
 // Radiance arriving at the camera along `ray`, estimated with the scene's render settings and the given
-// estimator. Never allocates.
-Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Pcg32& rng, RayCount& count);
+// estimator, drawing random numbers from `sampler` (IndependentSampler or SobolSampler). Never allocates.
+template <class Sampler>
+Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count);
 
 }  // namespace pt

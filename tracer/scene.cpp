@@ -39,6 +39,16 @@ bool parse_estimator(const std::string& s, Estimator& out) {
   return false;
 }
 
+const char* to_string(SamplerType s) { return s == SamplerType::Sobol ? "sobol" : "independent"; }
+bool parse_sampler(const std::string& s, SamplerType& out) {
+  for (SamplerType t : {SamplerType::Independent, SamplerType::Sobol})
+    if (s == to_string(t)) {
+      out = t;
+      return true;
+    }
+  return false;
+}
+
 namespace {
 
 bool finite3(DVec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }

@@ -17,6 +17,8 @@ enum class FovAxis { Vertical, Horizontal };
 
 // Estimators of DESIGN.md; all converge to the same image.
 enum class Estimator { Uniform, Cosine, Nee, Mis };
+// Sample generators (sampler.h): independent PCG32 numbers, or Owen-scrambled padded Sobol points.
+enum class SamplerType { Independent, Sobol };
 
 struct MaterialDesc {
   std::string name;
@@ -46,6 +48,7 @@ struct CameraDesc {
 struct RenderSettings {
   int max_bounces = 8;             // scattering events after the camera ray's first hit (0 = emitters only)
   Estimator estimator = Estimator::Mis;
+  SamplerType sampler = SamplerType::Sobol;
   int russian_roulette_depth = 3;  // bounce index from which Russian roulette runs; -1 = off
   uint64_t seed = 0;
 };
@@ -63,5 +66,7 @@ const char* to_string(Estimator e);
 const char* to_string(MaterialType t);
 const char* to_string(ShapeType t);
 bool parse_estimator(const std::string& s, Estimator& out);
+const char* to_string(SamplerType s);
+bool parse_sampler(const std::string& s, SamplerType& out);
 
 }  // namespace pt

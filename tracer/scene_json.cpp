@@ -245,6 +245,7 @@ E read_enum(const Json& v, const std::string& path, const char* noun, const Enum
 constexpr EnumName<FovAxis> kFovAxes[] = {{"vertical", FovAxis::Vertical}, {"horizontal", FovAxis::Horizontal}};
 constexpr EnumName<Estimator> kEstimators[] = {
     {"uniform", Estimator::Uniform}, {"cosine", Estimator::Cosine}, {"nee", Estimator::Nee}, {"mis", Estimator::Mis}};
+constexpr EnumName<SamplerType> kSamplers[] = {{"independent", SamplerType::Independent}, {"sobol", SamplerType::Sobol}};
 constexpr EnumName<MaterialType> kMaterialTypes[] = {
     {"diffuse", MaterialType::Diffuse}, {"mirror", MaterialType::Mirror}, {"dielectric", MaterialType::Dielectric}};
 constexpr EnumName<ShapeType> kShapeTypes[] = {
@@ -276,11 +277,13 @@ void read_film(const Json& j, const std::string& path, SceneDesc& s) {
 
 RenderSettings read_render(const Json& j, const std::string& path) {
   expect_object(j, path);
-  check_known_keys(j, path, {"max_bounces", "estimator", "russian_roulette_depth", "seed"});
+  check_known_keys(j, path, {"max_bounces", "estimator", "sampler", "russian_roulette_depth", "seed"});
   RenderSettings r;
   if (const Json* v = optional_key(j, "max_bounces")) r.max_bounces = read_int(*v, member(path, "max_bounces"));
   if (const Json* v = optional_key(j, "estimator"))
     r.estimator = read_enum(*v, member(path, "estimator"), "estimator", kEstimators);
+  if (const Json* v = optional_key(j, "sampler"))
+    r.sampler = read_enum(*v, member(path, "sampler"), "sampler", kSamplers);
   if (const Json* v = optional_key(j, "russian_roulette_depth"))
     r.russian_roulette_depth = read_int(*v, member(path, "russian_roulette_depth"));
   if (const Json* v = optional_key(j, "seed")) r.seed = read_uint64(*v, member(path, "seed"));
@@ -404,6 +407,7 @@ Json to_json(const SceneDesc& s) {
   root["film"] = {{"width", s.width}, {"height", s.height}};
   root["render"] = {{"max_bounces", s.render.max_bounces},
                     {"estimator", to_string(s.render.estimator)},
+                    {"sampler", to_string(s.render.sampler)},
                     {"russian_roulette_depth", s.render.russian_roulette_depth},
                     {"seed", s.render.seed}};
   root["background"] = triple(s.background);

@@ -43,12 +43,28 @@ struct LaneVertex {
   vfloat x, y, z;
 };
 
+// Everything a block test needs, resolved once per ray: the permuted origin, the shear, and the base pointers
+// of the permuted coordinate arrays (so the loop does no per-iteration index arithmetic on glm vectors).
 template <int N>
-[[gnu::always_inline]] inline LaneVertex load_sheared(const PolygonLanes<N>& L, int k, size_t i, Vec3 o, const RayShear& s) {
-  const vfloat px = vfloat(&L.coord[k][s.kx][i], stdx::element_aligned) - o[s.kx];
-  const vfloat py = vfloat(&L.coord[k][s.ky][i], stdx::element_aligned) - o[s.ky];
-  const vfloat pz = vfloat(&L.coord[k][s.kz][i], stdx::element_aligned) - o[s.kz];
-  return {px - s.sx * pz, py - s.sy * pz, s.sz * pz};
+struct RayLanes {
+  float ox, oy, oz, sx, sy, sz;
+  const float *x[N], *y[N], *z[N];
+  RayLanes(const PolygonLanes<N>& L, Vec3 o, const RayShear& s)
+      : ox(o[s.kx]), oy(o[s.ky]), oz(o[s.kz]), sx(s.sx), sy(s.sy), sz(s.sz) {
+    for (int k = 0; k < N; ++k) {
+      x[k] = L.coord[k][s.kx].data();
+      y[k] = L.coord[k][s.ky].data();
+      z[k] = L.coord[k][s.kz].data();
+    }
+  }
+};
+
+template <int N>
+[[gnu::always_inline]] inline LaneVertex load_sheared(const RayLanes<N>& R, int k, size_t i) {
+  const vfloat px = vfloat(R.x[k] + i, stdx::element_aligned) - R.ox;
+  const vfloat py = vfloat(R.y[k] + i, stdx::element_aligned) - R.oy;
+  const vfloat pz = vfloat(R.z[k] + i, stdx::element_aligned) - R.oz;
+  return {px - R.sx * pz, py - R.sy * pz, R.sz * pz};
 }
 
 inline vfloat edge(const LaneVertex& p, const LaneVertex& q) { return q.x * p.y - q.y * p.x; }
@@ -60,8 +76,8 @@ struct BlockResult {
 };
 
 template <int N>
-[[gnu::always_inline]] inline BlockResult test_block(const PolygonLanes<N>& L, size_t i, Vec3 o, const RayShear& s, float t_max) {
-  const LaneVertex A = load_sheared(L, 0, i, o, s), B = load_sheared(L, 1, i, o, s), C = load_sheared(L, 2, i, o, s);
+[[gnu::always_inline]] inline BlockResult test_block(const RayLanes<N>& R, size_t i, float t_max) {
+  const LaneVertex A = load_sheared(R, 0, i), B = load_sheared(R, 1, i), C = load_sheared(R, 2, i);
   BlockResult r;
   vmask inside_pos, inside_neg;
   if constexpr (N == 3) {
@@ -72,7 +88,7 @@ template <int N>
     inside_neg = (r.U <= 0.f) && (r.V <= 0.f) && (r.W <= 0.f);
     r.zero_edge = (r.U == 0.f) || (r.V == 0.f) || (r.W == 0.f);
   } else {
-    const LaneVertex D = load_sheared(L, 3, i, o, s);
+    const LaneVertex D = load_sheared(R, 3, i);
     const vfloat eab = edge(A, B), ebc = edge(B, C), ecd = edge(C, D), eda = edge(D, A);
     inside_pos = (eab >= 0.f) && (ebc >= 0.f) && (ecd >= 0.f) && (eda >= 0.f);
     inside_neg = (eab <= 0.f) && (ebc <= 0.f) && (ecd <= 0.f) && (eda <= 0.f);
@@ -103,9 +119,11 @@ inline bool closest_polygon(const PolygonLanes<N>& L, Vec3 o, const RayShear& s,
                             uint32_t& id, PolygonHit& out, const ScalarTest& scalar_test) {
   bool found = false;
   const size_t n = L.coord[0][0].size();
+  const vfloat lane_index([](auto k) { return static_cast<float>(k); });
+  const simd_detail::RayLanes<N> R(L, o, s);
   for (size_t i = 0; i < n; i += kLanes) {
-    simd_detail::BlockResult r = simd_detail::test_block(L, i, o, s, t_max);
-    if (i <= skip && skip < i + kLanes) r.t[skip - i] = kInfinity;
+    simd_detail::BlockResult r = simd_detail::test_block(R, i, t_max);
+    if (i <= skip && skip < i + kLanes) stdx::where(lane_index == static_cast<float>(skip - i), r.t) = kInfinity;
     if (stdx::any_of(r.zero_edge)) [[unlikely]] {
       for (int lane = 0; lane < kLanes; ++lane) {
         if (!r.zero_edge[lane] || i + lane >= L.count || i + lane == skip) continue;
@@ -119,15 +137,15 @@ inline bool closest_polygon(const PolygonLanes<N>& L, Vec3 o, const RayShear& s,
         }
       }
     }
+    // Most blocks hold nothing closer than what is known: one mask test, no horizontal reduction.
+    if (stdx::none_of(r.t < t_max)) continue;
     const float t_min = stdx::hmin(r.t);
-    if (t_min < t_max) {
-      const int lane = stdx::find_first_set(r.t == t_min);
-      t_max = t_min;
-      id = static_cast<uint32_t>(i + lane);
-      const float inv = r.inv_det[lane];
-      out = {t_min, r.U[lane] * inv, r.V[lane] * inv, r.W[lane] * inv};
-      found = true;
-    }
+    const int lane = stdx::find_first_set(r.t == t_min);
+    t_max = t_min;
+    id = static_cast<uint32_t>(i + lane);
+    const float inv = r.inv_det[lane];
+    out = {t_min, r.U[lane] * inv, r.V[lane] * inv, r.W[lane] * inv};
+    found = true;
   }
   return found;
 }
@@ -137,10 +155,12 @@ template <int N, class ScalarTest>
 inline bool any_polygon(const PolygonLanes<N>& L, Vec3 o, const RayShear& s, uint32_t skip_a, uint32_t skip_b,
                         float t_max, const ScalarTest& scalar_test) {
   const size_t n = L.coord[0][0].size();
+  const vfloat lane_index([](auto k) { return static_cast<float>(k); });
+  const simd_detail::RayLanes<N> R(L, o, s);
   for (size_t i = 0; i < n; i += kLanes) {
-    simd_detail::BlockResult r = simd_detail::test_block(L, i, o, s, t_max);
-    if (i <= skip_a && skip_a < i + kLanes) r.t[skip_a - i] = kInfinity;
-    if (i <= skip_b && skip_b < i + kLanes) r.t[skip_b - i] = kInfinity;
+    simd_detail::BlockResult r = simd_detail::test_block(R, i, t_max);
+    if (i <= skip_a && skip_a < i + kLanes) stdx::where(lane_index == static_cast<float>(skip_a - i), r.t) = kInfinity;
+    if (i <= skip_b && skip_b < i + kLanes) stdx::where(lane_index == static_cast<float>(skip_b - i), r.t) = kInfinity;
     if (stdx::any_of(r.zero_edge)) [[unlikely]] {
       for (int lane = 0; lane < kLanes; ++lane) {
         if (!r.zero_edge[lane] || i + lane >= L.count || i + lane == skip_a || i + lane == skip_b) continue;
