@@ -1,7 +1,20 @@
 #!/usr/bin/env bash
-# Builds everything and runs the whole test suite (doctest cases through ctest, both cores).
+# Builds everything and runs the whole test suite (doctest cases through ctest, all cores).
+# With CI=true (as in CI) or with --sanitize, then also builds the tracer and its tests with AddressSanitizer and
+# UndefinedBehaviorSanitizer (build-asan/) and runs the fast suites under them: scene files, intersection,
+# sampling, film, materials, furnace, determinism, CLI error paths.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 "$here/tools/bootstrap.sh"
 cd "$here/build"
 ctest -j"$(nproc)" --output-on-failure --timeout 600
+
+if [ "${CI:-}" = "true" ] || [ "${1:-}" = "--sanitize" ]; then
+  echo "== sanitizer build (ASan + UBSan) =="
+  cmake -S "$here" -B "$here/build-asan" -DPT_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+  cmake --build "$here/build-asan" -j"$(nproc)" --target tracer_tests pathtracer
+  cd "$here/build-asan"
+  ctest -j"$(nproc)" --output-on-failure --timeout 900 \
+    -R 'scene_json|intersection|watertight|sphere|film:|fresnel|energy|refraction|sampling|rng|cli: errors|PFM round|metrics|furnace|determinism' \
+    -E 'default scene'
+fi
