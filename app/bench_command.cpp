@@ -14,6 +14,7 @@
 #include <map>
 #include <unistd.h>
 
+#include "adaptive.h"
 #include "film.h"
 #include "image_io.h"
 #include "metrics.h"
@@ -40,7 +41,7 @@ void add_bench_command(CLI::App& app, BenchOptions& o) {
       ->check(CLI::IsMember({"uniform", "cosine", "nee", "mis"}))
       ->capture_default_str();
   b->add_option("--samplers", o.samplers, "Samplers to run")
-      ->check(CLI::IsMember({"independent", "sobol"}))
+      ->check(CLI::IsMember({"independent", "sobol", "independent+adaptive", "sobol+adaptive"}))
       ->capture_default_str();
   b->add_option("--max-seconds", o.max_seconds, "Largest wall-clock budget (budgets double from 0.25 s)")
       ->check(CLI::PositiveNumber)
@@ -112,19 +113,23 @@ Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions&
 }
 
 // One progressive render, error recorded at each budget. The clock stops while the error is computed.
-Series run_series(const std::string& name, const SceneDesc& desc, const Image& ref, const std::vector<double>& budgets,
-                  Renderer& renderer) {
-  Series s{name, to_string(desc.render.estimator), to_string(desc.render.sampler), renderer.threads(), {}, 0, 0};
+Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive, const Image& ref,
+                  const std::vector<double>& budgets, Renderer& renderer) {
+  Series s{name, to_string(desc.render.estimator), std::string(to_string(desc.render.sampler)) + (adaptive ? "+adaptive" : ""),
+           renderer.threads(), {}, 0, 0};
   const auto scene = compile_scene(desc);
   Film film(desc.width, desc.height);
   double elapsed = 0, seconds_per_spp = 0;
-  uint64_t spp = 0, samples = 0, rays = 0;
+  uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
   for (double budget : budgets) {
     while (elapsed < budget) {
       uint64_t pass = 1;
       if (seconds_per_spp > 0) pass = static_cast<uint64_t>(std::clamp((budget - elapsed) / seconds_per_spp, 1.0, 256.0));
       const auto t0 = Clock::now();
-      const PassStats ps = renderer.render_pass(*scene, film, static_cast<int>(pass));
+      const PassStats ps =
+          adaptive ? renderer.render_pass(*scene, film,
+                                          plan_adaptive_pass(film, Renderer::kTileSize, static_cast<int>(pass), pass_index++))
+                   : renderer.render_pass(*scene, film, static_cast<int>(pass));
       const double dt = seconds_since(t0);
       elapsed += dt;
       seconds_per_spp = dt / static_cast<double>(pass);
@@ -215,10 +220,11 @@ int run_bench(const BenchOptions& o) {
       for (const std::string& est : o.estimators)
         for (const std::string& smp : o.samplers) {
           parse_estimator(est, desc.render.estimator);
-          parse_sampler(smp, desc.render.sampler);
+          const bool adaptive = smp.ends_with("+adaptive");
+          parse_sampler(adaptive ? smp.substr(0, smp.size() - 9) : smp, desc.render.sampler);
           std::fprintf(stderr, "%s / %s / %s: up to %.2f s...\n", name.c_str(), est.c_str(), smp.c_str(),
                        budgets.back());
-          all.push_back(run_series(name, desc, ref, budgets, renderer));
+          all.push_back(run_series(name, desc, adaptive, ref, budgets, renderer));
         }
     }
   } catch (const SceneError& e) {

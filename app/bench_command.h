@@ -16,7 +16,7 @@ struct BenchOptions {
   std::string reference_dir = "../shared/reference";
   std::vector<std::string> scenes{"cornell", "cornell-spheres", "shadertoy"};
   std::vector<std::string> estimators{"uniform", "cosine", "nee", "mis"};
-  std::vector<std::string> samplers{"independent", "sobol"};
+  std::vector<std::string> samplers{"independent", "sobol", "sobol+adaptive"};
   double max_seconds = 64.0;
   int threads = 0;
   long long reference_spp = 4096;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "adaptive.h"
 #include "film.h"
 #include "image_io.h"
 #include "progress.h"
@@ -44,6 +45,8 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
   r->add_option("--tonemap", o.tonemap, "PNG tone map: clamp | reinhard | aces")
       ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
       ->capture_default_str();
+  r->add_flag("--adaptive", o.adaptive,
+              "Adaptive sampling: passes spend samples where the film's error estimate is high (every 4th pass uniform)");
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
@@ -91,7 +94,7 @@ int run_render(const RenderOptions& o) {
   const auto start = clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
 
-  uint64_t spp = 0, samples = 0, rays = 0;
+  uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
   double seconds_per_spp = 0.0;
   for (;;) {
     const double t = elapsed();
@@ -105,7 +108,10 @@ int run_render(const RenderOptions& o) {
       pass = std::min<uint64_t>(pass, static_cast<uint64_t>(std::max(1.0, (*o.time_seconds - t) / seconds_per_spp)));
     pass = std::min<uint64_t>({pass, max_spp - spp, 256});
     const auto pass_start = clock::now();
-    const PassStats ps = renderer.render_pass(*scene, film, static_cast<int>(pass));
+    const PassStats ps =
+        o.adaptive ? renderer.render_pass(*scene, film,
+                                          plan_adaptive_pass(film, Renderer::kTileSize, static_cast<int>(pass), pass_index++))
+                   : renderer.render_pass(*scene, film, static_cast<int>(pass));
     const double pass_seconds = std::chrono::duration<double>(clock::now() - pass_start).count();
     seconds_per_spp = pass_seconds / static_cast<double>(pass);
     spp += pass;

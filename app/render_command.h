@@ -21,6 +21,7 @@ struct RenderOptions {
   float exposure = 0.f;
   std::string tonemap = "clamp";
   bool quiet = false;
+  bool adaptive = false;
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

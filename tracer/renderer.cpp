@@ -34,6 +34,12 @@ void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1,
 }  // namespace
 
 PassStats Renderer::render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel) {
+  const int tiles = ((film.width() + kTileSize - 1) / kTileSize) * ((film.height() + kTileSize - 1) / kTileSize);
+  return render_pass(scene, film, std::vector<int>(tiles, spp), cancel);
+}
+
+PassStats Renderer::render_pass(const Scene& scene, Film& film, const std::vector<int>& tile_spp,
+                                const std::atomic<bool>* cancel) {
   const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   std::atomic<uint64_t> samples{0}, rays{0};
@@ -48,6 +54,8 @@ PassStats Renderer::render_pass(const Scene& scene, Film& film, int spp, const s
     const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
     RayCount count;
     uint64_t tile_samples = 0;
+    const int spp = tile_spp[tile];
+    if (spp <= 0) return;
     if (scene.render.sampler == SamplerType::Sobol)
       render_tile<SobolSampler>(scene, film, x0, y0, x1, y1, spp, count, tile_samples);
     else

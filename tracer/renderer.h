@@ -4,6 +4,7 @@
 #pragma once
 #include <atomic>
 #include <memory>
+#include <vector>
 
 #include "film.h"
 #include "scene.h"
@@ -25,6 +26,9 @@ class Renderer {
   // Adds spp samples to each pixel of `film` (which must match the scene's size). If `cancel` becomes true the
   // pass stops at the next tile boundary (every pixel keeps a consistent mean; some have fewer samples).
   PassStats render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel = nullptr);
+  // The same with a sample count per tile (row-major tiles of kTileSize, as plan_adaptive_pass gives them).
+  PassStats render_pass(const Scene& scene, Film& film, const std::vector<int>& tile_spp,
+                        const std::atomic<bool>* cancel = nullptr);
 
   static constexpr int kTileSize = 16;
 
