@@ -4,6 +4,8 @@
 #include "bench_command.h"
 #include "compare_command.h"
 #include "render_command.h"
+#include "view_command.h"
+#include "stress_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"pathtracer: a progressive CPU path tracer"};
@@ -14,6 +16,10 @@ int main(int argc, char** argv) {
   pt::add_bench_command(app, bench_options);
   pt::CompareOptions compare_options;
   pt::add_compare_command(app, compare_options);
+  pt::ViewOptions view_options;
+  pt::add_view_command(app, view_options);
+  pt::StressOptions stress_options;
+  pt::add_stress_command(app, stress_options);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -23,5 +29,7 @@ int main(int argc, char** argv) {
   if (app.got_subcommand("render")) return pt::run_render(render_options);
   if (app.got_subcommand("bench")) return pt::run_bench(bench_options);
   if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
+  if (app.got_subcommand("view")) return pt::run_view(view_options);
+  if (app.got_subcommand("stress")) return pt::run_stress(stress_options);
   return 2;
 }

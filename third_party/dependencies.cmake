@@ -18,3 +18,31 @@ elseif(TARGET glm)
   target_link_libraries(pt_glm INTERFACE glm)
 endif()
 target_compile_definitions(pt_glm INTERFACE GLM_FORCE_XYZW_ONLY GLM_ENABLE_EXPERIMENTAL)
+
+# --- Interactive viewer -------------------------------------------------------------------------------------------
+# GLFW (libglfw3-dev) exports the target `glfw`; OpenGL::GL is the GLVND libGL (GLX), which the viewer's window uses.
+find_package(glfw3 3.3 REQUIRED)
+set(OpenGL_GL_PREFERENCE GLVND)
+find_package(OpenGL REQUIRED)
+
+# Dear ImGui 1.86 (libimgui-dev): Debian ships no CMake package, only one static archive with the core *and* the
+# backends compiled in (`nm -C libimgui.a` defines ImGui_ImplGlfw_* and ImGui_ImplOpenGL3_*). Of its members,
+# the ones the viewer pulls in need: imgui_draw.o stb_truetype/stb_rect_pack (from libstb, imgui.pc says
+# "Requires: stb"); imgui_impl_opengl3.o dlopen/dlsym (its gl3w loader opens libGL.so.1 itself, so it needs no
+# GL link); imgui_impl_glfw.o glfw. Freetype is only needed by imgui_freetype.o, which nothing references.
+find_library(PT_IMGUI_LIBRARY NAMES libimgui.a imgui REQUIRED)
+find_path(PT_IMGUI_INCLUDE_DIR imgui.h PATH_SUFFIXES imgui REQUIRED)
+add_library(pt_imgui STATIC IMPORTED)
+set_target_properties(pt_imgui PROPERTIES
+  IMPORTED_LOCATION ${PT_IMGUI_LIBRARY}
+  INTERFACE_INCLUDE_DIRECTORIES ${PT_IMGUI_INCLUDE_DIR}
+  INTERFACE_LINK_LIBRARIES "PkgConfig::STB;${CMAKE_DL_LIBS};m")
+# The GLFW platform backend lives in the same archive; linking this target orders glfw after it.
+add_library(pt_imgui_glfw INTERFACE)
+target_link_libraries(pt_imgui_glfw INTERFACE pt_imgui glfw)
+
+# OSMesa (libosmesa6-dev): Mesa's off-screen GL, for the headless GL tests only. libOSMesa exports the GL entry
+# points itself, so a test executable links it *instead of* OpenGL::GL.
+if(PT_BUILD_TESTS)
+  pkg_check_modules(OSMESA REQUIRED IMPORTED_TARGET osmesa)
+endif()

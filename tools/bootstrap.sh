@@ -9,7 +9,7 @@ PACKAGES=(
   libglm-dev nlohmann-json3-dev libstb-dev  # maths, scene files, PNG
   libcli11-dev doctest-dev                  # command line, tests
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
-  libosmesa6-dev xvfb libgl1-mesa-dri       # headless GL tests, window tests without a display
+  libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)
   gnuplot-nox                               # the convergence plots of `pathtracer bench`
 )
 

@@ -1,0 +1,97 @@
+// `pathtracer view` as a user runs it: without a display (exit 2), and in a real X server (Xvfb) end to end.
+#include <doctest/doctest.h>
+#include <stb_image.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace {
+
+struct Run {
+  int status;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// `prefix` goes before the executable (environment changes, xvfb-run). Output files are unique per process.
+Run run(const std::string& prefix, const std::string& args) {
+  static int counter = 0;
+  const std::string stem = "view_cli_" + std::to_string(getpid()) + "_" + std::to_string(counter++);
+  const std::string cmd = prefix + " \"" + PATHTRACER_EXE + "\" " + args + " > " + stem + ".out 2> " + stem + ".err";
+  const int raw = std::system(cmd.c_str());
+  Run r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(stem + ".out"), slurp(stem + ".err")};
+  std::filesystem::remove(stem + ".out");
+  std::filesystem::remove(stem + ".err");
+  return r;
+}
+
+bool have_xvfb_run() { return std::system("command -v xvfb-run > /dev/null 2>&1") == 0; }
+
+}  // namespace
+
+TEST_CASE("view cli: --help lists view, without a display it says so and exits 2") {
+  const Run help = run("", "--help");
+  CHECK(help.status == 0);
+  CHECK(help.out.find("view") != std::string::npos);
+  const Run view_help = run("", "view --help");
+  CHECK(view_help.status == 0);
+  CHECK(view_help.out.find("--screenshot") != std::string::npos);
+
+  const Run r = run("env -u DISPLAY -u WAYLAND_DISPLAY", "view --frames 1");
+  INFO(r.out << r.err);
+  CHECK(r.status == 2);
+  CHECK(r.err.find("needs a display") != std::string::npos);
+  CHECK(r.err.find("pathtracer render") != std::string::npos);
+
+  const Run bad = run("env -u DISPLAY", "view no-such-scene.json");
+  CHECK(bad.status == 2);
+  CHECK(bad.err.find("no-such-scene.json") != std::string::npos);
+}
+
+TEST_CASE("view cli: under Xvfb the window shows the Cornell box (red left, green right) and a screenshot") {
+  if (!have_xvfb_run()) {
+    MESSAGE("xvfb-run not found: skipping the windowed end-to-end test");
+    return;
+  }
+  const std::string shot = "view_shot_" + std::to_string(getpid()) + ".png";
+  std::filesystem::remove(shot);
+  // 24-bit screen: xvfb-run's default 8-bit one has no GLX visual for a GL 3.3 window.
+  const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24'",
+                    "view --frames 20 --screenshot " + shot + " --stats --threads 2");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.out.find("frame work ms") != std::string::npos);
+  CHECK(r.out.find("edit to first updated image ms") != std::string::npos);
+
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load(shot.c_str(), &w, &h, &n, 3);
+  REQUIRE(px != nullptr);
+  CHECK(w >= 512 + 380);
+  CHECK(h >= 512);
+  // Strongly red and strongly green pixels: the two side walls. The panel is grey and blue.
+  double red_x = 0, green_x = 0;
+  size_t reds = 0, greens = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const unsigned char* p = &px[3 * (static_cast<size_t>(y) * w + x)];
+      if (p[0] > 60 && p[0] > 2 * p[1] && p[0] > 2 * p[2]) red_x += x, ++reds;
+      if (p[1] > 40 && p[1] > 1.5 * p[0] && p[1] > 1.5 * p[2]) green_x += x, ++greens;
+    }
+  stbi_image_free(px);
+  MESSAGE(shot << ": " << w << "x" << h << ", " << reds << " red pixels, " << greens << " green pixels");
+  REQUIRE(reds > 5000u);
+  REQUIRE(greens > 5000u);
+  CHECK(red_x / reds < green_x / greens);  // red wall on the left, green on the right
+  CHECK(red_x / reds < 0.3 * w);
+  std::filesystem::remove(shot);
+}

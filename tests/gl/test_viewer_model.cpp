@@ -1,0 +1,228 @@
+// Scripted interaction through the viewer's state model, exactly as the panels and the window drive it.
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include "image_io.h"
+#include "scene_json.h"
+#include "viewer_model.h"
+
+using namespace pt;
+
+namespace {
+
+SceneDesc small_cornell() {
+  SceneDesc d = load_scene("cornell");
+  d.width = d.height = 40;
+  d.render.max_bounces = 4;
+  return d;
+}
+
+SessionSettings stop_at(uint64_t spp) {
+  SessionSettings s;
+  s.stop.spp = spp;
+  s.preview_divisor = 1;
+  return s;
+}
+
+// The accumulation's final frame (waits for the stop condition, then takes the newest frame).
+DisplayFrame final_frame(ViewerModel& model) {
+  REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  DisplayFrame f;
+  const uint64_t g = model.session().stats().generation;
+  const auto start = std::chrono::steady_clock::now();
+  while (!(f.generation == g && f.spp == model.session_settings().stop.spp) &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
+    if (!model.session().take_frame(f)) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  REQUIRE(f.generation == g);
+  return f;
+}
+
+glm::dvec3 block_mean(const DisplayFrame& f, int x0, int y0, int x1, int y1) {
+  glm::dvec3 sum(0.0);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x)
+      for (int c = 0; c < 3; ++c) sum[c] += f.rgba[4 * (static_cast<size_t>(y) * f.width + x) + c];
+  return sum / static_cast<double>((x1 - x0) * (y1 - y0));
+}
+
+size_t material_index(const ViewerModel& m, const std::string& name) {
+  for (size_t i = 0; i < m.scene().materials.size(); ++i)
+    if (m.scene().materials[i].name == name) return i;
+  FAIL("no material " << name);
+  return 0;
+}
+
+}  // namespace
+
+TEST_CASE("viewer: raising an albedo restarts accumulation at 0 spp and brightens the walls") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(8));
+  const DisplayFrame before = final_frame(model);
+  const uint64_t g0 = model.session().stats().generation;
+
+  const size_t white = material_index(model, "white");
+  MaterialDesc m = model.scene().materials[white];
+  m.albedo = Rgb(0.95f);
+  REQUIRE(model.set_material(white, m));
+  const SessionStats now = model.session().stats();
+  CHECK(now.spp == 0);
+  CHECK(now.generation == g0 + 1);
+  CHECK(model.last_edit_generation() == g0 + 1);
+  CHECK(model.scene().materials[white].albedo == Rgb(0.95f));
+
+  const DisplayFrame after = final_frame(model);
+  // Back wall (centre top, above the blocks) and floor (bottom centre) are white: brighter in every channel.
+  const glm::dvec3 wall0 = block_mean(before, 14, 6, 26, 14), wall1 = block_mean(after, 14, 6, 26, 14);
+  const glm::dvec3 floor0 = block_mean(before, 14, 35, 26, 39), floor1 = block_mean(after, 14, 35, 26, 39);
+  for (int c = 0; c < 3; ++c) {
+    CHECK(wall1[c] > wall0[c] * 1.1);
+    CHECK(floor1[c] > floor0[c] * 1.1);
+  }
+  // The red wall's light is its own albedo times what reaches it: it gets brighter too, but stays red.
+  const glm::dvec3 red = block_mean(after, 1, 10, 5, 30);
+  CHECK(red.x > 2.0 * red.y);
+}
+
+TEST_CASE("viewer: emission strength scales the light, invalid edits are refused without restarting") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(4));
+  const DisplayFrame before = final_frame(model);
+  const size_t light = material_index(model, "light");
+  CHECK(model.emission_strength(light) == doctest::Approx(17.f));
+  CHECK(model.emission_colour(light).x == doctest::Approx(1.f));
+  REQUIRE(model.set_emission(light, model.emission_colour(light), 34.f));
+  CHECK(model.scene().materials[light].emission.x == doctest::Approx(34.f));
+  const DisplayFrame after = final_frame(model);
+  // Same samples (same seed and sample indices), twice the light: the image doubles exactly up to rounding.
+  const glm::dvec3 b = block_mean(before, 0, 0, 40, 40), a = block_mean(after, 0, 0, 40, 40);
+  for (int c = 0; c < 3; ++c) CHECK(a[c] == doctest::Approx(2.0 * b[c]).epsilon(1e-4));
+
+  const uint64_t g = model.session().stats().generation;
+  MaterialDesc bad = model.scene().materials[0];
+  bad.albedo = Rgb(1.5f);
+  CHECK(!model.set_material(0, bad));
+  CHECK(model.status_is_error());
+  CHECK(model.status().find("albedo") != std::string::npos);
+  CHECK(model.session().stats().generation == g);
+  CHECK(model.scene().materials[0].albedo != Rgb(1.5f));
+}
+
+TEST_CASE("viewer: camera input moves the camera and restarts, reset returns to the scene camera") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(2));
+  const CameraDesc original = model.scene().camera;
+  const uint64_t g = model.session().stats().generation;
+  ViewInput drag;
+  drag.orbit = true;
+  drag.drag = Vec2(40.f, 0.f);
+  drag.viewport_height = 400.f;
+  model.apply_input(drag, 1.0 / 60);
+  CHECK(model.session().stats().generation == g + 1);
+  CHECK(model.scene().camera.position != original.position);
+  CHECK(model.scene().camera.look_at == original.look_at);
+
+  ViewInput idle;  // no buttons, no keys: nothing happens
+  idle.drag = Vec2(10.f, 10.f);
+  model.apply_input(idle, 1.0 / 60);
+  CHECK(model.session().stats().generation == g + 1);
+
+  ViewInput fly;
+  fly.look = true;
+  fly.fly = DVec3(0, 0, 1);
+  const DVec3 p = model.scene().camera.position;
+  model.apply_input(fly, 0.5);
+  CHECK(glm::length(model.scene().camera.position - p) == doctest::Approx(0.25 * scene_bounds(model.scene()).radius));
+
+  model.reset_camera();
+  CHECK(model.scene().camera.position == original.position);
+  CHECK(model.scene().camera.look_at == original.look_at);
+  CHECK(model.session().stats().generation == g + 3);
+}
+
+TEST_CASE("viewer: shortcuts pause, resume, reset and request saves") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(0));
+  model.shortcut(Shortcut::Pause);
+  CHECK(model.paused());
+  CHECK(model.session().stats().paused);
+  model.shortcut(Shortcut::Pause);
+  CHECK(!model.paused());
+  const uint64_t g = model.session().stats().generation;
+  model.shortcut(Shortcut::Reset);
+  CHECK(model.session().stats().generation == g + 1);
+  model.shortcut(Shortcut::Save);
+  CHECK(model.save_requested);
+  model.shortcut(Shortcut::Help);
+  CHECK(model.help_open);
+  model.shortcut(Shortcut::Quit);
+  CHECK(model.quit_requested);
+}
+
+TEST_CASE("viewer: a saved scene (edited material and camera) renders with `pathtracer render` to the same image") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(6));
+  MaterialDesc red = model.scene().materials[material_index(model, "red")];
+  red.albedo = Rgb(0.2f, 0.3f, 0.8f);
+  REQUIRE(model.set_material(material_index(model, "red"), red));
+  ViewInput drag;
+  drag.orbit = true;
+  drag.drag = Vec2(-25.f, 12.f);
+  drag.viewport_height = 300.f;
+  model.apply_input(drag, 0.0);
+  model.set_fov(50.0);
+  const DisplayFrame shown = final_frame(model);
+
+  const std::string json = "viewer_saved_" + std::to_string(getpid()) + ".json";
+  const std::string pfm = "viewer_saved_" + std::to_string(getpid()) + ".pfm";
+  REQUIRE(model.save_scene(json));
+  const SceneDesc loaded = load_scene(json);
+  CHECK(loaded.camera.position == model.scene().camera.position);
+  CHECK(loaded.camera.fov_deg == 50.0);
+  CHECK(loaded.materials[material_index(model, "red")].albedo == red.albedo);
+
+  const std::string cmd = std::string("\"") + PATHTRACER_EXE + "\" render -q --scene " + json + " --spp 6 --pfm " + pfm + " > /dev/null";
+  const int status = std::system(cmd.c_str());
+  REQUIRE(WIFEXITED(status));
+  REQUIRE(WEXITSTATUS(status) == 0);
+  const Image img = read_pfm(pfm);
+  REQUIRE(img.width == shown.width);
+  REQUIRE(img.height == shown.height);
+  size_t mismatches = 0;
+  for (size_t i = 0; i < static_cast<size_t>(img.width) * img.height; ++i)
+    for (int c = 0; c < 3; ++c) mismatches += img.rgb[3 * i + c] != shown.rgba[4 * i + c];
+  CHECK(mismatches == 0);  // bit for bit
+  std::filesystem::remove(json);
+  std::filesystem::remove(pfm);
+}
+
+TEST_CASE("viewer: saved images never overwrite earlier ones, load errors are shown, not thrown") {
+  const std::string dir = "viewer_out_" + std::to_string(getpid());
+  std::filesystem::create_directory(dir);
+  ViewerModel model(small_cornell(), "cornell", stop_at(2));
+  model.output_dir = dir;
+  const DisplayFrame f = final_frame(model);
+  const std::vector<uint8_t> rgba(4ull * f.width * f.height, 128);
+  const auto a = model.save_image(rgba, f), b = model.save_image(rgba, f);
+  REQUIRE(a);
+  REQUIRE(b);
+  CHECK(*a != *b);
+  CHECK(std::filesystem::path(*a).filename() == "cornell-0001");
+  CHECK(std::filesystem::path(*b).filename() == "cornell-0002");
+  for (const auto& stem : {*a, *b}) {
+    CHECK(std::filesystem::exists(stem + ".png"));
+    const Image pfm = read_pfm(stem + ".pfm");
+    CHECK(pfm.rgb[0] == f.rgba[0]);
+    CHECK(pfm.rgb[3 * 100 + 1] == f.rgba[4 * 100 + 1]);
+  }
+  std::filesystem::remove_all(dir);
+
+  const std::string before = model.scene_name();
+  CHECK(!model.load("no-such-dir/missing.json"));
+  CHECK(model.status_is_error());
+  CHECK(model.status().find("no-such-dir/missing.json") != std::string::npos);
+  CHECK(model.scene_name() == before);
+  CHECK(model.load("cornell-spheres"));
+  CHECK(model.scene_name() == "cornell-spheres");
+  CHECK(!model.status_is_error());
+}

@@ -1,0 +1,250 @@
+// The viewer's background render session: restarts, cancellation, pause, stop conditions, published frames.
+#include <doctest/doctest.h>
+#include <time.h>
+
+#include <chrono>
+#include <thread>
+
+#include "render_session.h"
+#include "scene_json.h"
+#include "test_helpers.h"
+
+using namespace pt;
+
+namespace {
+
+SceneDesc small_cornell(int size = 32, int bounces = 4) {
+  SceneDesc d = load_scene("cornell");
+  d.width = d.height = size;
+  d.render.max_bounces = bounces;
+  return d;
+}
+
+SessionSettings settings_with(uint64_t spp, int preview_divisor = 1) {
+  SessionSettings s;
+  s.stop.spp = spp;
+  s.preview_divisor = preview_divisor;
+  return s;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Polls for a published frame satisfying pred (frames are swapped in, so the last one taken is returned).
+bool wait_frame(RenderSession& s, DisplayFrame& f, const std::function<bool(const DisplayFrame&)>& pred,
+                double timeout = 30.0) {
+  const auto start = std::chrono::steady_clock::now();
+  while (seconds_since(start) < timeout) {
+    if (s.take_frame(f) && pred(f)) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return false;
+}
+
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// Mean red/green/blue over a block of pixels of a frame.
+glm::dvec3 block_mean(const DisplayFrame& f, int x0, int y0, int x1, int y1) {
+  glm::dvec3 sum(0.0);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x)
+      for (int c = 0; c < 3; ++c) sum[c] += f.rgba[4 * (static_cast<size_t>(y) * f.width + x) + c];
+  return sum / static_cast<double>((x1 - x0) * (y1 - y0));
+}
+
+}  // namespace
+
+TEST_CASE("session: accumulates to the target spp, then its image equals one direct render of that many spp") {
+  const SceneDesc desc = small_cornell();
+  RenderSession session(desc, settings_with(12));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  const SessionStats st = session.stats();
+  CHECK(st.spp == 12);
+  CHECK(st.stop_reason == "target spp");
+  CHECK(st.error.empty());
+  CHECK(st.samples == 12ull * 32 * 32);
+  CHECK(st.samples_per_second > 0.0);
+  CHECK(st.rays_per_second >= st.samples_per_second);
+  DisplayFrame f;
+  REQUIRE(session.take_frame(f));
+  CHECK(f.spp == 12);
+  CHECK(!f.preview);
+  // Samples depend only on (pixel, sample index, seed), so however the session split its passes, the film is the
+  // film of one 12-spp pass, bit for bit.
+  const Film direct = test::render_film(desc, 12);
+  REQUIRE(f.width == direct.width());
+  int mismatches = 0;
+  for (size_t i = 0; i < direct.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c) mismatches += f.rgba[4 * i + c] != static_cast<float>(direct.mean_channel(i, c));
+  CHECK(mismatches == 0);
+  CHECK(st.estimated_relmse == doctest::Approx(direct.estimated_relmse()).epsilon(1e-12));
+  // The per-pixel relative error squared, averaged, is the estimated relMSE.
+  double mean_sq = 0.0;
+  for (size_t i = 0; i < direct.pixel_count(); ++i) mean_sq += double(f.rgba[4 * i + 3]) * f.rgba[4 * i + 3];
+  CHECK(mean_sq / direct.pixel_count() == doctest::Approx(st.estimated_relmse).epsilon(1e-4));
+  std::vector<RelMsePoint> history;
+  session.copy_history(history);
+  REQUIRE(!history.empty());
+  CHECK(history.back().relmse == doctest::Approx(st.estimated_relmse));
+  for (size_t i = 1; i < history.size(); ++i) CHECK(history[i].seconds >= history[i - 1].seconds);
+}
+
+TEST_CASE("session: an edit restarts accumulation at once and the new image shows it") {
+  SceneDesc desc = small_cornell();
+  RenderSession session(desc, settings_with(8));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  DisplayFrame before;
+  REQUIRE(session.take_frame(before));
+  const uint64_t g0 = session.stats().generation;
+
+  for (MaterialDesc& m : desc.materials)
+    if (m.name == "white") m.albedo = Rgb(0.95f);
+  const uint64_t g1 = session.set_scene(desc);
+  CHECK(g1 == g0 + 1);
+  const SessionStats right_after = session.stats();
+  CHECK(right_after.generation == g1);
+  CHECK(right_after.spp == 0);  // at once, not after the next pass
+  CHECK(!right_after.done);
+
+  DisplayFrame after;
+  REQUIRE(wait_frame(session, after, [&](const DisplayFrame& f) { return f.generation == g1 && f.spp >= 8; }));
+  // The back wall (image centre, between the light and the blocks) is white: brighter with a higher albedo.
+  const glm::dvec3 b = block_mean(before, 12, 9, 20, 14), a = block_mean(after, 12, 9, 20, 14);
+  for (int c = 0; c < 3; ++c) CHECK(a[c] > b[c] * 1.1);
+}
+
+TEST_CASE("session: pause stops within a tile and uses no CPU, resume continues the same accumulation") {
+  SceneDesc desc = small_cornell(256, 16);
+  RenderSession session(desc, settings_with(0));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.spp >= 1 && s.rendering; }, 60.0));
+  const auto t = std::chrono::steady_clock::now();
+  session.set_paused(true);
+  REQUIRE(session.wait_for([](const SessionStats& s) { return !s.rendering; }, 5.0));
+  const double stop_latency = seconds_since(t);
+  MESSAGE("pause took effect in " << stop_latency * 1e3 << " ms");
+  CHECK(stop_latency < 0.25);
+  const SessionStats paused = session.stats();
+  CHECK(paused.paused);
+  const double cpu0 = process_cpu_seconds();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const double cpu = process_cpu_seconds() - cpu0;
+  MESSAGE("CPU while paused: " << cpu * 1e3 << " ms over 300 ms");
+  CHECK(cpu < 0.03);
+  CHECK(session.stats().seconds == paused.seconds);  // render time excludes the pause
+  CHECK(session.stats().generation == paused.generation);
+
+  session.set_paused(false);
+  const uint64_t spp = paused.spp;
+  REQUIRE(session.wait_for([&](const SessionStats& s) { return s.spp > spp; }, 60.0));
+  CHECK(session.stats().generation == paused.generation);
+}
+
+TEST_CASE("session: once a stop condition is met the thread sleeps, raising the limit resumes") {
+  RenderSession session(small_cornell(), settings_with(4));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  const double cpu0 = process_cpu_seconds();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  CHECK(process_cpu_seconds() - cpu0 < 0.02);
+  CHECK(session.stats().spp == 4);
+
+  SessionSettings more = session.settings();
+  more.stop.spp = 9;
+  session.set_settings(more);
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.done && s.spp == 9; }, 60.0));
+}
+
+TEST_CASE("session: time and relMSE stop conditions") {
+  SUBCASE("time") {
+    SessionSettings s = settings_with(0);
+    s.stop.seconds = 0.3;
+    RenderSession session(small_cornell(64), s);
+    REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 30.0));
+    const SessionStats st = session.stats();
+    CHECK(st.stop_reason == "time limit");
+    CHECK(st.seconds >= 0.3);
+    CHECK(st.seconds < 1.5);
+  }
+  SUBCASE("relMSE") {
+    SessionSettings s = settings_with(0);
+    s.stop.relmse = 0.05;
+    RenderSession session(small_cornell(16), s);
+    REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+    const SessionStats st = session.stats();
+    CHECK(st.stop_reason == "target relMSE");
+    CHECK(st.spp >= 16);
+    CHECK(st.estimated_relmse <= 0.05);
+  }
+}
+
+TEST_CASE("session: a slow pass is cancelled promptly by an edit") {
+  SceneDesc desc = small_cornell(512, 64);
+  desc.render.estimator = Estimator::Uniform;
+  desc.render.russian_roulette_depth = -1;
+  RenderSession session(desc, settings_with(0));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.rendering; }, 30.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // well inside the first (≈1 s) pass
+  SceneDesc tiny = small_cornell(8, 1);
+  const auto t = std::chrono::steady_clock::now();
+  const uint64_t g = session.set_scene(tiny);
+  DisplayFrame f;
+  REQUIRE(wait_frame(session, f, [&](const DisplayFrame& fr) { return fr.generation == g; }, 30.0));
+  const double latency = seconds_since(t);
+  MESSAGE("edit to first image of the new scene: " << latency * 1e3 << " ms");
+  CHECK(latency < 0.3);
+  CHECK(f.width == 8);
+}
+
+TEST_CASE("session: a preview pass at reduced resolution comes first after a restart, then full resolution") {
+  // A full pass of this scene takes far longer than the preview, so the preview is seen before it is replaced.
+  RenderSession session(small_cornell(256, 16), settings_with(2, 4));
+  DisplayFrame f;
+  REQUIRE(wait_frame(session, f, [](const DisplayFrame&) { return true; }));
+  CHECK(f.preview);
+  CHECK(f.width == 64);
+  CHECK(f.height == 64);
+  CHECK(f.spp == 1);
+  CHECK(session.stats().spp == 0);  // a preview is not the accumulation
+  REQUIRE(wait_frame(session, f, [](const DisplayFrame& fr) { return !fr.preview; }));
+  CHECK(f.width == 256);
+}
+
+TEST_CASE("session: changing the thread count does not restart, and the image stays exact") {
+  const SceneDesc desc = small_cornell();
+  SessionSettings s = settings_with(6);
+  s.threads = 1;
+  RenderSession session(desc, s);
+  REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  const uint64_t g = session.stats().generation;
+  CHECK(session.stats().threads == 1);
+  s.threads = 3;
+  s.stop.spp = 14;  // the accumulation continues from 6 spp with 3 threads
+  session.set_settings(s);
+  REQUIRE(session.wait_for([](const SessionStats& st) { return st.done && st.spp == 14; }, 60.0));
+  CHECK(session.stats().generation == g);
+  CHECK(session.stats().threads == 3);
+  DisplayFrame f;
+  REQUIRE(session.take_frame(f));
+  const Film direct = test::render_film(desc, 14);
+  int mismatches = 0;
+  for (size_t i = 0; i < direct.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c) mismatches += f.rgba[4 * i + c] != static_cast<float>(direct.mean_channel(i, c));
+  CHECK(mismatches == 0);
+}
+
+TEST_CASE("session: an invalid scene is reported, not rendered, and a valid one recovers") {
+  SceneDesc bad = small_cornell();
+  bad.camera.fov_deg = -3;
+  RenderSession session(bad, settings_with(2));
+  REQUIRE(session.wait_for([](const SessionStats& s) { return !s.error.empty(); }, 10.0));
+  CHECK(session.stats().error.find("fov") != std::string::npos);
+  DisplayFrame f;
+  CHECK(!session.take_frame(f));
+  session.set_scene(small_cornell());
+  REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  CHECK(session.stats().error.empty());
+}
