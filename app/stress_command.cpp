@@ -60,14 +60,7 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
-// Known tracer bugs the matrix exercises (reported with proposed fixes; see docs/accuracy.md). Their rows read
-// XFAIL while the bug is there and XPASS once it is fixed; drop the tag then.
-constexpr const char* kRouletteBug =
-    "known bug: Russian-roulette survival capped at 0.95 (integrator.cpp) has infinite variance for albedo > 0.975";
-constexpr const char* kCornerLeakBug =
-    "known bug: polygon hit points near a shared edge can round outside the neighbour's plane (interaction.h)";
-constexpr const char* kConeMarginBug =
-    "known bug: sample_sphere_by_cone's margin r²·1e-4 (lights.h) makes NEE area-sample huge spheres";
+// Known tracer bugs the matrix exercises get a Kind::KnownBug row and a constant naming them here (none open).
 
 struct Row {
   std::string scenario, parameter, measured, expected;
@@ -99,7 +92,7 @@ class Report {
     rows_.push_back({scenario, parameter, measured, expected, v, seconds, note});
     std::printf("%-38s %-40s %-50s %-40s %s\n", scenario.c_str(), parameter.c_str(), measured.c_str(),
                 expected.c_str(), verdict_name(v));
-    if (v == Verdict::XFail || v == Verdict::XPass) std::printf("    (%s)\n", note.c_str());
+    if (v == Verdict::XFail) std::printf("    (%s)\n", note.c_str());
     std::fflush(stdout);
   }
   // Restarts the clock of the next row (work done before a group of rows is not charged to its first row).
@@ -295,9 +288,7 @@ void huge_spheres(Report& r, const StressOptions& o) {
         measured += fmt(", %d inexact px", bad);
         ok = ok && bad <= measure_zero_allowance(double(f.total_count()) * k);
       }
-      const bool bug = est == Estimator::Nee;  // light samples of a huge emitting sphere (kConeMarginBug)
-      r.add("huge spheres: furnace room (k=5, ρ=0.5)", p + ", " + to_string(est), measured, expected_text(e), ok,
-            bug ? Kind::KnownBug : kind, bug ? kConeMarginBug : "");
+      r.add("huge spheres: furnace room (k=5, ρ=0.5)", p + ", " + to_string(est), measured, expected_text(e), ok, kind);
     }
   }
   // The control: the same furnace room built of six parallelograms.
@@ -360,8 +351,7 @@ void light_tightness(Report& r, const StressOptions& o, uint64_t& total_paths) {
           fmt("%s view, %s, %s", to_string(c.v), to_string(est), t.name.c_str()),
           fmt("%d of %zu pixels lit after %.3g paths, %llu rejected", lit, f.pixel_count(),
               double(f.total_count()), static_cast<unsigned long long>(f.rejected())),
-          "0 lit, 0 rejected", lit == 0 && f.rejected() == 0, c.e == Enclosure::Sphere ? kind : Kind::KnownBug,
-          c.e == Enclosure::Sphere ? "" : kCornerLeakBug);
+          "0 lit, 0 rejected", lit == 0 && f.rejected() == 0, kind);
   };
   for (const Config& c : configs) {
     if (!r.wants(std::string("light-tight: ") + to_string(c.e)) && !r.wants("light-tight")) continue;
@@ -405,12 +395,10 @@ void furnaces(Report& r, const StressOptions& o) {
               measured += fmt(", %d inexact px", bad);
               ok = ok && bad <= measure_zero_allowance(double(f.total_count()) * k);
             }
-            // √0.95: above it the capped roulette's weights grow faster than survival falls (see kRouletteBug).
-            const bool bug = unbounded && rho > 0.9747f;
             r.add("furnace: emitting sphere",
                   fmt("ρ %.2f, %s, %s, %s", rho, unbounded ? "roulette, no limit" : "5 bounces", to_string(est),
                       t.name.c_str()),
-                  measured, expected_text(e), ok, bug ? Kind::KnownBug : Kind::Required, bug ? kRouletteBug : "");
+                  measured, expected_text(e), ok, Kind::Required);
           }
     }
   }
@@ -445,7 +433,7 @@ void furnaces(Report& r, const StressOptions& o) {
         const double e = furnace_expected(1.0, rho, 0, true);
         r.add("furnace: albedo near 1", fmt("ρ %.3f, roulette, no limit, %s", rho, to_string(est)),
               mean_text(m.mean.x, m.se.x), expected_text(e), mean_agrees(m.mean.x, m.se.x, e, 1e-5) && f.rejected() == 0,
-              Kind::KnownBug, kRouletteBug);
+              Kind::Required);
       }
     }
   }
@@ -556,7 +544,7 @@ void accumulation(Report& r, const StressOptions& o) {
 
 // ------------------------------------------------------------------------------------------------- summary
 
-void summary(const Report& r, const Limits& limits, uint64_t light_tight_paths, const StressOptions& o) {
+void summary(const Report& r, const Limits& limits, uint64_t light_tight_paths) {
   std::map<Verdict, int> count;
   for (const Row& row : r.rows()) ++count[row.verdict];
   std::printf("\n%zu checks: %d PASS, %d FAIL, %d XFAIL, %d XPASS, %d probes hold, %d probes break; %.1f s\n",
@@ -583,7 +571,6 @@ void summary(const Report& r, const Limits& limits, uint64_t light_tight_paths, 
   if (count[Verdict::XFail] || count[Verdict::XPass])
     std::printf("known-bug rows (see docs/accuracy.md): XFAIL while the bug is there; rare-event bugs pass many rows\n"
                 "(XPASS) anyway. A bug is fixed when none of its rows reads XFAIL: then drop its tag in stress_command.cpp\n");
-  (void)o;
 }
 
 std::string csv_field(const std::string& s) {
@@ -619,7 +606,7 @@ int run_stress(const StressOptions& o) {
   furnaces(r, o);
   hazards(r, o);
   accumulation(r, o);
-  summary(r, limits, light_tight_paths, o);
+  summary(r, limits, light_tight_paths);
 
   if (csv.is_open()) {
     csv << "scenario,parameter,measured,expected,verdict,seconds,note\n";

@@ -226,11 +226,9 @@ TEST_CASE("huge spheres: the closed room of six 1e5-radius spheres is a furnace 
   }
 }
 
-// BUG: sample_sphere_by_cone() (tracer/lights.h) uses area sampling whenever d² ≤ r²·(1+1e-4), a margin
-// relative to the radius: for a sphere of radius 1e5 × the room it covers everything within 5 room sizes of its
-// surface, so NEE picks points uniformly over the whole huge sphere, almost none of them visible (probability
-// ~1e-11): NEE returns Le instead of 1.96875. Unskip when the margin is tied to the receiver's rounding error.
-TEST_CASE("huge spheres: NEE in the furnace room of huge emitting spheres" * doctest::skip()) {
+// NEE must find huge emitting spheres: the cone/area choice of sample_light() is tied to the receiver's rounding
+// error, not to the sphere's radius (with a margin relative to r, NEE returned Le instead of 1.96875 here).
+TEST_CASE("huge spheres: NEE in the furnace room of huge emitting spheres") {
   const double e = furnace_expected(1.0, 0.5, 5, false);
   const Film f = render(wall_room_furnace(true, 1e5, 1.0, 0.5, 5, -1, Estimator::Nee), 64);
   const MeanSE m = film_mean(f);
@@ -309,15 +307,10 @@ TEST_CASE("light-tight: a camera in a closed sphere sees no light from outside, 
       }
 }
 
-// BUG: a polygon hit point is interpolated from its barycentrics in float, so a hit within its rounding error
-// (~1e-7 relative) of a shared edge can land just outside the neighbouring face's plane; offset_ray_origin()
-// (tracer/interaction.h) then pushes it only along its own face's normal, and a bounce or shadow ray leaving
-// towards the neighbour starts behind it and escapes the box. The vertex and edge views put every camera hit
-// within a few ulps of a shared vertex or edge: about half their pixels see the outside. The other views leak
-// rarely (1 pixel in 1e5 paths for the box of parallelograms at scale 1e-4). Unskip when make_interaction()
-// keeps polygon hit points inside the polygon by more than their rounding error.
-TEST_CASE("light-tight: a camera in a closed box (12 triangles, 6 parallelograms) sees no light from outside" *
-          doctest::skip()) {
+// A polygon hit point within its rounding error of a shared edge could land just outside the neighbouring face's
+// plane, and the next ray then started behind it and escaped the box (about half the pixels of the vertex and
+// edge views leaked). make_interaction() now keeps hit points inside the polygon by more than their error.
+TEST_CASE("light-tight: a camera in a closed box (12 triangles, 6 parallelograms) sees no light from outside") {
   for (Enclosure e : {Enclosure::Box12, Enclosure::Box6})
     for (View v : {View::Interior, View::Vertex, View::Edge, View::Diagonal, View::Grazing})
       for (Estimator est : {Estimator::Cosine, Estimator::Mis})
@@ -363,12 +356,9 @@ TEST_CASE("furnace: Le·(1−ρ^(k+1))/(1−ρ) and Le/(1−ρ) for every estima
     }
 }
 
-// BUG: Russian roulette survives with q = min(0.95, max(β)·η) (tracer/integrator.cpp, trace()). For albedo ρ above
-// the cap, survivors are re-weighted by ρ/0.95 > 1 per bounce, and the estimator's second moment
-// Σ_k 0.95^k·(ρ/0.95)^(2k) diverges once ρ² > 0.95 (ρ > 0.975): unbiased in theory, but with infinite variance
-// the sample mean converges like n^-0.2 and is nearly always far below Le/(1−ρ) (ρ = 0.999: ~250 instead of 1000
-// at 16k paths). Unskip when the cap no longer binds for the albedos the renderer supports.
-TEST_CASE("furnace: Russian roulette stays unbiased for ρ just below 1" * doctest::skip()) {
+// With survival capped at c, the second moment Σ_k c^k·(ρ/c)^(2k) diverges once ρ² > c: a cap of 0.95 gave
+// ~250 instead of 1000 at ρ = 0.999. The cap is now 1 − 2^-10.
+TEST_CASE("furnace: Russian roulette stays unbiased for ρ just below 1") {
   for (float rho : {0.99f, 0.999f})
     for (Estimator est : {Estimator::Cosine, Estimator::Nee, Estimator::Mis}) {  // uniform: infinite variance here
       const Film f = render(furnace(Rgb(1.f), Rgb(rho), 1 << 30, 0, est), 256);

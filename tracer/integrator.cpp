@@ -120,9 +120,11 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
       count_emission = true;
     }
 
-    // Russian roulette (unbiased: survivors are re-weighted by 1/q). q ≤ 0.95 so even albedo-1 rooms terminate.
+    // Russian roulette (unbiased: survivors are re-weighted by 1/q). q follows the throughput, so paths through
+    // dark materials end early; q ≤ 1 − 2^-10 so even albedo-1 rooms terminate (mean length ~1000 bounces) while
+    // rooms of albedo ρ < 1 keep finite variance (a cap c needs ρ² < c: 0.95 would not do for ρ = 0.999).
     if (rr_depth >= 0 && depth >= rr_depth) {
-      const float q = std::min(0.95f, max_component(beta) * eta_scale);
+      const float q = std::min(1.f - 0x1p-10f, max_component(beta) * eta_scale);
       if (!(rng.next_1d() < q)) break;
       beta /= q;
     }

@@ -37,9 +37,15 @@ inline float sphere_one_minus_cos_max(double r2, double d2) {
   return static_cast<float>(sin2 / (1.0 + std::sqrt(std::max(0.0, 1.0 - sin2))));
 }
 
-// Spheres are sampled by cone when the receiver is clearly outside; receivers on or inside the sphere (the
-// relative margin covers points on the surface that rounding put a hair outside) sample its area instead.
-inline bool sample_sphere_by_cone(double r2, double d2) { return d2 > r2 * (1.0 + 1e-4); }
+// Spheres are sampled by cone when the receiver is clearly outside; receivers on or inside the sphere sample its
+// area instead. "Clearly": the receiver's height above the surface, h = (d² − r²)/(d + r) (no cancellation),
+// exceeds the rounding error of a point at the receiver's (camera-relative) position, so points on the sphere
+// itself that rounding put a hair outside use area sampling, whatever the sphere's size (a margin relative to
+// r would be metres wide for a sphere 10^5 times the room).
+inline bool sample_sphere_by_cone(double r2, double d2, Vec3 ref) {
+  const double h = (d2 - r2) / (std::sqrt(d2) + std::sqrt(r2));
+  return h > 0x1p-16 * static_cast<double>(max_abs_component(ref)) + 1e-12 * std::sqrt(r2);
+}
 
 // Solid-angle density with which sample_light() would produce direction w towards the environment from a
 // receiver with normal n.
@@ -57,7 +63,7 @@ inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_li
     const double r = s.spheres.radius[i];
     const DVec3 dc = DVec3(ref) - s.spheres.center[i];
     const double d2 = glm::dot(dc, dc);
-    if (sample_sphere_by_cone(r * r, d2)) return pmf * uniform_cone_pdf(sphere_one_minus_cos_max(r * r, d2));
+    if (sample_sphere_by_cone(r * r, d2, ref)) return pmf * uniform_cone_pdf(sphere_one_minus_cos_max(r * r, d2));
   }
   const Vec3 d = p_light - ref;
   const float dist2 = glm::dot(d, d);
@@ -100,7 +106,7 @@ inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, V
     const double r = s.spheres.radius[i];
     const DVec3 dc = center - DVec3(ref);
     const double d2 = glm::dot(dc, dc);
-    if (sample_sphere_by_cone(r * r, d2)) {
+    if (sample_sphere_by_cone(r * r, d2, ref)) {
       // Outside: uniform direction in the subtended cone, then the nearest intersection with the sphere.
       const float omc = sphere_one_minus_cos_max(r * r, d2);
       const Frame frame = Frame::from_normal(Vec3(glm::normalize(dc)));

@@ -1,5 +1,7 @@
 #include "scene.h"
 
+#include <glm/gtx/component_wise.hpp>
+
 #include <sstream>
 #include <stdexcept>
 
@@ -145,6 +147,22 @@ void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 or
   soa.normal.push_back(Vec3(glm::normalize(n)));
   soa.area.push_back(static_cast<float>(area));
   soa.material.push_back(material);
+  // Hit-point rounding error bound γ7·Σ|bᵢvᵢ| ≤ γ7·max|v| (camera-relative), with a 4× margin.
+  double max_abs = 0.0;
+  for (int k = 0; k < N; ++k) max_abs = std::max(max_abs, glm::compMax(glm::abs(world[k] - origin)));
+  const double err = 4.0 * 7.0 * 0x1p-24 * max_abs;
+  const double a2 = glm::length(n);  // twice the triangle (a,b,c)'s area
+  const DVec3 a = world[0], b = world[1], c = world[2];
+  DVec3 m;
+  if (N == 3) {
+    // Altitude to the edge opposite vertex k = 2A/|edge|.
+    m = DVec3(glm::length(c - b), glm::length(a - c), glm::length(b - a)) * (err / a2);
+    if (m.x + m.y + m.z >= 0.5) m = DVec3(1.0 / 3.0);  // a sliver below float resolution: use its centroid
+  } else {
+    // u runs along b−a between the edges parallel to c−b (distance A/|c−b|), v along c−b.
+    m = DVec3(std::min(0.5, err * glm::length(c - b) / a2), std::min(0.5, err * glm::length(b - a) / a2), 0.0);
+  }
+  soa.edge_margin.push_back(Vec3(m));
 }
 
 }  // namespace

@@ -34,6 +34,11 @@ struct PolygonSoA {
   std::vector<Vec3> normal;      // unit front normal normalize((b−a)×(c−a))
   std::vector<float> area;       // world units²
   std::vector<uint32_t> material;
+  // Smallest barycentric (triangles: b0, b1, b2; parallelograms: u = b1+b2 and v = b2 in x, y) a hit point may
+  // take: 4·γ7·max|vertex| over the altitude to that edge. Keeps interpolated hit points inside the polygon by
+  // more than their rounding error, so a point near an edge shared with another face can never round to the
+  // far side of that face (a light leak through closed geometry).
+  std::vector<Vec3> edge_margin;
   size_t size() const { return normal.size(); }
 };
 
