@@ -12,36 +12,15 @@
 
 #include "image_io.h"
 #include "metrics.h"
+#include "run_command.h"
 
 using namespace pt;
 
+using pt::test::Run;
+using pt::test::slurp;
+
 namespace {
-
-struct Run {
-  int status;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// Output goes to files unique to this process and call: ctest may run test cases in parallel.
-Run run(const std::string& args) {
-  static int counter = 0;
-  const std::string stem = "cli_" + std::to_string(getpid()) + "_" + std::to_string(counter++);
-  const std::string cmd =
-      std::string("\"") + PATHTRACER_EXE + "\" " + args + " > " + stem + ".out 2> " + stem + ".err";
-  const int raw = std::system(cmd.c_str());
-  Run r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(stem + ".out"), slurp(stem + ".err")};
-  std::filesystem::remove(stem + ".out");
-  std::filesystem::remove(stem + ".err");
-  return r;
-}
-
+Run run(const std::string& args) { return pt::test::run_pathtracer("", args); }
 }  // namespace
 
 TEST_CASE("cli: render of the default scene writes PNG and PFM whose mean matches the independent reference") {

@@ -9,31 +9,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "../run_command.h"
+
 namespace {
 
-struct Run {
-  int status;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// `prefix` goes before the executable (environment changes, xvfb-run). Output files are unique per process.
-Run run(const std::string& prefix, const std::string& args) {
-  static int counter = 0;
-  const std::string stem = "view_cli_" + std::to_string(getpid()) + "_" + std::to_string(counter++);
-  const std::string cmd = prefix + " \"" + PATHTRACER_EXE + "\" " + args + " > " + stem + ".out 2> " + stem + ".err";
-  const int raw = std::system(cmd.c_str());
-  Run r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(stem + ".out"), slurp(stem + ".err")};
-  std::filesystem::remove(stem + ".out");
-  std::filesystem::remove(stem + ".err");
-  return r;
-}
+using pt::test::Run;
+Run run(const std::string& prefix, const std::string& args) { return pt::test::run_pathtracer(prefix, args); }
 
 bool have_xvfb_run() { return std::system("command -v xvfb-run > /dev/null 2>&1") == 0; }
 
