@@ -5,6 +5,7 @@
 #include "film.h"
 #include "renderer.h"
 #include "scene.h"
+#include "stress_scenes.h"
 
 namespace pt::test {
 
@@ -36,23 +37,9 @@ inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_dep
   return s;
 }
 
-// Image mean and its standard error from the film's per-pixel variance (pixels are independent).
-struct MeanWithError {
-  glm::dvec3 mean{0.0}, std_error{0.0};
-};
-
-inline MeanWithError film_mean(const Film& film) {
-  MeanWithError r;
-  glm::dvec3 var(0.0);
-  const double n = static_cast<double>(film.pixel_count());
-  for (size_t i = 0; i < film.pixel_count(); ++i) {
-    r.mean += glm::dvec3(film.mean(i));
-    var += film.variance_of_mean(i);
-  }
-  r.mean /= n;
-  r.std_error = glm::sqrt(var) / n;
-  return r;
-}
+// Image mean and its standard error: the one definition shared with `pathtracer stress`.
+using MeanWithError = stress::MeanSE;
+using stress::film_mean;
 
 inline Film render_film(const SceneDesc& desc, int spp, int threads = 0) {
   const auto scene = compile_scene(desc);

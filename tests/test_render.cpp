@@ -30,8 +30,8 @@ TEST_CASE("furnace: a closed emitting sphere gives Le·(1−ρ^(k+1))/(1−ρ) f
         for (int c = 0; c < 3; ++c) {
           const double expected = Le[c] * series;
           INFO(std::string(to_string(est)) << " rho " << rho << " k " << k << " channel " << c << ": " << m.mean[c] << " vs "
-                              << expected << " (SE " << m.std_error[c] << ")");
-          CHECK(std::abs(m.mean[c] - expected) <= 4 * m.std_error[c] + 1e-5 * expected);
+                              << expected << " (SE " << m.se[c] << ")");
+          CHECK(std::abs(m.mean[c] - expected) <= 4 * m.se[c] + 1e-5 * expected);
         }
         CHECK(film.rejected() == 0);
       }
@@ -46,9 +46,9 @@ TEST_CASE("furnace: Russian roulette with no bounce limit converges to Le/(1−�
       const Film film = render_film(furnace_scene(Le, Rgb(rho), 1 << 30, 0, est), 1024);
       const MeanWithError m = film_mean(film);
       const double expected = 1.0 / (1.0 - rho);
-      INFO(std::string(to_string(est)) << " rho " << rho << ": " << m.mean.x << " vs " << expected << " (SE " << m.std_error.x << ")");
-      CHECK(m.std_error.x > 0.0);  // roulette makes it random even for the cosine estimator
-      CHECK(std::abs(m.mean.x - expected) <= 4 * m.std_error.x);
+      INFO(std::string(to_string(est)) << " rho " << rho << ": " << m.mean.x << " vs " << expected << " (SE " << m.se.x << ")");
+      CHECK(m.se.x > 0.0);  // roulette makes it random even for the cosine estimator
+      CHECK(std::abs(m.mean.x - expected) <= 4 * m.se.x);
     }
   }
 }
@@ -202,9 +202,9 @@ TEST_CASE("white furnace: albedo-1 materials under a uniform background return 1
     // ideal density), 1 on average for uniform.
     const Film film = render_film(white_furnace(MaterialType::Diffuse, est), 64);
     const MeanWithError m = film_mean(film);
-    INFO(std::string(to_string(est)) << ": " << m.mean.x << " ± " << m.std_error.x);
-    CHECK(std::abs(m.mean.x - 1.0) <= 4 * m.std_error.x + 1e-5);
-    if (est != Estimator::Uniform) CHECK(m.std_error.x < 1e-5);
+    INFO(std::string(to_string(est)) << ": " << m.mean.x << " ± " << m.se.x);
+    CHECK(std::abs(m.mean.x - 1.0) <= 4 * m.se.x + 1e-5);
+    if (est != Estimator::Uniform) CHECK(m.se.x < 1e-5);
     CHECK(film.rejected() == 0);
     // Mirror of albedo 1 and the dielectric: every path returns exactly 1 whatever the estimator (delta
     // scattering only; total internal reflection inside the glass ends when the bounce limit is reached, which
@@ -212,8 +212,8 @@ TEST_CASE("white furnace: albedo-1 materials under a uniform background return 1
     for (MaterialType t : {MaterialType::Mirror, MaterialType::Dielectric}) {
       const Film f = render_film(white_furnace(t, est), 64);
       const MeanWithError mm = film_mean(f);
-      INFO(to_string(t) << ": " << mm.mean.x << " ± " << mm.std_error.x);
-      CHECK(std::abs(mm.mean.x - 1.0) <= 4 * mm.std_error.x + 1e-4);
+      INFO(to_string(t) << ": " << mm.mean.x << " ± " << mm.se.x);
+      CHECK(std::abs(mm.mean.x - 1.0) <= 4 * mm.se.x + 1e-4);
     }
   }
 }
