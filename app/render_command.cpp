@@ -10,6 +10,7 @@
 #include "image_io.h"
 #include "progress.h"
 #include "renderer.h"
+#include "scene_arg.h"
 #include "scene_json.h"
 
 namespace pt {
@@ -64,13 +65,9 @@ std::string scene_stem(const std::string& spec) {
 }  // namespace
 
 int run_render(const RenderOptions& o) {
-  SceneDesc desc;
-  try {
-    desc = load_scene(o.scene);
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
+  std::optional<SceneDesc> loaded = load_scene_arg(o.scene);
+  if (!loaded) return 2;
+  SceneDesc& desc = *loaded;
   if (o.width) desc.width = *o.width;
   if (o.height) desc.height = *o.height;
   if (o.bounces) desc.render.max_bounces = *o.bounces;

@@ -1,9 +1,8 @@
 #include "view_command.h"
 
 #include <CLI/CLI.hpp>
-#include <cstdio>
 
-#include "scene_json.h"
+#include "scene_arg.h"
 #include "viewer_window.h"
 
 namespace pt {
@@ -58,20 +57,15 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
 }
 
 int run_view(const ViewOptions& o) {
-  SceneDesc desc;
-  try {
-    desc = load_scene(o.scene);
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
+  const std::optional<SceneDesc> desc = load_scene_arg(o.scene);
+  if (!desc) return 2;
   SessionSettings settings;
   settings.threads = o.threads;
   settings.preview_divisor = o.preview_divisor;
   if (o.spp) settings.stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) settings.stop.seconds = *o.time_seconds;
   if (o.target_relmse) settings.stop.relmse = *o.target_relmse;
-  return run_viewer_window(o, desc, settings);
+  return run_viewer_window(o, *desc, settings);
 }
 
 }  // namespace pt
