@@ -93,7 +93,7 @@ TEST_CASE("watertight: a parallelogram and a triangle sharing an edge") {
     const Vec3 dir = glm::normalize(target - o);
     PolygonHit h;
     const RayShear sh(dir);
-    const bool p = intersect_parallelogram(a, b, c, d, o, sh, kInfinity, h);
+    const bool p = intersect_quad(a, b, c, d, o, sh, kInfinity, h);
     const bool t = intersect_triangle(d, c, e, o, sh, kInfinity, h);
     misses += !p && !t;
   }
@@ -105,15 +105,15 @@ TEST_CASE("parallelogram: inside, outside each edge, t and barycentrics") {
   PolygonHit h;
   const Vec3 down(0, 0, -1);
   const RayShear sh(down);
-  REQUIRE(intersect_parallelogram(a, b, c, d, Vec3(1.5f, 0.5f, 2), sh, kInfinity, h));
+  REQUIRE(intersect_quad(a, b, c, d, Vec3(1.5f, 0.5f, 2), sh, kInfinity, h));
   CHECK(h.t == doctest::Approx(2.0).epsilon(1e-6));
   const Vec3 p = h.b0 * a + h.b1 * b + h.b2 * c;
   CHECK(p.x == doctest::Approx(1.5).epsilon(1e-5));
   CHECK(p.y == doctest::Approx(0.5).epsilon(1e-5));
   // A point in the (a,c,d) half, outside triangle (a,b,c): barycentrics extrapolate, the hit is still found.
-  REQUIRE(intersect_parallelogram(a, b, c, d, Vec3(1.2f, 0.8f, 2), sh, kInfinity, h));
+  REQUIRE(intersect_quad(a, b, c, d, Vec3(1.2f, 0.8f, 2), sh, kInfinity, h));
   for (Vec3 o : {Vec3(0.1f, 0.5f, 2), Vec3(2.9f, 0.5f, 2), Vec3(1.5f, -0.1f, 2), Vec3(1.5f, 1.1f, 2)})
-    CHECK_FALSE(intersect_parallelogram(a, b, c, d, o, sh, kInfinity, h));
+    CHECK_FALSE(intersect_quad(a, b, c, d, o, sh, kInfinity, h));
 }
 
 TEST_CASE("sphere: outside, inside, tangent, behind, misses") {
@@ -176,17 +176,17 @@ TEST_CASE("scene queries: closest hit, skip, occlusion") {
   s.shapes = {far_tri, near_quad, ball};
   const auto scene = compile_scene(s);
   REQUIRE(scene->triangles.size() == 1);
-  REQUIRE(scene->parallelograms.size() == 1);
+  REQUIRE(scene->quads.size() == 1);
   const Ray ray{Vec3(0), Vec3(0, 0, -1)};  // camera-relative: the camera sits at z = 5
   Hit h;
   REQUIRE(scene->intersect(ray, kInfinity, ~0u, h));
-  CHECK(h.prim == scene->parallelogram_begin());
+  CHECK(h.prim == scene->quad_begin());
   CHECK(h.t == doctest::Approx(4.0));
-  REQUIRE(scene->intersect(ray, kInfinity, scene->parallelogram_begin(), h));
+  REQUIRE(scene->intersect(ray, kInfinity, scene->quad_begin(), h));
   CHECK(h.prim == 0u);
   CHECK(h.t == doctest::Approx(5.0));
   CHECK(scene->occluded(ray, 10.f, ~0u, ~0u));
   CHECK_FALSE(scene->occluded(ray, 3.9f, ~0u, ~0u));
-  CHECK(scene->occluded(ray, 10.f, scene->parallelogram_begin(), 0u));  // the sphere still blocks
-  CHECK_FALSE(scene->occluded(ray, 7.f, scene->parallelogram_begin(), 0u));  // sphere starts at 7.5
+  CHECK(scene->occluded(ray, 10.f, scene->quad_begin(), 0u));  // the sphere still blocks
+  CHECK_FALSE(scene->occluded(ray, 7.f, scene->quad_begin(), 0u));  // sphere starts at 7.5
 }

@@ -1,4 +1,4 @@
-// Ray–primitive intersection routines: watertight triangles and parallelograms, numerically stable spheres.
+// Ray–primitive intersection routines: watertight triangles and convex planar quads, numerically stable spheres.
 // All tests report hits with 0 < t < t_max; there is no absolute epsilon anywhere: self-intersection is avoided
 // by offsetting spawned origins by a bound on the hit point's rounding error (see interaction.h) and by never
 // re-testing the planar primitive a ray leaves.
@@ -28,8 +28,17 @@ inline float edge_function(ShearedVertex p, ShearedVertex q) {
 
 struct PolygonHit {
   float t;
-  float b0, b1, b2;  // barycentrics of the hit in triangle (a, b, c) (for a parallelogram: extrapolated)
+  // Barycentrics of the hit in the triangle that contains it: (a, b, c) for triangles and for quads when
+  // half == 0; (a, c, d) when a quad is hit in its other half (the diagonal a–c splits a quad).
+  float b0, b1, b2;
+  uint32_t half;
 };
+
+// Distance along the ray from the edge functions (U, V, W opposite a, b, c) of triangle (a, b, c) and their sum:
+// t = (U·a.z + V·b.z + W·c.z)/det in sheared space (Woop et al. 2013), the same float operations as the SIMD tests.
+inline float hit_distance(float U, float V, float W, ShearedVertex A, ShearedVertex B, ShearedVertex C, float det) {
+  return (U * A.z + V * B.z + W * C.z) / det;
+}
 
 // Watertight ray–triangle test (Woop et al. 2013).
 inline bool intersect_triangle(Vec3 a, Vec3 b, Vec3 c, Vec3 o, const RayShear& s, float t_max, PolygonHit& hit) {
@@ -37,20 +46,31 @@ inline bool intersect_triangle(Vec3 a, Vec3 b, Vec3 c, Vec3 o, const RayShear& s
   const float U = edge_function(B, C), V = edge_function(C, A), W = edge_function(A, B);
   if ((U < 0.f || V < 0.f || W < 0.f) && (U > 0.f || V > 0.f || W > 0.f)) return false;
   const float det = U + V + W;
-  if (det == 0.f) return false;  // ray parallel to the triangle's plane (or degenerate triangle)
-  const float T = U * A.z + V * B.z + W * C.z;
-  // t = T/det must lie in (0, t_max); compared without dividing, signs handled explicitly.
-  if (det > 0.f ? (T <= 0.f || T >= t_max * det) : (T >= 0.f || T <= t_max * det)) return false;
+  const float t = hit_distance(U, V, W, A, B, C, det);
+  // t in (0, t_max); det = 0 (ray parallel to the plane, or degenerate) gives ±inf or NaN and fails.
+  if (!(t > 0.f && t < t_max)) return false;
   const float inv_det = 1.f / det;
-  hit = {T * inv_det, U * inv_det, V * inv_det, W * inv_det};
+  hit = {t, U * inv_det, V * inv_det, W * inv_det, 0};
   return true;
 }
 
-// Watertight ray–parallelogram test: the four edge functions decide inside/outside exactly as for triangles
-// (so a parallelogram and any triangle or parallelogram sharing an edge with it stay light-tight); t comes from
-// the plane through (a, b, c) via the same sheared-space interpolation, which is exact for a planar quad.
-inline bool intersect_parallelogram(Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 o, const RayShear& s, float t_max,
-                                    PolygonHit& hit) {
+// Barycentrics of a quad hit from its edge functions. The diagonal's edge function V = e(c→a) tells the half:
+// V/det ≥ 0 puts the point in triangle (a, b, c), with barycentrics (e_bc, V, e_ab)/det; otherwise it lies in
+// (a, c, d), whose barycentrics are (e_cd, e_da, −V) over their sum (e(a→c) = −V exactly: edge functions are
+// antisymmetric). Shared by the scalar and SIMD tests so both report the same point.
+inline PolygonHit quad_barycentrics(float t, float eab, float ebc, float ecd, float eda, float V, float det) {
+  if (V == 0.f || (V > 0.f) == (det > 0.f)) {
+    const float inv = 1.f / det;
+    return {t, ebc * inv, V * inv, eab * inv, 0};
+  }
+  const float inv = 1.f / (ecd + eda - V);
+  return {t, ecd * inv, eda * inv, -V * inv, 1};
+}
+
+// Watertight ray–quad test for convex planar quads (a, b, c, d) (parallelograms among them): the four edge
+// functions decide inside/outside exactly as for triangles, so a quad and any polygon sharing an edge with it
+// stay light-tight; t comes from the plane through (a, b, c) via the same sheared-space interpolation.
+inline bool intersect_quad(Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 o, const RayShear& s, float t_max, PolygonHit& hit) {
   const ShearedVertex A = shear_vertex(a, o, s), B = shear_vertex(b, o, s), C = shear_vertex(c, o, s),
                       D = shear_vertex(d, o, s);
   const float eab = edge_function(A, B), ebc = edge_function(B, C), ecd = edge_function(C, D),
@@ -61,11 +81,9 @@ inline bool intersect_parallelogram(Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 o, cons
   const float U = ebc, W = eab;
   const float V = edge_function(C, A);
   const float det = U + V + W;
-  if (det == 0.f) return false;
-  const float T = U * A.z + V * B.z + W * C.z;
-  if (det > 0.f ? (T <= 0.f || T >= t_max * det) : (T >= 0.f || T <= t_max * det)) return false;
-  const float inv_det = 1.f / det;
-  hit = {T * inv_det, U * inv_det, V * inv_det, W * inv_det};
+  const float t = hit_distance(U, V, W, A, B, C, det);
+  if (!(t > 0.f && t < t_max)) return false;
+  hit = quad_barycentrics(t, eab, ebc, ecd, eda, V, det);
   return true;
 }
 

@@ -25,28 +25,28 @@ inline Interaction make_interaction(const Scene& s, const Ray& ray, const Hit& h
   it.prim = h.prim;
   it.material = s.material_of(h.prim);
   if (h.prim < s.sphere_begin()) {
-    // Interpolate the hit from the vertices (pbrt-v4 eq. 6.26): its error is γ7·Σ|bᵢ·vᵢ|, independent of t.
-    Vec3 a, b, c;
-    float b0 = h.b0, b1 = h.b1, b2 = h.b2;
-    if (h.prim < s.parallelogram_begin()) {
+    // The triangle holding the hit (a quad's half) and its barycentric margins (see PolygonSoA::edge_margin).
+    Vec3 a, b, c, m;
+    if (h.prim < s.quad_begin()) {
       const uint32_t i = h.prim;
       a = s.triangles.v[0][i], b = s.triangles.v[1][i], c = s.triangles.v[2][i];
       it.ng = s.triangles.normal[i];
-      // Keep the point inside by more than its rounding error (see PolygonSoA::edge_margin).
-      const Vec3 m = s.triangles.edge_margin[i];
-      if (b0 < m.x || b1 < m.y || b2 < m.z) {
-        b0 = std::max(b0, m.x), b1 = std::max(b1, m.y), b2 = std::max(b2, m.z);
-        const float inv = 1.f / (b0 + b1 + b2);
-        b0 *= inv, b1 *= inv, b2 *= inv;
-      }
+      m = s.triangles.edge_margin[i][0];
     } else {
-      const uint32_t i = h.prim - s.parallelogram_begin();
-      a = s.parallelograms.v[0][i], b = s.parallelograms.v[1][i], c = s.parallelograms.v[2][i];
-      it.ng = s.parallelograms.normal[i];
-      // p = a + u(b−a) + v(c−b): b0 = 1−u, b1 = u−v, b2 = v; clamp u and v inside by their margins.
-      const Vec3 m = s.parallelograms.edge_margin[i];
-      const float u = std::clamp(b1 + b2, m.x, 1.f - m.x), v = std::clamp(b2, m.y, 1.f - m.y);
-      b0 = 1.f - u, b1 = u - v, b2 = v;
+      const uint32_t i = h.prim - s.quad_begin();
+      a = s.quads.v[0][i];
+      b = h.half == 0 ? s.quads.v[1][i] : s.quads.v[2][i];
+      c = h.half == 0 ? s.quads.v[2][i] : s.quads.v[3][i];
+      it.ng = s.quads.normal[i];
+      m = s.quads.edge_margin[i][h.half];
+    }
+    // Keep the point inside by more than its rounding error: a point near an edge shared with another face must
+    // not round to the far side of that face.
+    float b0 = h.b0, b1 = h.b1, b2 = h.b2;
+    if (b0 < m.x || b1 < m.y || b2 < m.z) {
+      b0 = std::max(b0, m.x), b1 = std::max(b1, m.y), b2 = std::max(b2, m.z);
+      const float inv = 1.f / (b0 + b1 + b2);
+      b0 *= inv, b1 *= inv, b2 *= inv;
     }
     // Interpolate the hit from the vertices (pbrt-v4 eq. 6.26): its error is γ7·Σ|bᵢ·vᵢ|, independent of t.
     it.p = b0 * a + b1 * b + b2 * c;

@@ -90,16 +90,26 @@ inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, V
     ls.pdf = pmf * cosine_hemisphere_pdf(local.z);
     return true;
   }
-  if (l.prim < s.parallelogram_begin()) {
+  if (l.prim < s.quad_begin()) {
     const uint32_t i = l.prim;
     const Vec2 b = sample_uniform_triangle(u);
     ls.p = b.x * s.triangles.v[0][i] + b.y * s.triangles.v[1][i] + (1.f - b.x - b.y) * s.triangles.v[2][i];
     n = s.triangles.normal[i];
   } else if (l.prim < s.sphere_begin()) {
-    const uint32_t i = l.prim - s.parallelogram_begin();
-    const Vec3 a = s.parallelograms.v[0][i], b = s.parallelograms.v[1][i], c = s.parallelograms.v[2][i];
-    ls.p = a + u.x * (b - a) + u.y * (c - b);
-    n = s.parallelograms.normal[i];
+    const uint32_t i = l.prim - s.quad_begin();
+    const Vec3 a = s.quads.v[0][i], b = s.quads.v[1][i], c = s.quads.v[2][i];
+    if (s.quads.parallelogram[i]) {
+      ls.p = a + u.x * (b - a) + u.y * (c - b);
+    } else {
+      // Uniform by area: pick a half in proportion to its area (reusing u.x), then a point in that triangle.
+      const float f = s.quads.first_half_fraction[i];
+      const bool first = u.x < f;
+      const Vec2 ut(std::min(first ? u.x / f : (u.x - f) / (1.f - f), kOneMinusEpsilon), u.y);
+      const Vec2 bt = sample_uniform_triangle(ut);
+      const Vec3 q = first ? b : c, r = first ? c : s.quads.v[3][i];
+      ls.p = bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
+    }
+    n = s.quads.normal[i];
   } else {
     const uint32_t i = l.prim - s.sphere_begin();
     const DVec3 center = s.spheres.center[i];

@@ -19,9 +19,9 @@ struct RayShear {
     kx = kz == 2 ? 0 : kz + 1;
     ky = kx == 2 ? 0 : kx + 1;
     if (d[kz] < 0.f) std::swap(kx, ky);  // keep the winding so edge-function signs keep their meaning
-    sx = d[kx] / d[kz];
-    sy = d[ky] / d[kz];
     sz = 1.f / d[kz];
+    sx = d[kx] * sz;
+    sy = d[ky] * sz;
   }
 };
 

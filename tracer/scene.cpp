@@ -65,12 +65,27 @@ bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c) {
   return !(glm::length(glm::cross(e1, e2)) > 1e-12 * l1 * l2);
 }
 
-// A quad is stored as one parallelogram when d = a + c − b up to rounding of the input (relative 1e-9 of the
-// quad's size); anything else becomes two triangles (a,b,c), (a,c,d).
+// A quad is a parallelogram when d = a + c − b up to rounding of the input (relative 1e-9 of the quad's size).
 bool is_parallelogram(const ShapeDesc& s) {
   const DVec3 a = s.vertices[0], b = s.vertices[1], c = s.vertices[2], d = s.vertices[3];
   const double size = std::max(glm::length(c - a), glm::length(d - b));
   return glm::length(a + c - b - d) <= 1e-9 * size;
+}
+
+// A quad stays one primitive when it is planar (d within 1e-9 of the quad's size from the plane of a, b, c: far
+// below float rounding, so the plane through a, b, c that the hit test uses is the quad's own) and strictly
+// convex (every corner turns the same way, sine above 1e-9), which is what the four-edge inside test assumes.
+// Any other valid quad becomes the two triangles (a, b, c), (a, c, d).
+bool is_planar_convex_quad(const ShapeDesc& s) {
+  const auto& v = s.vertices;
+  const DVec3 n = glm::normalize(glm::cross(v[1] - v[0], v[2] - v[0]));
+  const double size = std::max(glm::length(v[2] - v[0]), glm::length(v[3] - v[1]));
+  if (!(std::abs(glm::dot(v[3] - v[0], n)) <= 1e-9 * size)) return false;
+  for (int k = 0; k < 4; ++k) {
+    const DVec3 e1 = v[(k + 1) % 4] - v[k], e2 = v[(k + 2) % 4] - v[(k + 1) % 4];
+    if (!(glm::dot(glm::cross(e1, e2), n) > 1e-9 * glm::length(e1) * glm::length(e2))) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -121,7 +136,7 @@ std::string validate_scene(const SceneDesc& s) {
     const auto& v = sh.vertices;
     if (degenerate_triangle(v[0], v[1], v[2]) || (n == 4 && degenerate_triangle(v[0], v[2], v[3])))
       return p + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
-    if (n == 4 && !is_parallelogram(sh)) {
+    if (n == 4 && !is_planar_convex_quad(sh)) {
       // Two triangles: their front normals must agree, or the quad folds over itself.
       const DVec3 n1 = glm::cross(v[1] - v[0], v[2] - v[0]), n2 = glm::cross(v[2] - v[0], v[3] - v[0]);
       if (glm::dot(n1, n2) <= 0.0) return p + ".vertices: quad is folded or not convex (vertex order?)";
@@ -131,18 +146,28 @@ std::string validate_scene(const SceneDesc& s) {
 }
 
 uint32_t Scene::material_of(uint32_t prim) const {
-  if (prim < parallelogram_begin()) return triangles.material[prim];
-  if (prim < sphere_begin()) return parallelograms.material[prim - parallelogram_begin()];
+  if (prim < quad_begin()) return triangles.material[prim];
+  if (prim < sphere_begin()) return quads.material[prim - quad_begin()];
   return spheres.material[prim - sphere_begin()];
 }
 
 namespace {
 
+// Smallest barycentrics (b0, b1, b2) of a point inside triangle (a, b, c) that keep it `err` away from each
+// edge: b_k = distance to the edge opposite vertex k over that vertex's altitude = err·|edge|/(2·area).
+Vec3 triangle_margins(DVec3 a, DVec3 b, DVec3 c, double err) {
+  const double a2 = glm::length(glm::cross(b - a, c - a));  // twice the area
+  DVec3 m = DVec3(glm::length(c - b), glm::length(a - c), glm::length(b - a)) * (err / a2);
+  if (m.x + m.y + m.z >= 0.5) m = DVec3(1.0 / 3.0);  // a sliver below float resolution: use its centroid
+  return Vec3(m);
+}
+
 template <int N>
 void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 origin, uint32_t material) {
   const DVec3 n = glm::cross(world[1] - world[0], world[2] - world[0]);
-  double area = 0.5 * glm::length(n);
-  if (N == 4) area *= 2.0;  // a parallelogram is twice the triangle (a,b,c)
+  // Planar polygon area: half the cross product of the diagonals (for a triangle, take d = a).
+  const double area = N == 4 ? 0.5 * glm::length(glm::cross(world[2] - world[0], world[3] - world[1]))
+                             : 0.5 * glm::length(n);
   for (int k = 0; k < N; ++k) soa.v[k].push_back(Vec3(world[k] - origin));
   soa.normal.push_back(Vec3(glm::normalize(n)));
   soa.area.push_back(static_cast<float>(area));
@@ -151,18 +176,13 @@ void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 or
   double max_abs = 0.0;
   for (int k = 0; k < N; ++k) max_abs = std::max(max_abs, glm::compMax(glm::abs(world[k] - origin)));
   const double err = 4.0 * 7.0 * 0x1p-24 * max_abs;
-  const double a2 = glm::length(n);  // twice the triangle (a,b,c)'s area
-  const DVec3 a = world[0], b = world[1], c = world[2];
-  DVec3 m;
-  if (N == 3) {
-    // Altitude to the edge opposite vertex k = 2A/|edge|.
-    m = DVec3(glm::length(c - b), glm::length(a - c), glm::length(b - a)) * (err / a2);
-    if (m.x + m.y + m.z >= 0.5) m = DVec3(1.0 / 3.0);  // a sliver below float resolution: use its centroid
-  } else {
-    // u runs along b−a between the edges parallel to c−b (distance A/|c−b|), v along c−b.
-    m = DVec3(std::min(0.5, err * glm::length(c - b) / a2), std::min(0.5, err * glm::length(b - a) / a2), 0.0);
+  std::array<Vec3, N - 2> margins;
+  for (int h = 0; h < N - 2; ++h) margins[h] = triangle_margins(world[0], world[h + 1], world[h + 2], err);
+  soa.edge_margin.push_back(margins);
+  if constexpr (N == 4) {
+    const double first = 0.5 * glm::length(n);
+    soa.first_half_fraction.push_back(static_cast<float>(std::min(1.0, first / area)));
   }
-  soa.edge_margin.push_back(Vec3(m));
 }
 
 }  // namespace
@@ -192,8 +212,9 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     if (sh.type == ShapeType::Triangle) {
       add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
     } else if (sh.type == ShapeType::Quad) {
-      if (is_parallelogram(sh)) {
-        add_polygon<4>(s.parallelograms, {v[0], v[1], v[2], v[3]}, o, mat);
+      if (is_planar_convex_quad(sh)) {
+        add_polygon<4>(s.quads, {v[0], v[1], v[2], v[3]}, o, mat);
+        s.quads.parallelogram.push_back(is_parallelogram(sh));
       } else {
         add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
         add_polygon<3>(s.triangles, {v[0], v[2], v[3]}, o, mat);
@@ -205,9 +226,9 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     }
   }
   s.triangle_lanes.assign(s.triangles.v, s.triangles.size());
-  s.parallelogram_lanes.assign(s.parallelograms.v, s.parallelograms.size());
+  s.quad_lanes.assign(s.quads.v, s.quads.size());
   s.features.triangles = s.triangles.size() > 0;
-  s.features.parallelograms = s.parallelograms.size() > 0;
+  s.features.quads = s.quads.size() > 0;
   s.features.spheres = s.spheres.size() > 0;
   s.features.background = !is_black(s.background);
 
@@ -218,8 +239,8 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     const Material& m = s.materials[s.material_of(prim)];
     if (is_black(m.emission)) continue;
     double area;
-    if (prim < s.parallelogram_begin()) area = s.triangles.area[prim];
-    else if (prim < s.sphere_begin()) area = s.parallelograms.area[prim - s.parallelogram_begin()];
+    if (prim < s.quad_begin()) area = s.triangles.area[prim];
+    else if (prim < s.sphere_begin()) area = s.quads.area[prim - s.quad_begin()];
     else {
       const double r = s.spheres.radius[prim - s.sphere_begin()];
       area = 4.0 * glm::pi<double>() * r * r;
@@ -235,7 +256,7 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
   double r2 = 0.0;
   for (const auto& arr : s.triangles.v)
     for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
-  for (const auto& arr : s.parallelograms.v)
+  for (const auto& arr : s.quads.v)
     for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
   for (size_t i = 0; i < s.spheres.size(); ++i)
   {
@@ -272,18 +293,16 @@ bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) cons
       closest_polygon(triangle_lanes, ray.o, shear, skip, t_max, local, ph, [&](uint32_t i, float tm, PolygonHit& h) {
         return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
       })) {
-    hit = {ph.t, local, ph.b0, ph.b1, ph.b2};
+    hit = {ph.t, local, ph.b0, ph.b1, ph.b2, 0};
     found = true;
   }
-  const uint32_t pb = parallelogram_begin();
-  if (features.parallelograms &&
-      closest_polygon(parallelogram_lanes, ray.o, shear, skip - pb, t_max, local, ph,
-                      [&](uint32_t i, float tm, PolygonHit& h) {
-                        return intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i],
-                                                       parallelograms.v[2][i], parallelograms.v[3][i], ray.o, shear,
-                                                       tm, h);
-                      })) {
-    hit = {ph.t, pb + local, ph.b0, ph.b1, ph.b2};
+  const uint32_t qb = quad_begin();
+  if (features.quads && closest_polygon(quad_lanes, ray.o, shear, skip - qb, t_max, local, ph,
+                                        [&](uint32_t i, float tm, PolygonHit& h) {
+                                          return intersect_quad(quads.v[0][i], quads.v[1][i], quads.v[2][i],
+                                                                quads.v[3][i], ray.o, shear, tm, h);
+                                        })) {
+    hit = {ph.t, qb + local, ph.b0, ph.b1, ph.b2, ph.half};
     found = true;
   }
   if (features.spheres) {
@@ -292,7 +311,7 @@ bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) cons
       float t;
       if (intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t)) {
         t_max = t;
-        hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f};
+        hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f, 0};
         found = true;
       }
     }
@@ -307,14 +326,12 @@ bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip
         return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
       }))
     return true;
-  const uint32_t pb = parallelogram_begin();
-  if (features.parallelograms &&
-      any_polygon(parallelogram_lanes, ray.o, shear, skip_a - pb, skip_b - pb, t_max,
-                  [&](uint32_t i, float tm, PolygonHit& h) {
-                    return intersect_parallelogram(parallelograms.v[0][i], parallelograms.v[1][i],
-                                                   parallelograms.v[2][i], parallelograms.v[3][i], ray.o, shear, tm,
-                                                   h);
-                  }))
+  const uint32_t qb = quad_begin();
+  if (features.quads && any_polygon(quad_lanes, ray.o, shear, skip_a - qb, skip_b - qb, t_max,
+                                    [&](uint32_t i, float tm, PolygonHit& h) {
+                                      return intersect_quad(quads.v[0][i], quads.v[1][i], quads.v[2][i],
+                                                            quads.v[3][i], ray.o, shear, tm, h);
+                                    }))
     return true;
   if (features.spheres) {
     const uint32_t sb = sphere_begin();

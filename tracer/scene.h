@@ -5,10 +5,12 @@
 // depends on its distance from the camera, not on where the scene sits in the world: a scene translated by 10^6
 // renders the same image.
 //
-// Primitives are kept as structure-of-arrays by type (triangles, parallelograms, spheres) so that later SIMD
-// kernels can test several primitives per instruction; a primitive's global id is its index in the
-// concatenation triangles ‖ parallelograms ‖ spheres.
+// Primitives are kept as structure-of-arrays by type (triangles, convex planar quads, spheres) so that the SIMD
+// kernels test 16 (AVX-512) primitives per instruction; a primitive's global id is its index in the
+// concatenation triangles ‖ quads ‖ spheres. Quads that are planar and convex stay quads (one lane instead of
+// two): the Cornell box is 16 quads, one SIMD block per ray.
 #pragma once
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -27,18 +29,23 @@ struct Material {
   float ior;
 };
 
-// Structure of arrays of polygons with N vertices (3: triangles, 4: parallelograms).
+// Structure of arrays of polygons with N vertices (3: triangles, 4: convex planar quads). A quad is split by its
+// diagonal a–c into the triangles ("halves") (a, b, c) and (a, c, d); hits report barycentrics in one half.
 template <int N>
 struct PolygonSoA {
   std::vector<Vec3> v[N];        // vertex k of every polygon
   std::vector<Vec3> normal;      // unit front normal normalize((b−a)×(c−a))
   std::vector<float> area;       // world units²
   std::vector<uint32_t> material;
-  // Smallest barycentric (triangles: b0, b1, b2; parallelograms: u = b1+b2 and v = b2 in x, y) a hit point may
-  // take: 4·γ7·max|vertex| over the altitude to that edge. Keeps interpolated hit points inside the polygon by
-  // more than their rounding error, so a point near an edge shared with another face can never round to the
-  // far side of that face (a light leak through closed geometry).
-  std::vector<Vec3> edge_margin;
+  // Per triangle half, the smallest barycentrics (b0, b1, b2) a hit point may take: 4·γ7·max|vertex| over the
+  // altitude to the opposite edge. Keeps interpolated hit points inside the polygon by more than their rounding
+  // error, so a point near an edge shared with another face can never round to the far side of that face (a
+  // light leak through closed geometry).
+  std::vector<std::array<Vec3, N - 2>> edge_margin;
+  // Quads only: parallelograms map a 2D sample onto their area directly (keeping its stratification); other
+  // quads pick a half with probability area(a, b, c)/area, stored here.
+  std::vector<uint8_t> parallelogram;
+  std::vector<float> first_half_fraction;
   size_t size() const { return normal.size(); }
 };
 
@@ -61,14 +68,15 @@ struct Light {
 
 // What the scene contains, recorded at compile time (the kernels will specialise on it).
 struct SceneFeatures {
-  bool triangles = false, parallelograms = false, spheres = false;
+  bool triangles = false, quads = false, spheres = false;
   bool delta_materials = false, dielectrics = false, emissive_spheres = false, background = false;
 };
 
 struct Hit {
   float t = kInfinity;
   uint32_t prim = ~0u;
-  float b0 = 0, b1 = 0, b2 = 0;  // barycentrics for polygons
+  float b0 = 0, b1 = 0, b2 = 0;  // barycentrics for polygons (for quads: in the half `half`, see PolygonSoA)
+  uint32_t half = 0;
 };
 
 class Scene {
@@ -81,10 +89,10 @@ class Scene {
 
   std::vector<Material> materials;
   PolygonSoA<3> triangles;
-  PolygonSoA<4> parallelograms;
+  PolygonSoA<4> quads;
   SphereSoA spheres;
   PolygonLanes<3> triangle_lanes;  // the same vertices, padded SoA for the SIMD tests
-  PolygonLanes<4> parallelogram_lanes;
+  PolygonLanes<4> quad_lanes;
   SceneFeatures features;
 
   std::vector<Light> lights;
@@ -95,8 +103,8 @@ class Scene {
   double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
 
   uint32_t triangle_begin() const { return 0; }
-  uint32_t parallelogram_begin() const { return static_cast<uint32_t>(triangles.size()); }
-  uint32_t sphere_begin() const { return parallelogram_begin() + static_cast<uint32_t>(parallelograms.size()); }
+  uint32_t quad_begin() const { return static_cast<uint32_t>(triangles.size()); }
+  uint32_t sphere_begin() const { return quad_begin() + static_cast<uint32_t>(quads.size()); }
   uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
   uint32_t material_of(uint32_t prim) const;
 
