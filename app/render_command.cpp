@@ -48,6 +48,9 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->capture_default_str();
   r->add_flag("--adaptive", o.adaptive,
               "Adaptive sampling: passes spend samples where the film's error estimate is high (every 4th pass uniform)");
+  r->add_flag("--generic-kernel", o.generic_kernel,
+              "Diagnostic: run the kernel compiled for every scene feature instead of the one specialised for this "
+              "scene (same image, more work; for instruction-count comparisons)");
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
@@ -75,6 +78,7 @@ int run_render(const RenderOptions& o) {
   if (o.seed) desc.render.seed = *o.seed;
   if (o.estimator) parse_estimator(*o.estimator, desc.render.estimator);
   if (o.sampler) parse_sampler(*o.sampler, desc.render.sampler);
+  desc.render.generic_kernel = o.generic_kernel;
   if (std::string err = validate_scene(desc); !err.empty()) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;

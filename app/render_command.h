@@ -22,6 +22,7 @@ struct RenderOptions {
   std::string tonemap = "clamp";
   bool quiet = false;
   bool adaptive = false;
+  bool generic_kernel = false;
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

@@ -308,3 +308,34 @@ TEST_CASE("adaptive sampling: the converged image agrees with uniform sampling")
   CHECK(zmax < 4.5);
   CHECK(z2 / n < 1.6);
 }
+
+TEST_CASE("kernels: each scene runs the kernel of exactly its features, with the generic kernel's image") {
+  struct Expect {
+    const char* scene;
+    uint32_t features;
+  };
+  // cornell: polygons only; cornell-spheres: polygons, spheres, mirror and glass; shadertoy: read from its file.
+  for (const Expect& e : {Expect{"cornell", kFeaturePolygons},
+                          Expect{"cornell-spheres", kFeaturePolygons | kFeatureSpheres | kFeatureDelta}}) {
+    INFO(e.scene);
+    CHECK(compile_scene(load_scene(e.scene))->kernel_features() == e.features);
+  }
+  for (const std::string& name : builtin_scene_names()) {
+    SceneDesc desc = load_scene(name);
+    desc.width = 24;
+    desc.height = 16;
+    std::vector<float> images[2];
+    for (bool generic : {false, true}) {
+      desc.render.generic_kernel = generic;
+      images[generic] = render_film(desc, 4, 2).mean_image();
+    }
+    INFO(name);
+    // Same samples through both kernels: the specialised one must leave out only code that cannot run.
+    CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
+  }
+  // A background adds the environment feature, a mirror the delta one.
+  SceneDesc desc = load_scene("cornell");
+  desc.background = Rgb(0.5f);
+  desc.materials[0].type = MaterialType::Mirror;
+  CHECK(compile_scene(desc)->kernel_features() == (kFeaturePolygons | kFeatureEnvironment | kFeatureDelta));
+}

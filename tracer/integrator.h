@@ -14,4 +14,13 @@ struct RayCount {
 template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count);
 
+// A radiance estimator compiled for one estimator and one feature set (KernelFeature in scene.h).
+template <class Sampler>
+using RadianceKernel = Rgb (*)(const Scene&, const Ray&, Sampler&, RayCount&);
+
+// The kernel compiled for exactly the scene's features, or with `generic` the one compiled for all features
+// (same image, more work: for instruction-count comparisons). Resolve once per tile, call per sample.
+template <class Sampler>
+RadianceKernel<Sampler> select_kernel(const Scene& scene, Estimator estimator, bool generic);
+
 }  // namespace pt

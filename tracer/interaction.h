@@ -20,29 +20,35 @@ struct Interaction {
   bool planar;     // polygons cannot be hit again by a ray leaving them
 };
 
+// F: the kernel's feature set (KernelFeature); a kind of primitive outside it is never hit, so its code is left out.
+template <uint32_t F = kAllFeatures>
 inline Interaction make_interaction(const Scene& s, const Ray& ray, const Hit& h) {
   Interaction it;
   it.prim = h.prim;
   it.material = s.material_of(h.prim);
-  if (h.prim < s.sphere_begin()) {
-    // The triangle holding the hit (a quad's half) and its barycentric margins (see PolygonSoA::edge_margin).
-    Vec3 a, b, c, m;
-    if (h.prim < s.quad_begin()) {
-      const uint32_t i = h.prim;
-      a = s.triangles.v[0][i], b = s.triangles.v[1][i], c = s.triangles.v[2][i];
-      it.ng = s.triangles.normal[i];
-      m = s.triangles.edge_margin[i][0];
-    } else {
-      const uint32_t i = h.prim - s.quad_begin();
-      a = s.quads.v[0][i];
-      b = h.half == 0 ? s.quads.v[1][i] : s.quads.v[2][i];
-      c = h.half == 0 ? s.quads.v[2][i] : s.quads.v[3][i];
-      it.ng = s.quads.normal[i];
-      m = s.quads.edge_margin[i][h.half];
+  constexpr bool kOnlyPolygons = (F & kFeatureSpheres) == 0, kOnlySpheres = (F & kFeaturePolygons) == 0;
+  if (kOnlyPolygons || (!kOnlySpheres && h.prim < s.sphere_begin())) {
+    // The ray kernels report only distances. The barycentrics of the point o + t·d in the polygon's plane (in
+    // half 0; in half 1 when a quad's point lies beyond its diagonal a–c, i.e. b's weight is negative) locate
+    // the hit to within the rounding of o + t·d; the point is then re-interpolated from the vertices below, so
+    // it lies on the polygon whatever that rounding was.
+    const uint32_t i = h.prim;
+    const PolygonSoA& P = s.polygons;
+    const Vec3 a = P.v[0][i];
+    const Vec3 q = ray.o + h.t * ray.d - a;
+    const auto& dual = P.dual[i];
+    uint32_t half = 0;
+    float b1 = glm::dot(q, dual[0][0]), b2 = glm::dot(q, dual[0][1]);
+    if (b1 < 0.f && !P.triangle[i]) {
+      half = 1;
+      b1 = glm::dot(q, dual[1][0]), b2 = glm::dot(q, dual[1][1]);
     }
+    float b0 = 1.f - b1 - b2;
+    const Vec3 b = P.v[half + 1][i], c = P.v[half + 2][i];
+    const Vec3 m = P.edge_margin[i][half];
+    it.ng = P.normal[i];
     // Keep the point inside by more than its rounding error: a point near an edge shared with another face must
     // not round to the far side of that face.
-    float b0 = h.b0, b1 = h.b1, b2 = h.b2;
     if (b0 < m.x || b1 < m.y || b2 < m.z) {
       b0 = std::max(b0, m.x), b1 = std::max(b1, m.y), b2 = std::max(b2, m.z);
       const float inv = 1.f / (b0 + b1 + b2);

@@ -55,10 +55,11 @@ inline float environment_pdf(const Scene& s, Vec3 n, Vec3 w) {
 
 // Solid-angle density with which sample_light() would produce the point `p_light` (front normal n_light) of
 // light index li, seen from receiver point `ref`. Used for MIS when a BSDF-sampled ray hits an emitter.
+template <uint32_t F = kAllFeatures>
 inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_light) {
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
-  if (l.prim >= s.sphere_begin()) {
+  if ((F & kFeatureSpheres) != 0 && l.prim >= s.sphere_begin()) {
     const uint32_t i = l.prim - s.sphere_begin();
     const double r = s.spheres.radius[i];
     const DVec3 dc = DVec3(ref) - s.spheres.center[i];
@@ -74,13 +75,15 @@ inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_li
 
 // Samples a point on one light as seen from receiver `ref` with shading normal `n_ref` (pointing to the side
 // being lit). Returns false when no usable sample was produced.
+// F: the kernel's feature set (KernelFeature): light kinds outside it are left out of the code.
+template <uint32_t F = kAllFeatures>
 inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, Vec2 u, LightSample& ls) {
-  const int li = choose_light(s, u_choice);
+  const int li = s.lights.size() == 1 ? 0 : choose_light(s, u_choice);
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
   Vec3 n;
   ls.prim = l.prim;
-  if (l.prim == kEnvironment) {
+  if ((F & kFeatureEnvironment) != 0 && l.prim == kEnvironment) {
     const Vec3 local = sample_cosine_hemisphere(u);
     if (!(local.z > 0.f)) return false;
     ls.wi = Frame::from_normal(n_ref).to_world(local);
@@ -90,26 +93,23 @@ inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, V
     ls.pdf = pmf * cosine_hemisphere_pdf(local.z);
     return true;
   }
-  if (l.prim < s.quad_begin()) {
+  if ((F & kFeatureSpheres) == 0 || l.prim < s.sphere_begin()) {
     const uint32_t i = l.prim;
-    const Vec2 b = sample_uniform_triangle(u);
-    ls.p = b.x * s.triangles.v[0][i] + b.y * s.triangles.v[1][i] + (1.f - b.x - b.y) * s.triangles.v[2][i];
-    n = s.triangles.normal[i];
-  } else if (l.prim < s.sphere_begin()) {
-    const uint32_t i = l.prim - s.quad_begin();
-    const Vec3 a = s.quads.v[0][i], b = s.quads.v[1][i], c = s.quads.v[2][i];
-    if (s.quads.parallelogram[i]) {
+    const PolygonSoA& P = s.polygons;
+    const Vec3 a = P.v[0][i], b = P.v[1][i], c = P.v[2][i];
+    if (P.parallelogram[i]) {
       ls.p = a + u.x * (b - a) + u.y * (c - b);
     } else {
-      // Uniform by area: pick a half in proportion to its area (reusing u.x), then a point in that triangle.
-      const float f = s.quads.first_half_fraction[i];
+      // Uniform by area: pick a half in proportion to its area (reusing u.x; a triangle is all half 0), then a
+      // point in that triangle.
+      const float f = P.first_half_fraction[i];
       const bool first = u.x < f;
       const Vec2 ut(std::min(first ? u.x / f : (u.x - f) / (1.f - f), kOneMinusEpsilon), u.y);
       const Vec2 bt = sample_uniform_triangle(ut);
-      const Vec3 q = first ? b : c, r = first ? c : s.quads.v[3][i];
+      const Vec3 q = first ? b : c, r = first ? c : P.v[3][i];
       ls.p = bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
     }
-    n = s.quads.normal[i];
+    n = P.normal[i];
   } else {
     const uint32_t i = l.prim - s.sphere_begin();
     const DVec3 center = s.spheres.center[i];

@@ -13,7 +13,8 @@ namespace {
 template <class Sampler>
 void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count,
                  uint64_t& samples) {
-  const Estimator estimator = scene.render.estimator;
+  // The kernel compiled for the scene's feature set, resolved once per tile.
+  const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, scene.render.estimator, scene.render.generic_kernel);
   const uint64_t seed = scene.render.seed;
   const int w = film.width();
   for (int y = y0; y < y1; ++y) {
@@ -24,7 +25,7 @@ void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1,
         film.note_attempt(pixel);
         const Vec2 jitter = sampler.next_2d();
         const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
-        film.add_sample(pixel, estimate_radiance(scene, estimator, ray, sampler, count));
+        film.add_sample(pixel, radiance(scene, ray, sampler, count));
         ++samples;
       }
     }

@@ -1,5 +1,7 @@
 #include "scene.h"
 
+#include "scene_queries.h"
+
 #include <glm/gtx/component_wise.hpp>
 
 #include <sstream>
@@ -146,8 +148,7 @@ std::string validate_scene(const SceneDesc& s) {
 }
 
 uint32_t Scene::material_of(uint32_t prim) const {
-  if (prim < quad_begin()) return triangles.material[prim];
-  if (prim < sphere_begin()) return quads.material[prim - quad_begin()];
+  if (prim < sphere_begin()) return polygons.material[prim];
   return spheres.material[prim - sphere_begin()];
 }
 
@@ -162,13 +163,16 @@ Vec3 triangle_margins(DVec3 a, DVec3 b, DVec3 c, double err) {
   return Vec3(m);
 }
 
+// Appends a triangle (N = 3) or a convex planar quad (N = 4).
 template <int N>
-void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 origin, uint32_t material) {
+void add_polygon(PolygonSoA& soa, const std::array<DVec3, N>& world, DVec3 origin, uint32_t material,
+                 bool parallelogram = false) {
   const DVec3 n = glm::cross(world[1] - world[0], world[2] - world[0]);
-  // Planar polygon area: half the cross product of the diagonals (for a triangle, take d = a).
+  // Planar polygon area: half the cross product of the diagonals (for a triangle, half of n).
   const double area = N == 4 ? 0.5 * glm::length(glm::cross(world[2] - world[0], world[3] - world[1]))
                              : 0.5 * glm::length(n);
-  for (int k = 0; k < N; ++k) soa.v[k].push_back(Vec3(world[k] - origin));
+  for (int k = 0; k < 4; ++k) soa.v[k].push_back(Vec3(world[k < N ? k : 0] - origin));
+  soa.triangle.push_back(N == 3);
   soa.normal.push_back(Vec3(glm::normalize(n)));
   soa.area.push_back(static_cast<float>(area));
   soa.material.push_back(material);
@@ -176,13 +180,19 @@ void add_polygon(PolygonSoA<N>& soa, const std::array<DVec3, N>& world, DVec3 or
   double max_abs = 0.0;
   for (int k = 0; k < N; ++k) max_abs = std::max(max_abs, glm::compMax(glm::abs(world[k] - origin)));
   const double err = 4.0 * 7.0 * 0x1p-24 * max_abs;
-  std::array<Vec3, N - 2> margins;
-  for (int h = 0; h < N - 2; ++h) margins[h] = triangle_margins(world[0], world[h + 1], world[h + 2], err);
-  soa.edge_margin.push_back(margins);
-  if constexpr (N == 4) {
-    const double first = 0.5 * glm::length(n);
-    soa.first_half_fraction.push_back(static_cast<float>(std::min(1.0, first / area)));
+  std::array<Vec3, 2> margins{Vec3(0.f), Vec3(0.f)};
+  std::array<std::array<Vec3, 2>, 2> dual{};
+  for (int h = 0; h < N - 2; ++h) {
+    const DVec3 a = world[0], q = world[h + 1], r = world[h + 2];
+    margins[h] = triangle_margins(a, q, r, err);
+    const DVec3 e1 = q - a, e2 = r - a, nh = glm::cross(e1, e2);
+    const double inv = 1.0 / glm::dot(nh, nh);
+    dual[h] = {Vec3(glm::cross(e2, nh) * inv), Vec3(glm::cross(nh, e1) * inv)};
   }
+  soa.edge_margin.push_back(margins);
+  soa.dual.push_back(dual);
+  soa.parallelogram.push_back(parallelogram);
+  soa.first_half_fraction.push_back(static_cast<float>(std::min(1.0, 0.5 * glm::length(n) / area)));
 }
 
 }  // namespace
@@ -210,14 +220,13 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     const uint32_t mat = static_cast<uint32_t>(sh.material);
     const auto& v = sh.vertices;
     if (sh.type == ShapeType::Triangle) {
-      add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
+      add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
     } else if (sh.type == ShapeType::Quad) {
       if (is_planar_convex_quad(sh)) {
-        add_polygon<4>(s.quads, {v[0], v[1], v[2], v[3]}, o, mat);
-        s.quads.parallelogram.push_back(is_parallelogram(sh));
+        add_polygon<4>(s.polygons, {v[0], v[1], v[2], v[3]}, o, mat, is_parallelogram(sh));
       } else {
-        add_polygon<3>(s.triangles, {v[0], v[1], v[2]}, o, mat);
-        add_polygon<3>(s.triangles, {v[0], v[2], v[3]}, o, mat);
+        add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
+        add_polygon<3>(s.polygons, {v[0], v[2], v[3]}, o, mat);
       }
     } else {
       s.spheres.center.push_back(sh.center - o);
@@ -225,10 +234,8 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
       s.spheres.material.push_back(mat);
     }
   }
-  s.triangle_lanes.assign(s.triangles.v, s.triangles.size());
-  s.quad_lanes.assign(s.quads.v, s.quads.size());
-  s.features.triangles = s.triangles.size() > 0;
-  s.features.quads = s.quads.size() > 0;
+  s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
+  for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
   s.features.spheres = s.spheres.size() > 0;
   s.features.background = !is_black(s.background);
 
@@ -239,8 +246,7 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     const Material& m = s.materials[s.material_of(prim)];
     if (is_black(m.emission)) continue;
     double area;
-    if (prim < s.quad_begin()) area = s.triangles.area[prim];
-    else if (prim < s.sphere_begin()) area = s.quads.area[prim - s.quad_begin()];
+    if (prim < s.sphere_begin()) area = s.polygons.area[prim];
     else {
       const double r = s.spheres.radius[prim - s.sphere_begin()];
       area = 4.0 * glm::pi<double>() * r * r;
@@ -254,9 +260,7 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
   // counts a uniform infinite light's, Φ = 4π·πR²·Le for the scene's bounding radius R (camera-centred); only
   // its ratio to the other lights matters, and any positive choice keeps the estimate unbiased.
   double r2 = 0.0;
-  for (const auto& arr : s.triangles.v)
-    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
-  for (const auto& arr : s.quads.v)
+  for (const auto& arr : s.polygons.v)
     for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
   for (size_t i = 0; i < s.spheres.size(); ++i)
   {
@@ -282,68 +286,12 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
   return scene;
 }
 
-// Both queries test each primitive type only if the scene has it: a feature the scene lacks costs one
-// well-predicted branch per ray.
 bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const {
-  const RayShear shear(ray.d);
-  bool found = false;
-  PolygonHit ph{};
-  uint32_t local = 0;
-  if (features.triangles &&
-      closest_polygon(triangle_lanes, ray.o, shear, skip, t_max, local, ph, [&](uint32_t i, float tm, PolygonHit& h) {
-        return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
-      })) {
-    hit = {ph.t, local, ph.b0, ph.b1, ph.b2, 0};
-    found = true;
-  }
-  const uint32_t qb = quad_begin();
-  if (features.quads && closest_polygon(quad_lanes, ray.o, shear, skip - qb, t_max, local, ph,
-                                        [&](uint32_t i, float tm, PolygonHit& h) {
-                                          return intersect_quad(quads.v[0][i], quads.v[1][i], quads.v[2][i],
-                                                                quads.v[3][i], ray.o, shear, tm, h);
-                                        })) {
-    hit = {ph.t, qb + local, ph.b0, ph.b1, ph.b2, ph.half};
-    found = true;
-  }
-  if (features.spheres) {
-    const uint32_t sb = sphere_begin();
-    for (size_t i = 0; i < spheres.size(); ++i) {
-      float t;
-      if (intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t)) {
-        t_max = t;
-        hit = {t, sb + static_cast<uint32_t>(i), 0.f, 0.f, 0.f, 0};
-        found = true;
-      }
-    }
-  }
-  return found;
+  return intersect_scene<kAllFeatures>(*this, ray, t_max, skip, hit);
 }
 
 bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const {
-  const RayShear shear(ray.d);
-  if (features.triangles &&
-      any_polygon(triangle_lanes, ray.o, shear, skip_a, skip_b, t_max, [&](uint32_t i, float tm, PolygonHit& h) {
-        return intersect_triangle(triangles.v[0][i], triangles.v[1][i], triangles.v[2][i], ray.o, shear, tm, h);
-      }))
-    return true;
-  const uint32_t qb = quad_begin();
-  if (features.quads && any_polygon(quad_lanes, ray.o, shear, skip_a - qb, skip_b - qb, t_max,
-                                    [&](uint32_t i, float tm, PolygonHit& h) {
-                                      return intersect_quad(quads.v[0][i], quads.v[1][i], quads.v[2][i],
-                                                            quads.v[3][i], ray.o, shear, tm, h);
-                                    }))
-    return true;
-  if (features.spheres) {
-    const uint32_t sb = sphere_begin();
-    for (size_t i = 0; i < spheres.size(); ++i) {
-      const uint32_t id = sb + static_cast<uint32_t>(i);
-      float t;
-      if (id != skip_a && id != skip_b &&
-          intersect_sphere(spheres.center[i], spheres.radius[i], ray.o, ray.d, t_max, t))
-        return true;
-    }
-  }
-  return false;
+  return occluded_scene<kAllFeatures>(*this, ray, t_max, skip_a, skip_b);
 }
 
 }  // namespace pt

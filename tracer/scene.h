@@ -5,10 +5,11 @@
 // depends on its distance from the camera, not on where the scene sits in the world: a scene translated by 10^6
 // renders the same image.
 //
-// Primitives are kept as structure-of-arrays by type (triangles, convex planar quads, spheres) so that the SIMD
-// kernels test 16 (AVX-512) primitives per instruction; a primitive's global id is its index in the
-// concatenation triangles ‖ quads ‖ spheres. Quads that are planar and convex stay quads (one lane instead of
-// two): the Cornell box is 16 quads, one SIMD block per ray.
+// Primitives are kept as structure-of-arrays by kind (polygons, spheres) so that the SIMD kernels test 16
+// (AVX-512) polygons per instruction; a primitive's global id is its index in the concatenation
+// polygons ‖ spheres. Triangles and convex planar quads share one polygon array (a triangle is a quad with a
+// flag), so a scene of up to 16 polygons, whatever their mix, costs one SIMD block per ray; the Cornell box
+// (15 planar quads and the two triangles of its non-planar right wall) costs one block and a 4-wide tail.
 #pragma once
 #include <array>
 #include <memory>
@@ -29,21 +30,25 @@ struct Material {
   float ior;
 };
 
-// Structure of arrays of polygons with N vertices (3: triangles, 4: convex planar quads). A quad is split by its
-// diagonal a–c into the triangles ("halves") (a, b, c) and (a, c, d); hits report barycentrics in one half.
-template <int N>
+// Structure of arrays of polygons: triangles (a, b, c) and convex planar quads (a, b, c, d). A quad is split by
+// its diagonal a–c into two triangles ("halves") (a, b, c) and (a, c, d); a triangle is its own half 0.
 struct PolygonSoA {
-  std::vector<Vec3> v[N];        // vertex k of every polygon
-  std::vector<Vec3> normal;      // unit front normal normalize((b−a)×(c−a))
-  std::vector<float> area;       // world units²
+  std::vector<Vec3> v[4];         // vertex k of every polygon; a triangle's v[3] repeats v[0]
+  std::vector<uint8_t> triangle;  // 1 for triangles, 0 for quads
+  std::vector<Vec3> normal;       // unit front normal normalize((b−a)×(c−a))
+  std::vector<float> area;        // world units²
   std::vector<uint32_t> material;
-  // Per triangle half, the smallest barycentrics (b0, b1, b2) a hit point may take: 4·γ7·max|vertex| over the
-  // altitude to the opposite edge. Keeps interpolated hit points inside the polygon by more than their rounding
-  // error, so a point near an edge shared with another face can never round to the far side of that face (a
-  // light leak through closed geometry).
-  std::vector<std::array<Vec3, N - 2>> edge_margin;
-  // Quads only: parallelograms map a 2D sample onto their area directly (keeping its stratification); other
-  // quads pick a half with probability area(a, b, c)/area, stored here.
+  // Per half, the smallest barycentrics (b0, b1, b2) a hit point may take: 4·γ7·max|vertex| over the altitude
+  // to the opposite edge. Keeps interpolated hit points inside the polygon by more than their rounding error,
+  // so a point near an edge shared with another face can never round to the far side of that face (a light
+  // leak through closed geometry).
+  std::vector<std::array<Vec3, 2>> edge_margin;
+  // Per half (a, q, r), the dual vectors that give the barycentrics of q and r of a point p in the plane:
+  // b_q = (p − a)·dual[half][0], b_r = (p − a)·dual[half][1] (with e1 = q − a, e2 = r − a, n = e1 × e2:
+  // dual = (e2 × n, n × e1)/|n|²). Shading turns the hit distance into barycentrics with them.
+  std::vector<std::array<std::array<Vec3, 2>, 2>> dual;
+  // Parallelograms map a 2D light sample onto their area directly (keeping its stratification); other quads
+  // pick a half with probability area(a, b, c)/area, stored here (1 for triangles).
   std::vector<uint8_t> parallelogram;
   std::vector<float> first_half_fraction;
   size_t size() const { return normal.size(); }
@@ -66,18 +71,36 @@ struct Light {
   bool two_sided;
 };
 
-// What the scene contains, recorded at compile time (the kernels will specialise on it).
+// What the scene contains, recorded when it is compiled.
 struct SceneFeatures {
-  bool triangles = false, quads = false, spheres = false;
+  bool triangles = false, quads = false, spheres = false;  // quads: non-triangle polygons
   bool delta_materials = false, dielectrics = false, emissive_spheres = false, background = false;
 };
 
+// The feature set a rendering kernel is compiled for (a bit mask, a template argument): code for a feature
+// outside the set is not in the kernel at all. The renderer runs the kernel of exactly the scene's set
+// (Scene::kernel_features); kAllFeatures is the generic kernel, used by the plain query functions and for
+// comparisons.
+enum KernelFeature : uint32_t {
+  kFeaturePolygons = 1,     // triangles or quads
+  kFeatureSpheres = 2,      // spheres (emitting ones included)
+  kFeatureDelta = 4,        // mirror or dielectric materials
+  kFeatureEnvironment = 8,  // a non-black background (an environment light)
+};
+inline constexpr uint32_t kAllFeatures = kFeaturePolygons | kFeatureSpheres | kFeatureDelta | kFeatureEnvironment;
+
+// What the ray queries report. Polygon barycentrics are recomputed for the one winning polygon when the hit is
+// shaded (make_interaction), so the SIMD kernels only track distances.
 struct Hit {
   float t = kInfinity;
   uint32_t prim = ~0u;
-  float b0 = 0, b1 = 0, b2 = 0;  // barycentrics for polygons (for quads: in the half `half`, see PolygonSoA)
-  uint32_t half = 0;
 };
+
+// The scalar watertight test of polygon i (triangle or quad).
+inline bool intersect_polygon(const PolygonSoA& p, uint32_t i, Vec3 o, const RayShear& s, float t_max, PolygonHit& h) {
+  if (p.triangle[i]) return intersect_triangle(p.v[0][i], p.v[1][i], p.v[2][i], o, s, t_max, h);
+  return intersect_quad(p.v[0][i], p.v[1][i], p.v[2][i], p.v[3][i], o, s, t_max, h);
+}
 
 class Scene {
  public:
@@ -88,11 +111,9 @@ class Scene {
   DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
 
   std::vector<Material> materials;
-  PolygonSoA<3> triangles;
-  PolygonSoA<4> quads;
+  PolygonSoA polygons;
   SphereSoA spheres;
-  PolygonLanes<3> triangle_lanes;  // the same vertices, padded SoA for the SIMD tests
-  PolygonLanes<4> quad_lanes;
+  PolygonLanes polygon_lanes;  // the same vertices, padded SoA for the SIMD tests
   SceneFeatures features;
 
   std::vector<Light> lights;
@@ -102,13 +123,17 @@ class Scene {
   int environment_light = -1;          // index of the background in `lights`, −1 if the background is black
   double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
 
-  uint32_t triangle_begin() const { return 0; }
-  uint32_t quad_begin() const { return static_cast<uint32_t>(triangles.size()); }
-  uint32_t sphere_begin() const { return quad_begin() + static_cast<uint32_t>(quads.size()); }
+  uint32_t sphere_begin() const { return static_cast<uint32_t>(polygons.size()); }
   uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
   uint32_t material_of(uint32_t prim) const;
+  uint32_t kernel_features() const {
+    return (features.triangles || features.quads ? kFeaturePolygons : 0u) |
+           (features.spheres ? kFeatureSpheres : 0u) | (features.delta_materials ? kFeatureDelta : 0u) |
+           (features.background ? kFeatureEnvironment : 0u);
+  }
 
   // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
+  // (The kernels call the feature-specialised versions in scene_queries.h.)
   bool intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const;
   // Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
   bool occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const;

@@ -51,6 +51,9 @@ struct RenderSettings {
   SamplerType sampler = SamplerType::Sobol;
   int russian_roulette_depth = 3;  // bounce index from which Russian roulette runs; -1 = off
   uint64_t seed = 0;
+  // Diagnostic, not part of scene files: run the kernel compiled for every feature instead of the one for the
+  // scene's own (same image; for instruction-count comparisons, `render --generic-kernel`).
+  bool generic_kernel = false;
 };
 
 struct SceneDesc {

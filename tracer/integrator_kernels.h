@@ -9,22 +9,34 @@
 // - mis:     both, weighted by the power heuristic (Veach 1997, §9.2).
 // Delta materials scatter the same way under every estimator. Emission found after a bounce that the bounce
 // limit forbids to continue is still counted (max_bounces counts scattering events after the first hit).
+//
+// This header holds the kernel templates; integrator_independent.cpp and integrator_sobol.cpp instantiate them
+// (4 estimators × 16 feature sets each), one sampler per translation unit so the two compile in parallel.
+#pragma once
 #include "integrator.h"
+
+#include <array>
+#include <utility>
 
 #include "bsdf.h"
 #include "lights.h"
+#include "scene_queries.h"
 
 namespace pt {
 
-namespace {
+namespace integrator_detail {
 
 // Shadow rays stop just short of the light point: the light's own primitive is skipped too, so this factor
 // only has to guard against geometry coplanar with the light (relative, so scale-independent).
 constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
 
-template <Estimator E, class Sampler>
-Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
+// F: the kernel's feature set (see KernelFeature). Tests of features outside F are compiled out: a Cornell box
+// kernel has no sphere test, no mirror or glass branch and no background lookup.
+template <Estimator E, class Sampler, uint32_t F>
+Rgb trace(const Scene& s, const Ray& camera_ray, Sampler& rng, RayCount& count) {
   constexpr bool kLightSampling = E == Estimator::Nee || E == Estimator::Mis;
+  constexpr bool kDelta = (F & kFeatureDelta) != 0, kBackground = (F & kFeatureEnvironment) != 0;
+  Ray ray = camera_ray;
   const int max_bounces = s.render.max_bounces;
   const int rr_depth = s.render.russian_roulette_depth;
   Rgb L(0.f), beta(1.f);
@@ -37,10 +49,11 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
   for (int depth = 0;; ++depth) {
     Hit h;
     ++count.rays;
-    if (!s.intersect(ray, kInfinity, skip, h)) {
+    if (!intersect_scene<F>(s, ray, kInfinity, skip, h)) {
       // The background is a light like any other: with light sampling it is counted here only where no light
       // sample covered it (camera, delta bounce), or MIS-weighted.
-      if (!kLightSampling || count_emission) {
+      if constexpr (!kBackground) {
+      } else if (!kLightSampling || count_emission) {
         L += beta * s.background;
       } else if constexpr (E == Estimator::Mis) {
         if (s.environment_light >= 0)
@@ -48,7 +61,7 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
       }
       break;
     }
-    const Interaction it = make_interaction(s, ray, h);
+    const Interaction it = make_interaction<F>(s, ray, h);
     const Material& m = s.materials[it.material];
     const Vec3 wo = -ray.d;
 
@@ -58,21 +71,21 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
       if (!kLightSampling || count_emission) {
         L += beta * Le;
       } else if constexpr (E == Estimator::Mis) {
-        if (!is_black(Le)) L += beta * Le * power_heuristic(bsdf_pdf, light_pdf(s, li, prev_p, it.p, it.ng));
+        if (!is_black(Le)) L += beta * Le * power_heuristic(bsdf_pdf, light_pdf<F>(s, li, prev_p, it.p, it.ng));
       }
     }
     if (depth >= max_bounces) break;
 
     const Vec3 n = glm::dot(it.ng, wo) >= 0.f ? it.ng : -it.ng;  // two-sided shading: face the viewer
     Vec3 wi;
-    if (m.type == MaterialType::Diffuse) {
+    if (!kDelta || m.type == MaterialType::Diffuse) {
       if (is_black(m.albedo)) break;
       const Rgb f = diffuse_f(m.albedo);
       if constexpr (kLightSampling) {
         const float u_light = rng.next_1d();
         const Vec2 u_point = rng.next_2d();
         LightSample ls;
-        if (!s.lights.empty() && sample_light(s, it.p, n, u_light, u_point, ls) && !is_black(ls.Le)) {
+        if (!s.lights.empty() && sample_light<F>(s, it.p, n, u_light, u_point, ls) && !is_black(ls.Le)) {
           const float cos_i = glm::dot(n, ls.wi);
           if (cos_i > 0.f) {  // the BSDF is zero below the surface: no shadow ray
             const Vec3 origin = offset_ray_origin(it, ls.wi);
@@ -85,7 +98,7 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
               t_max = dist * kShadowRayShorten;
             }
             ++count.rays;
-            if (t_max > 0.f && !s.occluded({origin, dir}, t_max, skip_on_leave(it), ls.prim)) {
+            if (t_max > 0.f && !occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(it), ls.prim)) {
               float w = 1.f;
               if constexpr (E == Estimator::Mis) w = power_heuristic(ls.pdf, cosine_hemisphere_pdf(cos_i));
               L += beta * f * ls.Le * (cos_i * w / ls.pdf);
@@ -108,15 +121,16 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
       if (!(local.z > 0.f)) break;  // grazing sample of measure zero
       wi = frame.to_world(local);
       count_emission = false;
-    } else if (m.type == MaterialType::Mirror) {
-      wi = reflect(ray.d, n);
-      beta *= m.albedo;
-      count_emission = true;
-    } else {
-      const DeltaSample ds = sample_dielectric(wo, it.ng, m.ior, rng.next_1d());
-      wi = ds.wi;
-      beta *= ds.weight;
-      eta_scale *= ds.eta_scale;
+    } else if constexpr (kDelta) {
+      if (m.type == MaterialType::Mirror) {
+        wi = reflect(ray.d, n);
+        beta *= m.albedo;
+      } else {
+        const DeltaSample ds = sample_dielectric(wo, it.ng, m.ior, rng.next_1d());
+        wi = ds.wi;
+        beta *= ds.weight;
+        eta_scale *= ds.eta_scale;
+      }
       count_emission = true;
     }
 
@@ -137,20 +151,31 @@ Rgb trace(const Scene& s, Ray ray, Sampler& rng, RayCount& count) {
   return L;
 }
 
-}  // namespace
+template <Estimator E, class Sampler, size_t... F>
+constexpr std::array<RadianceKernel<Sampler>, sizeof...(F)> kernels_for(std::index_sequence<F...>) {
+  return {&trace<E, Sampler, static_cast<uint32_t>(F)>...};
+}
+
+// Every estimator × every feature set: 4 × 16 kernels per sampler, indexed [estimator][features].
+template <class Sampler>
+constexpr std::array<std::array<RadianceKernel<Sampler>, kAllFeatures + 1>, 4> kKernels = {
+    kernels_for<Estimator::Uniform, Sampler>(std::make_index_sequence<kAllFeatures + 1>{}),
+    kernels_for<Estimator::Cosine, Sampler>(std::make_index_sequence<kAllFeatures + 1>{}),
+    kernels_for<Estimator::Nee, Sampler>(std::make_index_sequence<kAllFeatures + 1>{}),
+    kernels_for<Estimator::Mis, Sampler>(std::make_index_sequence<kAllFeatures + 1>{}),
+};
+
+}  // namespace integrator_detail
+
+template <class Sampler>
+RadianceKernel<Sampler> select_kernel(const Scene& scene, Estimator estimator, bool generic) {
+  const uint32_t features = generic ? kAllFeatures : scene.kernel_features();
+  return integrator_detail::kKernels<Sampler>[static_cast<size_t>(estimator)][features];
+}
 
 template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count) {
-  switch (estimator) {
-    case Estimator::Uniform: return trace<Estimator::Uniform>(scene, ray, sampler, count);
-    case Estimator::Cosine: return trace<Estimator::Cosine>(scene, ray, sampler, count);
-    case Estimator::Nee: return trace<Estimator::Nee>(scene, ray, sampler, count);
-    case Estimator::Mis: return trace<Estimator::Mis>(scene, ray, sampler, count);
-  }
-  return Rgb(0.f);
+  return select_kernel<Sampler>(scene, estimator, false)(scene, ray, sampler, count);
 }
-
-template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, IndependentSampler&, RayCount&);
-template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, SobolSampler&, RayCount&);
 
 }  // namespace pt
