@@ -4,6 +4,8 @@
 // summary.md (time to relMSE 1e-2 and 1e-3, efficiency, throughput, thread scaling, interactive pass times).
 #include "bench_command.h"
 
+#include "ray_throughput.h"
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -282,6 +284,20 @@ int run_bench(const BenchOptions& o) {
   };
   const double full_ms = pass_ms(512), quarter_ms = pass_ms(256);
 
+  // Ray casting alone, one thread, on each scene's own incoherent path rays.
+  std::string rays_md = "\n## Ray casting (1 thread, incoherent path rays, median of 5 replays)\n\n"
+                        "| scene | polygons | spheres | closest hit, Mrays/s | any hit (shadow), Mrays/s |\n"
+                        "|---|---|---|---|---|\n";
+  for (const std::string& name : o.scenes) {
+    const auto sc = compile_scene(load_scene(name));
+    const RayBatch batch = record_path_rays(*sc, o.quick ? (1u << 14) : (1u << 20), 1);
+    const RayThroughput t = measure_ray_throughput(*sc, batch, 5);
+    char row[200];
+    std::snprintf(row, sizeof row, "| %s | %zu | %zu | %.1f | %.1f |\n", name.c_str(), sc->polygons.size(),
+                  sc->spheres.size(), t.closest_mrays_per_s, t.any_mrays_per_s);
+    rays_md += row;
+  }
+
   std::ofstream md(dir / "summary.md");
   md << "# Run time against error\n\n"
      << "Threads: " << renderer.threads() << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
@@ -304,7 +320,7 @@ int run_bench(const BenchOptions& o) {
                 "scaling %.2f×.\n\n## Interactive passes (cornell, 1 spp, %d threads, median)\n\n512×512: %.1f ms; "
                 "256×256 (quarter resolution): %.1f ms.\n",
                 o.quick ? 64 : 256, one, renderer.threads(), many, many / one, renderer.threads(), full_ms, quarter_ms);
-  md << tail;
+  md << tail << rays_md;
   if (!plotted) md << "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
   md.close();
   if (!md) {
