@@ -28,10 +28,7 @@ inline float edge_function(ShearedVertex p, ShearedVertex q) {
 
 struct PolygonHit {
   float t;
-  // Barycentrics of the hit in the triangle that contains it: (a, b, c) for triangles and for quads when
-  // half == 0; (a, c, d) when a quad is hit in its other half (the diagonal a–c splits a quad).
-  float b0, b1, b2;
-  uint32_t half;
+  float b0, b1, b2;  // barycentrics of the hit in triangle (a, b, c) (for a quad: extended to its plane)
 };
 
 // Distance along the ray from the edge functions (U, V, W opposite a, b, c) of triangle (a, b, c) and their sum:
@@ -50,21 +47,8 @@ inline bool intersect_triangle(Vec3 a, Vec3 b, Vec3 c, Vec3 o, const RayShear& s
   // t in (0, t_max); det = 0 (ray parallel to the plane, or degenerate) gives ±inf or NaN and fails.
   if (!(t > 0.f && t < t_max)) return false;
   const float inv_det = 1.f / det;
-  hit = {t, U * inv_det, V * inv_det, W * inv_det, 0};
+  hit = {t, U * inv_det, V * inv_det, W * inv_det};
   return true;
-}
-
-// Barycentrics of a quad hit from its edge functions. The diagonal's edge function V = e(c→a) tells the half:
-// V/det ≥ 0 puts the point in triangle (a, b, c), with barycentrics (e_bc, V, e_ab)/det; otherwise it lies in
-// (a, c, d), whose barycentrics are (e_cd, e_da, −V) over their sum (e(a→c) = −V exactly: edge functions are
-// antisymmetric). Shared by the scalar and SIMD tests so both report the same point.
-inline PolygonHit quad_barycentrics(float t, float eab, float ebc, float ecd, float eda, float V, float det) {
-  if (V == 0.f || (V > 0.f) == (det > 0.f)) {
-    const float inv = 1.f / det;
-    return {t, ebc * inv, V * inv, eab * inv, 0};
-  }
-  const float inv = 1.f / (ecd + eda - V);
-  return {t, ecd * inv, eda * inv, -V * inv, 1};
 }
 
 // Watertight ray–quad test for convex planar quads (a, b, c, d) (parallelograms among them): the four edge
@@ -83,7 +67,8 @@ inline bool intersect_quad(Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 o, const RayShea
   const float det = U + V + W;
   const float t = hit_distance(U, V, W, A, B, C, det);
   if (!(t > 0.f && t < t_max)) return false;
-  hit = quad_barycentrics(t, eab, ebc, ecd, eda, V, det);
+  const float inv_det = 1.f / det;
+  hit = {t, U * inv_det, V * inv_det, W * inv_det};
   return true;
 }
 

@@ -78,7 +78,7 @@ inline float light_pdf(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_li
 // F: the kernel's feature set (KernelFeature): light kinds outside it are left out of the code.
 template <uint32_t F = kAllFeatures>
 inline bool sample_light(const Scene& s, Vec3 ref, Vec3 n_ref, float u_choice, Vec2 u, LightSample& ls) {
-  const int li = s.lights.size() == 1 ? 0 : choose_light(s, u_choice);
+  const int li = choose_light(s, u_choice);
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
   Vec3 n;
