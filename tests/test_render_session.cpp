@@ -7,10 +7,12 @@
 #include <thread>
 
 #include "render_session.h"
+#include "frame_helpers.h"
 #include "scene_json.h"
 #include "test_helpers.h"
 
 using namespace pt;
+using pt::test::block_mean;
 
 namespace {
 
@@ -67,15 +69,6 @@ IdleUsage measure_idle(double seconds) {
   getrusage(RUSAGE_SELF, &r1);
   u.switches = (r1.ru_nvcsw - r0.ru_nvcsw) + (r1.ru_nivcsw - r0.ru_nivcsw);
   return u;
-}
-
-// Mean red/green/blue over a block of pixels of a frame.
-glm::dvec3 block_mean(const DisplayFrame& f, int x0, int y0, int x1, int y1) {
-  glm::dvec3 sum(0.0);
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x)
-      for (int c = 0; c < 3; ++c) sum[c] += f.rgba[4 * (static_cast<size_t>(y) * f.width + x) + c];
-  return sum / static_cast<double>((x1 - x0) * (y1 - y0));
 }
 
 }  // namespace

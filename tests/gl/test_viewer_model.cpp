@@ -8,10 +8,12 @@
 #include <thread>
 
 #include "image_io.h"
+#include "../frame_helpers.h"
 #include "scene_json.h"
 #include "viewer_model.h"
 
 using namespace pt;
+using pt::test::block_mean;
 
 namespace {
 
@@ -41,14 +43,6 @@ DisplayFrame final_frame(ViewerModel& model) {
   }
   REQUIRE(f.generation == g);
   return f;
-}
-
-glm::dvec3 block_mean(const DisplayFrame& f, int x0, int y0, int x1, int y1) {
-  glm::dvec3 sum(0.0);
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x)
-      for (int c = 0; c < 3; ++c) sum[c] += f.rgba[4 * (static_cast<size_t>(y) * f.width + x) + c];
-  return sum / static_cast<double>((x1 - x0) * (y1 - y0));
 }
 
 size_t material_index(const ViewerModel& m, const std::string& name) {
