@@ -1,11 +1,11 @@
 // The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
 #include <CLI/CLI.hpp>
 
-#include "bench_command.h"
-#include "compare_command.h"
-#include "render_command.h"
-#include "view_command.h"
-#include "stress_command.h"
+#include "cli/bench_command.h"
+#include "cli/compare_command.h"
+#include "cli/render_command.h"
+#include "viewer/view_command.h"
+#include "cli/stress_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"pathtracer: a progressive CPU path tracer"};

@@ -1,6 +1,6 @@
 // Helpers on displayed frames shared by the session tests and the GL viewer tests.
 #pragma once
-#include "render_session.h"
+#include "render/render_session.h"
 
 namespace pt::test {
 

@@ -1,9 +1,11 @@
-// Materials: energy conservation, reciprocity, Fresnel limits, Snell's law.
+// Smooth-interface optics: Fresnel limits, Snell's law, the Lambertian albedo. The BSDFs themselves are tested
+// in test_materials.cpp (the smooth dielectric's sampling there too).
 #include <doctest/doctest.h>
 
-#include "bsdf.h"
-#include "rng.h"
-#include "sampling.h"
+#include "core/rng.h"
+#include "materials/diffuse.h"
+#include "materials/fresnel.h"
+#include "sampling/sampling.h"
 
 using namespace pt;
 
@@ -74,31 +76,4 @@ TEST_CASE("energy: the Lambertian albedo integrates to ρ (≤ 1), and f is reci
   CHECK(integral <= 1.0);
   // Reciprocity holds trivially for Lambert (f independent of direction); the mirror's weight is its tint.
   CHECK(diffuse_f(rho).y == doctest::Approx(rho.y / kPi));
-}
-
-TEST_CASE("energy: the dielectric's sampled weight conserves energy and picks reflection with probability F") {
-  Pcg32 rng(8, 1);
-  for (float ior : {1.0f, 1.5f, 2.4f, 10.f}) {
-    for (float cos_o : {1.f, 0.7f, 0.2f, 0.01f}) {
-      const Vec3 ng(0, 0, 1);
-      for (bool inside : {false, true}) {
-        const Vec3 wo(std::sqrt(1 - cos_o * cos_o), 0, inside ? -cos_o : cos_o);
-        const float eta = inside ? 1.f / ior : ior;
-        const float F = fresnel_dielectric(cos_o, eta);
-        const int n = 20000;
-        int reflected = 0;
-        for (int k = 0; k < n; ++k) {
-          const DeltaSample ds = sample_dielectric(wo, ng, ior, rng.next_float());
-          // Radiance-mode weight times the η² that importance transport would carry is exactly 1:
-          // no energy is created or lost at a smooth interface.
-          CHECK(ds.weight.x * ds.eta_scale == doctest::Approx(1.f).epsilon(1e-5));
-          const bool refl = (ds.wi.z > 0) == (wo.z > 0);
-          reflected += refl;
-        }
-        // Binomial: standard error sqrt(F(1−F)/n) ≤ 0.0036; 5 SE tolerance.
-        INFO("ior " << ior << " cos " << cos_o << " inside " << inside << " F " << F);
-        CHECK(std::abs(reflected / double(n) - F) <= 5 * std::sqrt(F * (1 - F) / n) + 1e-9);
-      }
-    }
-  }
 }

@@ -1,9 +1,9 @@
 // Camera controller maths of the viewer (orbit, pan, dolly, look, fly), without any window.
 #include <doctest/doctest.h>
 
-#include "camera_controller.h"
-#include "scene.h"
-#include "scene_json.h"
+#include "scene/camera_controller.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
 
 using namespace pt;
 

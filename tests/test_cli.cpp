@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stb_image.h>
 
-#include "image_io.h"
-#include "metrics.h"
+#include "io/image_io.h"
+#include "render/metrics.h"
 #include "run_command.h"
 
 using namespace pt;
@@ -115,12 +115,12 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
     CHECK(rel > 0);
     CHECK(rm > 0);
   }
-  CHECK(per_series.size() == 36);  // 3 scenes × 4 estimators × 3 samplers
+  CHECK(per_series.size() == 60);  // 5 scenes × 4 estimators × 3 samplers
   for (const auto& [name, n] : per_series) CHECK(n == 4);  // budgets 1/16, 1/8, 1/4, 1/2 s
   const std::string summary = slurp("bench_quick/summary.md");
   CHECK(summary.find("time to 1e-3") != std::string::npos);
   CHECK(summary.find("Thread scaling") != std::string::npos);
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0)
-    for (const char* scene : {"cornell", "cornell-spheres", "shadertoy"})
+    for (const char* scene : {"cornell", "cornell-spheres", "shadertoy", "materials", "sky"})
       CHECK(std::filesystem::file_size(std::string("bench_quick/convergence-") + scene + ".png") > 1000);
 }

@@ -3,8 +3,8 @@
 
 #include <limits>
 
-#include "film.h"
-#include "rng.h"
+#include "render/film.h"
+#include "core/rng.h"
 
 using namespace pt;
 

@@ -2,10 +2,10 @@
 #pragma once
 #include <memory>
 
-#include "film.h"
-#include "renderer.h"
-#include "scene.h"
-#include "stress_scenes.h"
+#include "render/film.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
+#include "cli/stress_scenes.h"
 
 namespace pt::test {
 

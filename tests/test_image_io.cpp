@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <stb_image.h>
 
-#include "image_io.h"
-#include "metrics.h"
+#include "io/image_io.h"
+#include "render/metrics.h"
 
 using namespace pt;
 

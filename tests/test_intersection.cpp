@@ -2,10 +2,10 @@
 // spheres, parallel rays, huge and tiny radii, and the scene-level closest/any-hit queries.
 #include <doctest/doctest.h>
 
-#include "geometry.h"
-#include "rng.h"
-#include "scene.h"
-#include "scene_json.h"
+#include "geometry/geometry.h"
+#include "core/rng.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
 
 using namespace pt;
 

@@ -6,9 +6,9 @@
 #include <chrono>
 #include <thread>
 
-#include "render_session.h"
+#include "render/render_session.h"
 #include "frame_helpers.h"
-#include "scene_json.h"
+#include "scene/scene_json.h"
 #include "test_helpers.h"
 
 using namespace pt;

@@ -6,9 +6,9 @@
 #include <functional>
 
 #include "chi2.h"
-#include "lights.h"
-#include "rng.h"
-#include "sampling.h"
+#include "lights/light_sampling.h"
+#include "core/rng.h"
+#include "sampling/sampling.h"
 
 using namespace pt;
 using pt::test::chi2_test;
@@ -164,7 +164,7 @@ TEST_CASE("sampling: concentric disk and triangle are uniform by area") {
   CHECK(rt.p_value > kAlpha);
 }
 
-TEST_CASE("light sampling: sampled directions follow light_pdf (quad, triangle, sphere outside)") {
+TEST_CASE("light sampling: sampled directions follow the strategy's pdf (rectangle, quad, triangle, sphere outside)") {
   // A receiver at the origin; a parallelogram light, a triangle light and a sphere light around it.
   SceneDesc s;
   s.camera.position = {0, 0, 0};
@@ -174,7 +174,7 @@ TEST_CASE("light sampling: sampled directions follow light_pdf (quad, triangle, 
   s.materials = {a, b};
   ShapeDesc quad;  // above, facing down (its front normal −y)
   quad.type = ShapeType::Quad;
-  quad.vertices = {DVec3(-0.7, 1, -0.5), DVec3(-0.7, 1, 0.6), DVec3(0.8, 1, 0.6), DVec3(0.8, 1, -0.5)};
+  quad.vertices = {DVec3(-0.7, 1, -0.5), DVec3(0.8, 1, -0.5), DVec3(0.8, 1, 0.6), DVec3(-0.7, 1, 0.6)};
   quad.material = 0;
   ShapeDesc trig;  // to the side, two-sided emitter
   trig.type = ShapeType::Triangle;
@@ -185,9 +185,18 @@ TEST_CASE("light sampling: sampled directions follow light_pdf (quad, triangle, 
   ball.center = {-1, -1.2, 0.4};
   ball.radius = 0.6;
   ball.material = 1;
-  s.shapes = {quad, trig, ball};
+  ShapeDesc skew;  // below, facing up: a parallelogram that is no rectangle (sampled by area)
+  skew.type = ShapeType::Quad;
+  skew.vertices = {DVec3(-0.5, -1.5, -1.5), DVec3(0.2, -1.5, -0.7), DVec3(1.2, -1.5, -0.7), DVec3(0.5, -1.5, -1.5)};
+  skew.material = 0;
+  s.shapes = {quad, trig, ball, skew};
   const auto scene = compile_scene(s);
-  REQUIRE(scene->lights.size() == 3);
+  REQUIRE(scene->lights.size() == 4);
+  CHECK(scene->lights[0].kind == LightKind::Rectangle);
+  CHECK(scene->lights[1].kind == LightKind::Polygon);
+  CHECK(scene->lights[2].kind == LightKind::Polygon);
+  CHECK(scene->lights[3].kind == LightKind::Sphere);
+  for (int k : {0, 2}) CHECK(glm::dot(scene->polygons.normal[scene->lights[k].prim], Vec3(0.f) - scene->polygons.v[0][scene->lights[k].prim]) > 0.f);
   const Vec3 ref(0.f);
 
   // Density of the whole light-sampling strategy in direction d: the light it would hit first.
@@ -196,14 +205,15 @@ TEST_CASE("light sampling: sampled directions follow light_pdf (quad, triangle, 
     const Ray ray{ref, glm::normalize(d)};
     if (!scene->intersect(ray, kInfinity, ~0u, h)) return 0.0;
     const Interaction it = make_interaction(*scene, ray, h);
-    return light_pdf(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
+    return lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
   };
   Pcg32 choice(9, 9);
   check_direction_sampler(
       "lights",
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
-        if (!sample_light(*scene, ref, Vec3(0, 1, 0), choice.next_float(), u, ls)) return false;
+        int li;
+        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, choice.next_float(), u, ls, li)) return false;
         d = ls.wi;
         return true;
       },
@@ -227,13 +237,14 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
     const Ray ray{ref, glm::normalize(d)};
     if (!scene->intersect(ray, kInfinity, ~0u, h)) return 0.0;
     const Interaction it = make_interaction(*scene, ray, h);
-    return light_pdf(*scene, 0, ref, it.p, it.ng);
+    return lights_pdf_area(*scene, 0, ref, it.p, it.ng);
   };
   check_direction_sampler(
       "inside sphere",
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
-        if (!sample_light(*scene, ref, Vec3(0, 1, 0), 0.5f, u, ls)) return false;
+        int li;
+        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, 0.5f, u, ls, li)) return false;
         d = ls.wi;
         return true;
       },
@@ -262,14 +273,14 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
   SceneDesc s;
   s.camera.position = {0, 0, 0};
   s.camera.look_at = {0, 0, -1};
-  s.background = Rgb(0.2f, 0.3f, 0.4f);
+  s.environment.radiance = Rgb(0.2f, 0.3f, 0.4f);
   s.materials = {MaterialDesc{"e", MaterialType::Diffuse, Rgb(0.f), Rgb(5.f), false, 1.5f}};
   ShapeDesc quad;  // above the receiver, facing down
   quad.type = ShapeType::Quad;
-  quad.vertices = {DVec3(-0.5, 1, -0.5), DVec3(-0.5, 1, 0.5), DVec3(0.5, 1, 0.5), DVec3(0.5, 1, -0.5)};
+  quad.vertices = {DVec3(-0.5, 1, -0.5), DVec3(0.5, 1, -0.5), DVec3(0.5, 1, 0.5), DVec3(-0.5, 1, 0.5)};
   s.shapes = {quad};
   const auto scene = compile_scene(s);
-  REQUIRE(scene->environment_light == 1);
+  REQUIRE(scene->infinite_lights == std::vector<uint32_t>{1});
   const Vec3 ref(0.f), n = glm::normalize(Vec3(0.3f, 1.f, 0.2f));
   // The environment strategy samples all directions above the receiver, including those the quad covers;
   // the combined density in those directions is the sum of both strategies' densities.
@@ -277,10 +288,10 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
     d = glm::normalize(d);
     Hit h;
     const Ray ray{ref, d};
-    double p = environment_pdf(*scene, n, d);
+    double p = lights_pdf_infinite(*scene, n, d);
     if (scene->intersect(ray, kInfinity, ~0u, h)) {
       const Interaction it = make_interaction(*scene, ray, h);
-      p += light_pdf(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
+      p += lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
     }
     return p;
   };
@@ -289,7 +300,8 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
       "background + quad",
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
-        if (!sample_light(*scene, ref, n, choice.next_float(), u, ls)) return false;
+        int li;
+        if (!sample_lights(*scene, {ref, n}, choice.next_float(), u, ls, li)) return false;
         d = ls.wi;
         return true;
       },

@@ -12,8 +12,8 @@
 
 #include <unistd.h>
 
-#include "scene.h"
-#include "scene_json.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
 
 using namespace pt;
 
@@ -64,7 +64,7 @@ void check_same_scene(const SceneDesc& a, const SceneDesc& b) {
   CHECK(a.render.estimator == b.render.estimator);
   CHECK(a.render.russian_roulette_depth == b.render.russian_roulette_depth);
   CHECK(a.render.seed == b.render.seed);
-  check_same(a.background, b.background, "background");
+  check_same(a.environment.radiance, b.environment.radiance, "background");
   REQUIRE(a.materials.size() == b.materials.size());
   for (size_t i = 0; i < a.materials.size(); ++i) {
     const MaterialDesc &m = a.materials[i], &n = b.materials[i];
@@ -135,7 +135,45 @@ const BadCase kBadCases[] = {
     {R"("seed": 7)", R"("seed": 7, "spp": 16)", "render.spp", "unknown key"},
     {R"("radius": 1,)", R"("radius": 1, "radius": 2,)", "shapes[0].radius", "duplicate key"},
     {R"("glass": {)", R"("white": {"type": "mirror"}, "glass": {)", "materials.white", "duplicate key"},
-    {R"("ior": 1.5})", R"("ior": 1.5, "roughness": 0.1})", "materials.glass.roughness", "unknown key"},
+    {R"("ior": 1.5})", R"("ior": 1.5, "g": 0.1})", "materials.glass.g", "does not apply to a dielectric material"},
+    {R"("ior": 1.5})", R"("ior": 1.5, "roughness": 1.5})", "materials.glass.roughness", "[0, 1]"},
+    {R"("ior": 1.5})", R"("ior": 1.5, "roughness": -0.1})", "materials.glass.roughness", "[0, 1]"},
+    {R"("ior": 1.5})", R"("ior": 1.5, "shine": 1})", "materials.glass.shine", "unknown key"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "conductor", "metal": "brass"})", "materials.white.metal", "unknown metal \"brass\""},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "conductor", "metal": "gold", "albedo": [0.5, 0.5, 0.5]})", "materials.white",
+     "one of: albedo, metal, or eta and k"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "conductor", "eta": [0.2, 0.9, 1.1]})", "materials.white.k", "missing required key"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "conductor", "eta": [0.2, 0, 1.1], "k": [3, 2, 2]})", "materials.white.eta", "> 0"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "subsurface", "albedo": [0.5, 0.5, 0.5], "g": 1})", "materials.white.g", "(-1, 1)"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "plastic", "albedo": [0.5, 0.5, 0.5], "ior": 0.5})", "materials.white.ior", "[1, 4]"},
+    {R"("white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})",
+     R"("white": {"type": "subsurface", "roughness": 0.2})", "materials.white.roughness",
+     "does not apply to a subsurface material"},
+    // The environment.
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "studio"})", "environment.type",
+     "unknown environment type \"studio\""},
+    {R"("background": [0, 0, 0])", R"("background": [0, 0, 0], "environment": {"type": "sky"})", "background",
+     "not both"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "constant"})", "environment.radiance",
+     "missing required key"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "constant", "radiance": [1, -1, 1]})",
+     "environment.radiance", ">= 0"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "sky", "turbidity": 12})", "environment.turbidity",
+     "[1.7, 10]"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "sky", "sun_direction": [0, 0, 0]})",
+     "environment.sun_direction", "non-zero"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "sky", "file": "a.exr"})", "environment.file",
+     "does not apply to a sky environment"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "map"})", "environment.file", "missing required key"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "map", "file": "no-such-dir/none.exr"})",
+     "environment.file", "no-such-dir/none.exr"},
+    {R"("background": [0, 0, 0])", R"("environment": {"type": "sky", "scale": -1})", "environment.scale", ">= 0"},
     // Keys that do not apply to the type.
     {R"("albedo": [0.5, 0.5, 0.5]})", R"("albedo": [0.5, 0.5, 0.5], "ior": 1.3})", "materials.white.ior",
      "does not apply to a diffuse material"},
@@ -269,7 +307,7 @@ TEST_CASE("scene_json: defaults of optional fields") {
   CHECK(s.render.estimator == d.render.estimator);
   CHECK(s.render.russian_roulette_depth == d.render.russian_roulette_depth);
   CHECK(s.render.seed == d.render.seed);
-  CHECK(s.background == Rgb(0.f));
+  CHECK(s.environment.radiance == Rgb(0.f));
   REQUIRE(s.materials.size() == 3);
   CHECK(s.materials[0].name == "d");
   CHECK(s.materials[0].albedo == Rgb(0.8f));
@@ -308,7 +346,7 @@ TEST_CASE("scene_json: materials keep the file's order") {
 
 TEST_CASE("scene_json: built-in scenes") {
   const std::vector<std::string> names = builtin_scene_names();
-  CHECK(names == std::vector<std::string>{"cornell", "cornell-spheres", "shadertoy"});
+  CHECK(names == std::vector<std::string>{"cornell", "cornell-spheres", "shadertoy", "materials", "sky"});
   for (const std::string& name : names) {
     INFO(name);
     SceneDesc s;
@@ -332,7 +370,7 @@ TEST_CASE("scene_json: cornell is the Cornell box data") {
   CHECK(s.render.max_bounces == 64);
   CHECK(s.render.estimator == Estimator::Mis);
   CHECK(s.render.russian_roulette_depth == 3);
-  CHECK(s.background == Rgb(0.f));
+  CHECK(s.environment.radiance == Rgb(0.f));
   const int white = material_index(s, "white"), red = material_index(s, "red"), green = material_index(s, "green"),
             light = material_index(s, "light");
   REQUIRE(white >= 0);
@@ -460,7 +498,7 @@ TEST_CASE("scene_json: round trip of awkward values is exact") {
   s.render.estimator = Estimator::Uniform;
   s.render.russian_roulette_depth = -1;
   s.render.seed = std::numeric_limits<uint64_t>::max();
-  s.background = {0.1f, 1e-40f, std::numeric_limits<float>::max()};
+  s.environment.radiance = {0.1f, 1e-40f, std::numeric_limits<float>::max()};
   MaterialDesc a;
   a.name = "quote \" back\\slash ü \t";
   a.albedo = {1.f / 3.f, std::nextafter(1.f, 0.f), 0.f};

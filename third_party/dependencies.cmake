@@ -46,3 +46,6 @@ target_link_libraries(pt_imgui_glfw INTERFACE pt_imgui glfw)
 if(PT_BUILD_TESTS)
   pkg_check_modules(OSMESA REQUIRED IMPORTED_TARGET osmesa)
 endif()
+
+# OpenEXR 3 (libopenexr-dev): reading latitude-longitude HDR environment maps (io/image_io.cpp).
+find_package(OpenEXR REQUIRED CONFIG)

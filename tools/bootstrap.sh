@@ -11,6 +11,7 @@ PACKAGES=(
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
   libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)
   gnuplot-nox                               # the convergence plots of `pathtracer bench`
+  libopenexr-dev                            # HDR environment maps (.exr)
 )
 
 missing=()

@@ -4,9 +4,9 @@
 #include <imgui.h>
 
 #include "osmesa_context.h"
-#include "scene_json.h"
-#include "viewer_model.h"
-#include "viewer_panels.h"
+#include "scene/scene_json.h"
+#include "viewer/viewer_model.h"
+#include "viewer/viewer_panels.h"
 
 using namespace pt;
 

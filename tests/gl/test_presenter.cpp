@@ -6,10 +6,10 @@
 #include <cstdio>
 #include <string>
 
-#include "display_transform.h"
-#include "gl_presenter.h"
+#include "viewer/display_transform.h"
+#include "viewer/gl_presenter.h"
 #include "osmesa_context.h"
-#include "render_session.h"
+#include "render/render_session.h"
 
 using namespace pt;
 

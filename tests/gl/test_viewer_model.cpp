@@ -7,10 +7,10 @@
 #include <filesystem>
 #include <thread>
 
-#include "image_io.h"
+#include "io/image_io.h"
 #include "../frame_helpers.h"
-#include "scene_json.h"
-#include "viewer_model.h"
+#include "scene/scene_json.h"
+#include "viewer/viewer_model.h"
 
 using namespace pt;
 using pt::test::block_mean;
@@ -219,4 +219,54 @@ TEST_CASE("viewer: saved images never overwrite earlier ones, load errors are sh
   CHECK(model.load("cornell-spheres"));
   CHECK(model.scene_name() == "cornell-spheres");
   CHECK(!model.status_is_error());
+}
+
+TEST_CASE("viewer: a material's type and roughness change live; a rough metal differs from a smooth one") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(8));
+  const size_t white = material_index(model, "white");
+  MaterialDesc m = model.scene().materials[white];
+  m.type = MaterialType::Conductor;
+  m.albedo = Rgb(0.9f);
+  m.roughness = 0.f;
+  REQUIRE(model.set_material(white, m));
+  const DisplayFrame smooth = final_frame(model);
+  m.roughness = 0.8f;
+  REQUIRE(model.set_material(white, m));
+  CHECK(model.session().stats().spp == 0);
+  CHECK(model.scene().materials[white].roughness == 0.8f);
+  const DisplayFrame rough = final_frame(model);
+  // Every white surface became metal: the smooth one mirrors the light in sharp images, the rough one blurs
+  // them; the centre of the back wall changes by far more than the noise of 8 spp.
+  const glm::dvec3 s = block_mean(smooth, 16, 8, 24, 14), r = block_mean(rough, 16, 8, 24, 14);
+  CHECK(std::abs(r.x - s.x) > 0.2 * s.x);
+  // Out of range: refused, the model unchanged.
+  m.roughness = 1.5f;
+  CHECK(!model.set_material(white, m));
+  CHECK(model.status().find("roughness") != std::string::npos);
+  CHECK(model.scene().materials[white].roughness == 0.8f);
+}
+
+TEST_CASE("viewer: the environment switches between constant and sky live; a missing map is refused") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(4));
+  const DisplayFrame closed = final_frame(model);
+  // The box is closed at the back but open towards the camera (z < 0): a bright constant environment lights it.
+  EnvironmentDesc e = model.scene().environment;
+  e.type = EnvironmentType::Constant;
+  e.radiance = Rgb(2.f);
+  REQUIRE(model.set_environment(e));
+  const DisplayFrame lit = final_frame(model);
+  CHECK(block_mean(lit, 14, 35, 26, 39).x > block_mean(closed, 14, 35, 26, 39).x * 1.2);
+  e.type = EnvironmentType::Sky;
+  REQUIRE(model.set_environment(e));
+  CHECK(model.scene().environment.type == EnvironmentType::Sky);
+  const DisplayFrame sky = final_frame(model);
+  CHECK(block_mean(sky, 0, 0, 40, 40).x > 0.0);
+  const uint64_t g = model.session().stats().generation;
+  e.type = EnvironmentType::Map;
+  e.file = "no-such-map.exr";
+  CHECK(!model.set_environment(e));
+  CHECK(model.status_is_error());
+  CHECK(model.status().find("no-such-map.exr") != std::string::npos);
+  CHECK(model.session().stats().generation == g);
+  CHECK(model.scene().environment.type == EnvironmentType::Sky);
 }

@@ -1,0 +1,334 @@
+// `pathtracer bench`: for each scene and estimator, one progressive render whose error against a converged
+// reference is recorded at wall-clock checkpoints doubling from 1/4 s to --max-seconds (time spent computing the
+// error is excluded from the clock). Writes convergence.csv, one log–log plot per scene (gnuplot) and
+// summary.md (time to relMSE 1e-2 and 1e-3, efficiency, throughput, thread scaling, interactive pass times).
+#include "cli/bench_command.h"
+
+#include "cli/ray_throughput.h"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <unistd.h>
+
+#include "render/progressive.h"
+#include "render/film.h"
+#include "io/image_io.h"
+#include "render/metrics.h"
+#include "render/renderer.h"
+#include "scene/scene_json.h"
+
+namespace pt {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+void add_bench_command(CLI::App& app, BenchOptions& o) {
+  CLI::App* b = app.add_subcommand("bench", "Measure run time against error (writes CSV, plots and a summary)");
+  b->add_flag("--quick", o.quick, "Smoke run: small images, budgets up to 0.5 s, cheap references (under a minute)");
+  b->add_option("--out", o.out_dir, "Directory for convergence.csv, convergence-<scene>.png, summary.md")
+      ->capture_default_str();
+  b->add_option("--cache", o.cache_dir, "Directory caching converged references (keyed by scene and settings)")
+      ->capture_default_str();
+  b->add_option("--reference-dir", o.reference_dir,
+                "Where cornell_512_cycles.pfm (the independent reference) is looked for")
+      ->capture_default_str();
+  b->add_option("--scenes", o.scenes, "Scenes to run")->capture_default_str();
+  b->add_option("--estimators", o.estimators, "Estimators to run")
+      ->check(CLI::IsMember(enum_name_list<Estimator>()))
+      ->capture_default_str();
+  b->add_option("--samplers", o.samplers, "Samplers to run")
+      ->check(CLI::IsMember({"independent", "sobol", "independent+adaptive", "sobol+adaptive"}))
+      ->capture_default_str();
+  b->add_option("--max-seconds", o.max_seconds, "Largest wall-clock budget (budgets double from 0.25 s)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  b->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")->capture_default_str();
+  b->add_option("--reference-spp", o.reference_spp, "Samples per pixel of a rendered (cached) reference")
+      ->check(CLI::Range(16LL, 1LL << 30))
+      ->capture_default_str();
+}
+
+namespace {
+
+struct Checkpoint {
+  double seconds;
+  uint64_t spp;
+  double relmse, rmse;
+};
+
+struct Series {
+  std::string scene, estimator, sampler;
+  int threads;
+  std::vector<Checkpoint> points;
+  double msamples_per_s = 0, mrays_per_s = 0;
+};
+
+uint64_t fnv1a(const std::string& s) {
+  uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ULL;
+  return h;
+}
+
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+Image film_image(const Film& f) { return Image{f.width(), f.height(), f.mean_image()}; }
+
+// A converged image of the scene: the independent Cycles reference for the canonical cornell at 512², else a
+// long `mis` render, cached on disk under a key of everything that defines the image.
+Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions& o, Renderer& renderer,
+                    std::string& label) {
+  const fs::path cycles = fs::path(o.reference_dir) / "cornell_512_cycles.pfm";
+  if (name == "cornell" && desc.width == 512 && desc.height == 512 && fs::exists(cycles)) {
+    label = "Blender Cycles, " + cycles.filename().string();
+    return read_pfm(cycles.string());
+  }
+  desc.render.estimator = Estimator::Mis;
+  desc.render.seed = 0x5eed;
+  const long long spp = o.quick ? 1024 : o.reference_spp;
+  char key[32];
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(fnv1a(scene_to_json(desc) + std::to_string(spp))));
+  const fs::path path = fs::path(o.cache_dir) / (name + "-" + std::to_string(desc.width) + "x" +
+                                                 std::to_string(desc.height) + "-" + key + ".pfm");
+  label = "mis " + std::to_string(spp) + " spp, cached as " + path.filename().string();
+  if (fs::exists(path)) return read_pfm(path.string());
+  std::fprintf(stderr, "rendering the reference of %s (%lld spp, cached as %s)...\n", name.c_str(), spp, path.c_str());
+  const auto scene = compile_scene(desc);
+  Film film(desc.width, desc.height);
+  const auto start = Clock::now();
+  for (long long done = 0; done < spp;) {
+    const int pass = static_cast<int>(std::min<long long>(64, spp - done));
+    renderer.render_pass(*scene, film, pass);
+    done += pass;
+    if (isatty(2)) std::fprintf(stderr, "\r  %lld / %lld spp, %.0f s", done, spp, seconds_since(start));
+  }
+  if (isatty(2)) std::fprintf(stderr, "\n");
+  fs::create_directories(o.cache_dir);
+  Image img = film_image(film);
+  write_pfm(path.string(), img);
+  return img;
+}
+
+// One progressive render, error recorded at each budget. The clock stops while the error is computed.
+Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive, const Image& ref,
+                  const std::vector<double>& budgets, Renderer& renderer) {
+  Series s{name, to_string(desc.render.estimator), std::string(to_string(desc.render.sampler)) + (adaptive ? "+adaptive" : ""),
+           renderer.threads(), {}, 0, 0};
+  const auto scene = compile_scene(desc);
+  Film film(desc.width, desc.height);
+  double elapsed = 0, seconds_per_spp = 0;
+  uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
+  for (double budget : budgets) {
+    StopConditions stop;
+    stop.seconds = budget;
+    while (!stop_reason(stop, spp, elapsed, 0.0)) {
+      const int pass = next_pass_spp(seconds_per_spp, budget - elapsed, stop, spp, elapsed);
+      const auto t0 = Clock::now();
+      const PassStats ps = run_pass(renderer, *scene, film, pass, adaptive, pass_index);
+      const double dt = seconds_since(t0);
+      elapsed += dt;
+      seconds_per_spp = dt / static_cast<double>(pass);
+      spp += static_cast<uint64_t>(pass);
+      samples += ps.samples;
+      rays += ps.rays;
+    }
+    const Image img = film_image(film);
+    s.points.push_back({elapsed, spp, relmse(img, ref), rmse(img, ref)});
+  }
+  s.msamples_per_s = static_cast<double>(samples) / elapsed * 1e-6;
+  s.mrays_per_s = static_cast<double>(rays) / elapsed * 1e-6;
+  return s;
+}
+
+// Seconds at which the series first reaches `target` relMSE, interpolated on log–log axes; < 0 if never.
+double time_to(const Series& s, double target) {
+  for (size_t i = 0; i < s.points.size(); ++i) {
+    if (s.points[i].relmse > target) continue;
+    if (i == 0) return s.points[0].seconds;
+    const Checkpoint &a = s.points[i - 1], &b = s.points[i];
+    const double f = std::log(a.relmse / target) / std::log(a.relmse / b.relmse);
+    return std::exp(std::log(a.seconds) + f * (std::log(b.seconds) - std::log(a.seconds)));
+  }
+  return -1;
+}
+
+std::string fmt_time(double t) {
+  if (t < 0) return "not reached";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f s", t);
+  return buf;
+}
+
+bool write_plot(const fs::path& dir, const std::string& scene, const std::vector<Series>& series, const std::string& ref_label) {
+  const fs::path script = dir / ("convergence-" + scene + ".gp");
+  std::ofstream gp(script);
+  gp << "# gnuplot script written by pathtracer bench; data in convergence.csv\n"
+     << "set terminal pngcairo size 900,600 font ',11'\n"
+     << "set output '" << (dir / ("convergence-" + scene + ".png")).string() << "'\n"
+     << "set title \"" << scene << ": relMSE against wall-clock time (reference: " << ref_label << ")\" noenhanced\n"
+     << "set logscale xy\nset format y '%.0e'\nset grid\nset key outside right\n"
+     << "set xlabel 'seconds'\nset ylabel 'relMSE'\nset datafile separator ','\n";
+  gp << "plot ";
+  const Series* anchor = nullptr;
+  for (size_t i = 0; i < series.size(); ++i) {
+    const Series& s = series[i];
+    if (s.scene != scene) continue;
+    if (!anchor || s.estimator == "mis") anchor = &s;
+    gp << "'" << (dir / "convergence.csv").string() << "' using ((strcol(1) eq '" << s.scene << "' && strcol(2) eq '" << s.estimator
+       << "' && strcol(3) eq '" << s.sampler << "') ? $5 : 1/0):7 with linespoints title '" << s.estimator << " / "
+       << s.sampler << "', ";
+  }
+  // The 1/t slope of an unbiased Monte Carlo estimator, through the anchor series' first point.
+  if (anchor && !anchor->points.empty())
+    gp << anchor->points[0].relmse * anchor->points[0].seconds << "/x with lines dashtype 2 lc 'gray' title '1/t slope'";
+  gp << "\n";
+  gp.close();
+  const std::string cmd = "gnuplot '" + script.string() + "' 2>/dev/null";
+  return std::system("command -v gnuplot >/dev/null 2>&1") == 0 && std::system(cmd.c_str()) == 0;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+int run_bench(const BenchOptions& o) {
+  std::vector<double> budgets;
+  const double max_s = o.quick ? 0.5 : o.max_seconds;
+  for (double b = o.quick ? 0.0625 : 0.25; b <= max_s * 1.0001; b *= 2) budgets.push_back(b);
+  Renderer renderer(o.threads);
+  std::vector<Series> all;
+  std::map<std::string, std::string> ref_labels;
+  try {
+    fs::create_directories(o.out_dir);
+    for (const std::string& name : o.scenes) {
+      SceneDesc desc = load_scene(name);
+      if (o.quick) {  // 64 pixels wide, the scene's aspect ratio
+        desc.height = std::max(1, desc.height * 64 / desc.width);
+        desc.width = 64;
+      }
+      std::string label;
+      const Image ref = reference_for(name, desc, o, renderer, label);
+      ref_labels[name] = label;
+      for (const std::string& est : o.estimators)
+        for (const std::string& smp : o.samplers) {
+          parse_enum(est, desc.render.estimator);
+          const bool adaptive = smp.ends_with("+adaptive");
+          parse_enum(adaptive ? smp.substr(0, smp.size() - 9) : smp, desc.render.sampler);
+          std::fprintf(stderr, "%s / %s / %s: up to %.2f s...\n", name.c_str(), est.c_str(), smp.c_str(),
+                       budgets.back());
+          all.push_back(run_series(name, desc, adaptive, ref, budgets, renderer));
+        }
+    }
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const ImageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+
+  const fs::path dir(o.out_dir);
+  {
+    std::ofstream csv(dir / "convergence.csv");
+    csv << "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s\n";
+    for (const Series& s : all)
+      for (const Checkpoint& c : s.points)
+        csv << s.scene << ',' << s.estimator << ',' << s.sampler << ',' << s.threads << ',' << c.seconds << ','
+            << c.spp << ',' << c.relmse << ',' << c.rmse << ',' << s.mrays_per_s << '\n';
+    if (!csv) {
+      std::fprintf(stderr, "error: cannot write %s\n", (dir / "convergence.csv").c_str());
+      return 1;
+    }
+  }
+  bool plotted = true;
+  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, all, ref_labels[name]);
+
+  // Thread scaling and interactive pass times on cornell.
+  SceneDesc cornell = load_scene("cornell");
+  const auto cornell_scene = compile_scene(cornell);
+  auto throughput = [&](int threads) {
+    Renderer r(threads);
+    SceneDesc d = cornell;
+    d.width = d.height = o.quick ? 64 : 256;
+    const auto sc = compile_scene(d);
+    Film film(d.width, d.height);
+    r.render_pass(*sc, film, 1);  // warm-up
+    const auto t0 = Clock::now();
+    uint64_t samples = 0;
+    while (seconds_since(t0) < (o.quick ? 0.3 : 2.0)) samples += r.render_pass(*sc, film, 1).samples;
+    return static_cast<double>(samples) / seconds_since(t0) * 1e-6;
+  };
+  const double one = throughput(1), many = throughput(renderer.threads());
+  auto pass_ms = [&](int size) {
+    SceneDesc d = cornell;
+    d.width = d.height = size;
+    const auto sc = compile_scene(d);
+    Film film(size, size);
+    std::vector<double> ms;
+    for (int i = 0; i < (o.quick ? 5 : 30); ++i) {
+      const auto t0 = Clock::now();
+      renderer.render_pass(*sc, film, 1);
+      ms.push_back(seconds_since(t0) * 1e3);
+    }
+    return median(ms);
+  };
+  const double full_ms = pass_ms(512), quarter_ms = pass_ms(256);
+
+  // Ray casting alone, one thread, on each scene's own incoherent path rays.
+  std::string rays_md = "\n## Ray casting (1 thread, incoherent path rays, median of 5 replays)\n\n"
+                        "| scene | polygons | spheres | closest hit, Mrays/s | any hit (shadow), Mrays/s |\n"
+                        "|---|---|---|---|---|\n";
+  for (const std::string& name : o.scenes) {
+    const auto sc = compile_scene(load_scene(name));
+    const RayBatch batch = record_path_rays(*sc, o.quick ? (1u << 14) : (1u << 20), 1);
+    const RayThroughput t = measure_ray_throughput(*sc, batch, 5);
+    char row[200];
+    std::snprintf(row, sizeof row, "| %s | %zu | %zu | %.1f | %.1f |\n", name.c_str(), sc->polygons.size(),
+                  sc->spheres.size(), t.closest_mrays_per_s, t.any_mrays_per_s);
+    rays_md += row;
+  }
+
+  std::ofstream md(dir / "summary.md");
+  md << "# Run time against error\n\n"
+     << "Threads: " << renderer.threads() << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
+     << "Efficiency = 1/(relMSE × seconds) at the largest budget (higher is better).\n\n";
+  for (const std::string& name : o.scenes) md << "- reference of `" << name << "`: " << ref_labels[name] << "\n";
+  md << "\n| scene | estimator | sampler | time to 1e-2 | time to 1e-3 | relMSE at " << budgets.back()
+     << " s | efficiency | Msamples/s | Mrays/s |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const Series& s : all) {
+    const Checkpoint& last = s.points.back();
+    char row[400];
+    std::snprintf(row, sizeof row, "| %s | %s | %s | %s | %s | %.3g | %.3g | %.2f | %.2f |\n", s.scene.c_str(),
+                  s.estimator.c_str(), s.sampler.c_str(), fmt_time(time_to(s, 1e-2)).c_str(),
+                  fmt_time(time_to(s, 1e-3)).c_str(), last.relmse, 1.0 / (last.relmse * last.seconds),
+                  s.msamples_per_s, s.mrays_per_s);
+    md << row;
+  }
+  char tail[600];
+  std::snprintf(tail, sizeof tail,
+                "\n## Thread scaling (cornell, %d², mis)\n\n1 thread: %.2f Msamples/s; %d threads: %.2f Msamples/s; "
+                "scaling %.2f×.\n\n## Interactive passes (cornell, 1 spp, %d threads, median)\n\n512×512: %.1f ms; "
+                "256×256 (quarter resolution): %.1f ms.\n",
+                o.quick ? 64 : 256, one, renderer.threads(), many, many / one, renderer.threads(), full_ms, quarter_ms);
+  md << tail << rays_md;
+  if (!plotted) md << "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
+  md.close();
+  if (!md) {
+    std::fprintf(stderr, "error: cannot write %s\n", (dir / "summary.md").c_str());
+    return 1;
+  }
+  std::ifstream in(dir / "summary.md");
+  std::printf("%s", std::string(std::istreambuf_iterator<char>(in), {}).c_str());
+  std::printf("\nwrote %s/{convergence.csv,summary.md,convergence-*.png}\n", fs::absolute(dir).c_str());
+  return 0;
+}
+
+}  // namespace pt

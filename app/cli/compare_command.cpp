@@ -1,0 +1,40 @@
+#include "cli/compare_command.h"
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "render/metrics.h"
+
+namespace pt {
+
+void add_compare_command(CLI::App& app, CompareOptions& o) {
+  CLI::App* c = app.add_subcommand("compare", "Print RMSE, relMSE and mean radiance of IMAGE against REFERENCE (PFM files)");
+  c->add_option("image", o.image, "Image to judge (PFM)")->required();
+  c->add_option("reference", o.reference, "Reference image (PFM), same size, or larger by --downsample")->required();
+  c->add_option("--downsample", o.downsample,
+                "Block-average the reference by this integer factor first (for references stored at higher resolution)")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+}
+
+int run_compare(const CompareOptions& o) {
+  try {
+    const Image img = read_pfm(o.image);
+    Image ref = read_pfm(o.reference);
+    if (o.downsample > 1) ref = block_average(ref, o.downsample);
+    if (img.width != ref.width || img.height != ref.height) {
+      std::fprintf(stderr, "error: %s is %dx%d but the reference is %dx%d\n", o.image.c_str(), img.width, img.height,
+                   ref.width, ref.height);
+      return 2;
+    }
+    const glm::dvec3 m = mean_rgb(img), mr = mean_rgb(ref);
+    std::printf("RMSE %.6g  relMSE %.6g  mean (%.5f, %.5f, %.5f)  reference mean (%.5f, %.5f, %.5f)\n",
+                rmse(img, ref), relmse(img, ref), m.x, m.y, m.z, mr.x, mr.y, mr.z);
+    return 0;
+  } catch (const ImageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+}
+
+}  // namespace pt

@@ -1,0 +1,58 @@
+// Shows a DisplayFrame with OpenGL 3.3 core: float textures (mean + relative error, sample count) turned into
+// display pixels by shaders/present.frag (fullscreen triangle), at the image's own resolution, into an RGBA8
+// "display image" that is then blitted (scaled) to the screen. The shader runs only when the frame or the
+// display settings change, not every UI frame: that matters under software GL (llvmpipe on Xvfb, VMs, remote
+// X), where it is the main cost of a frame. Works with whatever context is current (a GLFW window, an OSMesa
+// buffer) and knows nothing about windows. Construct, use and destroy it with its context current, on the thread
+// that owns the context (render threads never get here).
+#pragma once
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include "viewer/display_transform.h"
+
+namespace pt {
+
+struct DisplayFrame;
+
+struct GlError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class GlPresenter {
+ public:
+  GlPresenter();  // compiles and links the shaders; throws GlError with the driver's log
+  ~GlPresenter();
+  GlPresenter(const GlPresenter&) = delete;
+  GlPresenter& operator=(const GlPresenter&) = delete;
+
+  // Copies the frame into the textures, reallocated only when the size changes.
+  void upload(const DisplayFrame& frame);
+  bool has_image() const { return width_ > 0; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  // Draws the image into the rectangle (x, y, w, h) of the current draw framebuffer (GL convention: y from the
+  // bottom). A full-resolution image at 1:1 or larger is copied pixel for pixel (nearest); previews and images
+  // shown smaller are scaled bilinearly.
+  void draw(int x, int y, int w, int h, const PresentSettings& settings);
+
+  // The display image at the image's own resolution as RGBA8, top row first: what draw() shows, in any view
+  // mode, without scaling. `rgba` is resized to 4·width·height.
+  void read_image(const PresentSettings& settings, std::vector<uint8_t>& rgba);
+
+ private:
+  void update_display(const PresentSettings& settings);  // runs the shader if the frame or settings changed
+
+  unsigned program_ = 0, vao_ = 0, image_tex_ = 0, count_tex_ = 0;
+  unsigned display_tex_ = 0, display_fbo_ = 0;  // the shader's output, RGBA8, the image's size
+  bool display_valid_ = false;
+  PresentSettings display_settings_;
+  int width_ = 0, height_ = 0;
+  bool preview_ = false;
+  float max_count_ = 0;
+  int loc_mode_ = -1, loc_exposure_ = -1, loc_tone_map_ = -1, loc_error_range_ = -1, loc_count_max_ = -1;
+};
+
+}  // namespace pt

@@ -1,0 +1,71 @@
+#include "viewer/view_command.h"
+
+#include <CLI/CLI.hpp>
+
+#include "cli/scene_arg.h"
+#include "viewer/viewer_window.h"
+
+namespace pt {
+
+void add_view_command(CLI::App& app, ViewOptions& o) {
+  CLI::App* v = app.add_subcommand("view", "Interactive viewer: progressive rendering in a window with live controls");
+  v->add_option("scene", o.scene, "Scene: a built-in name (cornell, cornell-spheres, shadertoy) or a .json file path")
+      ->capture_default_str();
+  v->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  v->add_option("--spp", o.spp, "Stop accumulating at N samples per pixel")->check(CLI::Range(1LL, 1LL << 31));
+  v->add_option("--time", o.time_seconds, "Stop accumulating after this many seconds")->check(CLI::PositiveNumber);
+  v->add_option("--target-relmse", o.target_relmse, "Stop when the film's estimated relMSE falls to E (from 16 spp on)")
+      ->check(CLI::PositiveNumber);
+  v->add_option("--exposure", o.exposure, "Display exposure in EV stops")->capture_default_str();
+  v->add_option("--tonemap", o.tonemap, "Display tone map: clamp | reinhard | aces")
+      ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
+      ->capture_default_str();
+  v->add_option("--mode", o.mode, "View: colour | error (relative standard error heat map) | samples")
+      ->check(CLI::IsMember({"colour", "error", "samples"}))
+      ->capture_default_str();
+  v->add_option("--output-dir", o.output_dir, "Folder for saved images (S key)")->capture_default_str();
+  v->add_option("--preview-divisor", o.preview_divisor,
+                "Resolution divisor of the first pass after each change; 0 = automatic, 1 = off")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
+  v->add_option("--seconds", o.seconds, "Quit after S seconds (0 = when the window is closed)")
+      ->check(CLI::NonNegativeNumber);
+  v->add_option("--frames", o.frames, "Quit after N UI frames, drawn continuously (0 = when the window is closed)")
+      ->check(CLI::Range(0LL, 1LL << 40))
+      ->capture_default_str();
+  v->add_option("--screenshot", o.screenshot,
+                "Write the window's last frame (panels included) to this PNG when quitting; with --frames, no "
+                "earlier than the first full-resolution image");
+  v->add_flag("--stats", o.stats, "At exit, print UI frame times and edit-to-image latencies (median, p95, max)");
+  v->add_option("--bench-edits", o.bench_edits,
+                "Every S seconds make an edit (orbit the camera / change the first material's albedo) to time "
+                "edit-to-image latency")
+      ->check(CLI::NonNegativeNumber);
+  v->add_option("--max-fps", o.max_fps, "UI frame cap when the display does not sync; 0 = none")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  v->add_flag("--hide-ui", o.hide_ui, "Start with the panels hidden (Tab shows them)");
+  v->add_flag("--continuous", o.continuous,
+              "Redraw every frame (up to --max-fps) even when nothing changed; default: redraw on input, new "
+              "images and 10 times a second while rendering");
+  v->footer(
+      "Mouse: left drag orbit, middle or shift+left drag pan, wheel dolly, right drag look; right held + WASD/QE\n"
+      "fly. Keys: R reset, P pause, S save PNG+PFM, Tab panels, F1 help, Esc quit. See docs/viewer.md.\n"
+      "Exit status: 0 ok, 1 cannot write the screenshot, 2 invalid scene or options, or no display.");
+}
+
+int run_view(const ViewOptions& o) {
+  const std::optional<SceneDesc> desc = load_scene_arg(o.scene);
+  if (!desc) return 2;
+  SessionSettings settings;
+  settings.threads = o.threads;
+  settings.preview_divisor = o.preview_divisor;
+  if (o.spp) settings.stop.spp = static_cast<uint64_t>(*o.spp);
+  if (o.time_seconds) settings.stop.seconds = *o.time_seconds;
+  if (o.target_relmse) settings.stop.relmse = *o.target_relmse;
+  return run_viewer_window(o, *desc, settings);
+}
+
+}  // namespace pt

@@ -1,0 +1,243 @@
+#include "viewer/viewer_model.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "io/image_io.h"
+#include "viewer/output_files.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+
+namespace pt {
+
+namespace {
+
+constexpr double kHalfTurn = glm::pi<double>();  // radians
+
+}  // namespace
+
+ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, const SessionSettings& settings)
+    : settings_(settings) {
+  adopt(scene, scene_name);
+  session_ = std::make_unique<RenderSession>(scene_, settings_);
+  last_edit_generation_ = session_->stats().generation;
+  last_edit_time_ = std::chrono::steady_clock::now();
+  latency_pending_ = true;  // the first image counts as the answer to "open the scene"
+}
+
+void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
+  scene_ = loaded_ = scene;
+  scene_name_ = name;
+  emission_.assign(scene.materials.size(), {});
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Rgb e = scene.materials[i].emission;
+    const float s = max_component(e);
+    emission_[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
+  }
+  camera_.reset(scene.camera, scene_bounds(scene).radius, static_cast<double>(scene.width) / scene.height);
+}
+
+void ViewerModel::set_status(std::string text, bool error) {
+  status_ = std::move(text);
+  status_error_ = error;
+}
+
+bool ViewerModel::commit(SceneDesc next) {
+  if (std::string err = validate_scene(next); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  scene_ = std::move(next);
+  last_edit_generation_ = session_->set_scene(scene_);
+  last_edit_time_ = std::chrono::steady_clock::now();
+  latency_pending_ = true;
+  if (status_error_) set_status("", false);
+  return true;
+}
+
+bool ViewerModel::set_material(size_t index, const MaterialDesc& material) {
+  if (index >= scene_.materials.size()) return false;
+  SceneDesc next = scene_;
+  next.materials[index] = material;
+  if (!commit(std::move(next))) return false;
+  const float s = max_component(material.emission);
+  if (s > 0.f) emission_[index] = {material.emission / s, s};
+  else emission_[index].strength = 0.f;
+  return true;
+}
+
+bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {
+  if (index >= scene_.materials.size()) return false;
+  SceneDesc next = scene_;
+  next.materials[index].emission = colour * strength;
+  if (!commit(std::move(next))) return false;
+  emission_[index] = {colour, strength};
+  return true;
+}
+
+bool ViewerModel::set_render(const RenderSettings& render) {
+  SceneDesc next = scene_;
+  next.render = render;
+  return commit(std::move(next));
+}
+
+bool ViewerModel::set_environment(const EnvironmentDesc& environment) {
+  SceneDesc next = scene_;
+  next.environment = environment;
+  EnvironmentDesc& e = next.environment;
+  if (e.type == EnvironmentType::Map && (!e.image || e.file != scene_.environment.file)) {
+    if (e.file.empty()) {
+      set_status("environment map: enter a file name (.exr, .hdr or .pfm)", true);
+      return false;
+    }
+    e.resolved_file = e.file;
+    HdrImageResult read = read_hdr_image(e.file);
+    if (!read.ok()) {
+      set_status("environment map: " + read.error, true);
+      return false;
+    }
+    e.image = std::make_shared<Image>(std::move(read.image));
+  }
+  return commit(std::move(next));
+}
+
+void ViewerModel::camera_changed() {
+  SceneDesc next = scene_;
+  next.camera = camera_.camera();
+  commit(std::move(next));
+}
+
+void ViewerModel::apply_input(const ViewInput& in, double seconds) {
+  const double per_height = 1.0 / std::max(in.viewport_height, 1.f);
+  const double dx = in.drag.x * per_height, dy = in.drag.y * per_height;
+  const bool dragged = in.drag.x != 0.f || in.drag.y != 0.f;
+  bool moved = false;
+  if (in.look) {
+    if (dragged) {
+      camera_.look(-dx * 0.5 * kHalfTurn, -dy * 0.5 * kHalfTurn);  // a viewport height of travel turns the view 90°
+      moved = true;
+    }
+    if (in.fly != DVec3(0.0) && seconds > 0.0) {
+      camera_.fly(in.fly, seconds, in.fast ? 4.0 : 1.0);
+      moved = true;
+    }
+  } else if (in.pan && dragged) {
+    camera_.pan(dx, dy);
+    moved = true;
+  } else if (in.orbit && dragged) {
+    camera_.orbit(-dx * kHalfTurn, dy * kHalfTurn);  // "grab" the scene: it turns with the pointer
+    moved = true;
+  }
+  if (in.wheel != 0.f) {
+    camera_.dolly(in.wheel);
+    moved = true;
+  }
+  if (moved) camera_changed();
+}
+
+void ViewerModel::set_fov(double fov_deg) {
+  camera_.set_fov(fov_deg);
+  camera_changed();
+}
+
+void ViewerModel::set_camera_position(DVec3 position) {
+  camera_.set_position(position);
+  camera_changed();
+}
+
+void ViewerModel::set_camera_target(DVec3 target) {
+  camera_.set_target(target);
+  camera_changed();
+}
+
+void ViewerModel::reset_camera() {
+  camera_.reset(loaded_.camera, scene_bounds(scene_).radius, static_cast<double>(scene_.width) / scene_.height);
+  camera_changed();
+}
+
+void ViewerModel::set_session_settings(const SessionSettings& settings) {
+  settings_ = settings;
+  session_->set_settings(settings_);
+}
+
+void ViewerModel::restart() {
+  last_edit_generation_ = session_->restart();
+  last_edit_time_ = std::chrono::steady_clock::now();
+  latency_pending_ = true;
+}
+
+void ViewerModel::set_paused(bool paused) {
+  paused_ = paused;
+  session_->set_paused(paused);
+}
+
+bool ViewerModel::load(const std::string& spec) {
+  SceneDesc loaded;
+  try {
+    loaded = load_scene(spec);
+  } catch (const std::exception& e) {  // SceneError, and anything else a broken file might raise
+    set_status(e.what(), true);
+    return false;
+  }
+  adopt(loaded, scene_short_name(spec));
+  commit(loaded);
+  set_status("loaded " + spec, false);
+  return true;
+}
+
+bool ViewerModel::save_scene(const std::string& path) {
+  try {
+    const std::string json = scene_to_json(scene_);
+    const std::string tmp = path + ".tmp";
+    {
+      std::ofstream out(tmp, std::ios::binary);
+      out << json;
+      if (!out.flush()) throw std::runtime_error(path + ": cannot write");
+    }
+    std::filesystem::rename(tmp, path);
+  } catch (const std::exception& e) {
+    set_status(std::string("scene not saved: ") + e.what(), true);
+    return false;
+  }
+  set_status("saved scene " + path, false);
+  return true;
+}
+
+std::optional<std::string> ViewerModel::save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame) {
+  if (frame.width <= 0 || frame.height <= 0) {
+    set_status("no image to save yet", true);
+    return std::nullopt;
+  }
+  const std::string stem = unique_output_stem(output_dir, scene_name_, {".png", ".pfm"});
+  try {
+    write_png_rgba8(stem + ".png", frame.width, frame.height, rgba8);
+    Image img{frame.width, frame.height, std::vector<float>(3ull * frame.width * frame.height)};
+    for (size_t i = 0, n = static_cast<size_t>(frame.width) * frame.height; i < n; ++i)
+      for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] = frame.rgba[4 * i + c];
+    write_pfm(stem + ".pfm", img);
+  } catch (const std::exception& e) {
+    set_status(std::string("image not saved: ") + e.what(), true);
+    return std::nullopt;
+  }
+  set_status("saved " + stem + ".png and .pfm (" + std::to_string(frame.spp) + " spp)", false);
+  return stem;
+}
+
+void ViewerModel::shortcut(Shortcut s) {
+  switch (s) {
+    case Shortcut::Reset: restart(); break;
+    case Shortcut::Pause: set_paused(!paused_); break;
+    case Shortcut::Save: save_requested = true; break;
+    case Shortcut::Help: help_open = !help_open; break;
+    case Shortcut::Quit: quit_requested = true; break;
+    case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
+  }
+}
+
+std::optional<double> ViewerModel::note_frame_shown(uint64_t generation, std::chrono::steady_clock::time_point when) {
+  if (!latency_pending_ || generation < last_edit_generation_) return std::nullopt;
+  latency_pending_ = false;
+  return std::chrono::duration<double, std::milli>(when - last_edit_time_).count();
+}
+
+}  // namespace pt

@@ -1,0 +1,115 @@
+// The viewer's state and actions, free of GL, GLFW and ImGui so tests drive them exactly as the UI does.
+//
+// The model owns the editable scene (SceneDesc: what `save scene` writes), the camera controller, the display
+// settings and the RenderSession. Every edit goes through an action here: it updates the scene model, validates
+// it, and hands a snapshot to the session, which restarts accumulation at its next pass boundary. The UI never
+// touches render buffers.
+#pragma once
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene/camera_controller.h"
+#include "viewer/display_transform.h"
+#include "render/render_session.h"
+
+namespace pt {
+
+// One UI frame of pointer and key input over the image, already filtered by the UI's capture rules (input that
+// ImGui wants never gets here). Mouse units are window pixels.
+struct ViewInput {
+  Vec2 drag{0.f};             // pointer movement this frame
+  bool orbit = false;         // left button held
+  bool pan = false;           // middle button, or shift + left
+  bool look = false;          // right button held: mouse look, and WASD/QE fly
+  float wheel = 0.f;          // scroll steps, > 0 towards the target
+  DVec3 fly{0.0};             // x: D − A, y: E − Q, z: W − S (used while `look`)
+  bool fast = false;          // shift while flying: 4× speed
+  float viewport_height = 1;  // height of the image on screen (drag scaling: one height = half a turn)
+};
+
+enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi };
+
+class ViewerModel {
+ public:
+  ViewerModel(const SceneDesc& scene, const std::string& scene_name, const SessionSettings& settings = {});
+
+  RenderSession& session() { return *session_; }
+  const SceneDesc& scene() const { return scene_; }
+  const std::string& scene_name() const { return scene_name_; }
+
+  // --- Scene edits: validate, update the model, restart accumulation. False (and an error status) if invalid.
+  bool set_material(size_t index, const MaterialDesc& material);
+  // Emission as a colour (max component 1) times a strength; remembered separately so strength 0 keeps the colour.
+  bool set_emission(size_t index, Rgb colour, float strength);
+  Rgb emission_colour(size_t index) const { return emission_[index].colour; }
+  float emission_strength(size_t index) const { return emission_[index].strength; }
+  bool set_render(const RenderSettings& render);
+  // The environment; a map whose file changed is read here (errors go to status(), the old map stays).
+  bool set_environment(const EnvironmentDesc& environment);
+
+  // --- Camera.
+  const CameraController& camera() const { return camera_; }
+  void apply_input(const ViewInput& input, double seconds);
+  void set_fov(double fov_deg);
+  void set_camera_position(DVec3 position);
+  void set_camera_target(DVec3 target);
+  void reset_camera();  // back to the loaded scene's camera
+
+  // --- Session control (threads and stop conditions do not restart accumulation).
+  const SessionSettings& session_settings() const { return settings_; }
+  void set_session_settings(const SessionSettings& settings);
+  void restart();
+  void set_paused(bool paused);
+  bool paused() const { return paused_; }
+
+  // --- Files. Errors land in status(), never in an exception.
+  bool load(const std::string& spec);  // a built-in name or a .json path
+  bool save_scene(const std::string& path);
+  // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and
+  // NAME-NNNN.pfm (the frame's linear mean). Returns the stem written, or nullopt on error.
+  std::optional<std::string> save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame);
+  std::string output_dir = ".";
+
+  // --- Display and UI flags.
+  PresentSettings present;
+  bool help_open = false, ui_visible = true, quit_requested = false;
+  bool save_requested = false;  // the window saves (it alone can read the displayed pixels back)
+  void shortcut(Shortcut s);
+
+  const std::string& status() const { return status_; }
+  bool status_is_error() const { return status_error_; }
+
+  // Edit-to-image latency: the window reports each frame it shows; returns the milliseconds since the edit the
+  // first time a frame of the edit's generation (or later) is shown.
+  std::optional<double> note_frame_shown(uint64_t generation, std::chrono::steady_clock::time_point when);
+  uint64_t last_edit_generation() const { return last_edit_generation_; }
+
+ private:
+  struct Emission {
+    Rgb colour{1.f};
+    float strength = 0.f;
+  };
+  void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
+  bool commit(SceneDesc next);                                    // validate, keep, send to the session
+  void camera_changed();
+  void set_status(std::string text, bool error);
+
+  SceneDesc scene_, loaded_;  // the edited scene, and the scene as loaded (for "reset camera")
+  std::string scene_name_;
+  std::vector<Emission> emission_;
+  CameraController camera_;
+  SessionSettings settings_;
+  bool paused_ = false;
+  std::unique_ptr<RenderSession> session_;
+  std::string status_;
+  bool status_error_ = false;
+  uint64_t last_edit_generation_ = 0;
+  std::chrono::steady_clock::time_point last_edit_time_;
+  bool latency_pending_ = false;
+};
+
+}  // namespace pt

@@ -1,0 +1,41 @@
+// The viewer's Dear ImGui panels: Render, Display, Camera, Materials, Scene, Output, Help. Pure ImGui calls on
+// the ViewerModel (no GL, no GLFW), so the GL tests render them offscreen exactly as the window does.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "render/render_session.h"
+
+namespace pt {
+
+class ViewerModel;
+
+// What the window shows right now, for the panels' read-outs.
+struct ShownImage {
+  int width = 0, height = 0;
+  bool preview = false;
+  uint64_t spp = 0;
+  float max_count = 0;
+  double frame_ms = 0.0;       // UI frame time (smoothed)
+  double edit_latency_ms = -1;  // last edit → first updated image; < 0 unknown
+};
+
+// UI-only state: text buffers and scratch vectors reused from frame to frame.
+struct PanelState {
+  char scene_path[512] = "";
+  char save_scene_path[512] = "scene.json";
+  char output_dir[512] = ".";
+  int builtin = 0;
+  bool expand_all = false;  // open every section and material (tests render all of the UI this way)
+  std::vector<RelMsePoint> history;
+  std::vector<std::string> builtin_names;
+};
+
+inline constexpr float kPanelWidth = 380.f;  // in ImGui (window) units
+
+// Draws the side panel at the right edge of the display. Call between ImGui::NewFrame() and ImGui::Render().
+// Returns the width it covers (0 when model.ui_visible is false).
+float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown);
+
+}  // namespace pt

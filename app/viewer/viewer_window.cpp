@@ -1,0 +1,373 @@
+#include "viewer/viewer_window.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "viewer/frame_stats.h"
+#include "viewer/gl_api.h"
+#include "viewer/gl_presenter.h"
+#include "io/image_io.h"
+#include "viewer/output_files.h"
+#include "viewer/viewer_model.h"
+#include "viewer/viewer_panels.h"
+
+namespace pt {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+std::string g_glfw_error;  // GLFW reports failures through a callback; kept for the error message
+// Bumped by every input event (our callbacks are chained by ImGui's): an idle viewer sleeps until it changes.
+std::atomic<unsigned> g_input_events{0};
+
+// Ctrl-C / SIGTERM close the window normally, so --stats still prints and the session stops cleanly.
+volatile std::sig_atomic_t g_interrupted = 0;
+void on_signal(int) { g_interrupted = 1; }
+
+void on_glfw_error(int, const char* description) { g_glfw_error = description ? description : "unknown error"; }
+void on_cursor(GLFWwindow*, double, double) { ++g_input_events; }
+void on_button(GLFWwindow*, int, int, int) { ++g_input_events; }
+void on_scroll(GLFWwindow*, double, double) { ++g_input_events; }
+void on_key(GLFWwindow*, int, int, int, int) { ++g_input_events; }
+void on_char(GLFWwindow*, unsigned) { ++g_input_events; }
+void on_size(GLFWwindow*, int, int) { ++g_input_events; }
+
+struct Rect {
+  int x = 0, y = 0, w = 0, h = 0;  // GL convention: y from the bottom
+};
+
+// The image's place in the area left of the panel: aspect kept, centred, integer magnification when it fits
+// (nearest-texel display stays crisp), scaled down otherwise.
+Rect fit_image(int image_w, int image_h, int area_w, int area_h) {
+  if (image_w <= 0 || image_h <= 0 || area_w <= 0 || area_h <= 0) return {};
+  double s = std::min(static_cast<double>(area_w) / image_w, static_cast<double>(area_h) / image_h);
+  if (s >= 1.0) s = std::floor(s);
+  Rect r;
+  r.w = std::max(1, static_cast<int>(image_w * s));
+  r.h = std::max(1, static_cast<int>(image_h * s));
+  r.x = (area_w - r.w) / 2;
+  r.y = (area_h - r.h) / 2;
+  return r;
+}
+
+// Pointer and keys → camera input and shortcuts, honouring what ImGui claims (a drag that starts on the image
+// keeps going over the panel: ImGui does not claim it). The fly keys WASD/QE act only while the right button
+// is held, so S alone stays "save".
+void handle_input(const ImGuiIO& io, ViewerModel& model, double seconds, float image_height) {
+  ViewInput in;
+  in.viewport_height = image_height;
+  const bool right = io.MouseDown[1];
+  if (!io.WantCaptureMouse) {
+    const bool left = io.MouseDown[0], middle = io.MouseDown[2];
+    in.drag = Vec2(io.MouseDelta.x, io.MouseDelta.y);
+    in.look = right;
+    in.pan = middle || (left && io.KeyShift);
+    in.orbit = left && !io.KeyShift;
+    in.wheel = io.MouseWheel;
+  }
+  if (!io.WantCaptureKeyboard) {
+    if (in.look) {
+      auto key = [&](int k) { return io.KeysDown[k] ? 1.0 : 0.0; };
+      in.fly = DVec3(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_E) - key(GLFW_KEY_Q),
+                     key(GLFW_KEY_W) - key(GLFW_KEY_S));
+      in.fast = io.KeyShift;
+    } else if (!right) {
+      if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) model.shortcut(Shortcut::Reset);
+      if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) model.shortcut(Shortcut::Pause);
+      if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
+      if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) model.shortcut(Shortcut::Quit);
+  }
+  if (ImGui::IsKeyPressed(GLFW_KEY_F1, false)) model.shortcut(Shortcut::Help);
+  model.apply_input(in, seconds);
+}
+
+// --bench-edits: the two kinds of edit a user makes most, alternately, to time edit → image.
+void scripted_edit(ViewerModel& model, int index, float image_height) {
+  if (index % 2 == 0) {
+    ViewInput in;
+    in.orbit = true;
+    in.drag = Vec2(index % 4 == 0 ? 6.f : -6.f, 0.f);
+    in.viewport_height = image_height;
+    model.apply_input(in, 0.0);
+  } else {
+    MaterialDesc m = model.scene().materials[0];
+    m.albedo = index % 4 == 1 ? m.albedo * 0.9f : m.albedo / 0.9f;
+    model.set_material(0, m);
+  }
+}
+
+bool write_screenshot(const std::string& path, int w, int h) {
+  std::vector<uint8_t> px(4ull * w * h);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadBuffer(GL_BACK);
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, px.data());
+  const size_t row = 4ull * w;
+  std::vector<uint8_t> flipped(px.size());
+  for (int y = 0; y < h; ++y) std::copy_n(&px[row * (h - 1 - y)], row, &flipped[row * y]);
+  try {
+    write_png_rgba8(path, w, h, flipped);
+  } catch (const ImageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return false;
+  }
+  std::printf("wrote %s (%dx%d)\n", path.c_str(), w, h);
+  return true;
+}
+
+// What --stats reports, in milliseconds.
+struct FrameTimes {
+  SampleSeries interval, work, upload, ui, swap, latency;
+  void reserve(size_t n) {
+    interval.reserve(n);
+    work.reserve(n);
+    ui.reserve(n);
+    swap.reserve(n);
+  }
+  void print() const {
+    std::printf("frame interval ms (between consecutive drawn frames): %s\n", interval.summary().c_str());
+    std::printf("frame work ms (poll, upload, UI, draw, swap): %s\n", work.summary().c_str());
+    std::printf("  of which image upload ms: %s\n", upload.summary().c_str());
+    std::printf("  of which ImGui frame ms: %s\n", ui.summary().c_str());
+    std::printf("  of which swap ms (the GL finishes drawing here; includes any vsync wait): %s\n",
+                swap.summary().c_str());
+    std::printf("edit to first updated image ms: %s\n", latency.summary().c_str());
+  }
+};
+
+// Keys and buttons whose holding keeps the view changing without new events (GLFW repeats keys only after a delay).
+bool input_held(const ImGuiIO& io) {
+  for (bool down : io.MouseDown)
+    if (down) return true;
+  for (int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E})
+    if (io.KeysDown[k]) return true;
+  return false;
+}
+
+int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o) {
+  GlPresenter presenter;  // throws GlError
+  ImGuiIO& io = ImGui::GetIO();
+  DisplayFrame front;
+  PanelState panels;
+  ShownImage shown;
+  FrameTimes times;
+  times.reserve(o.frames > 0 ? static_cast<size_t>(o.frames) : 4096);
+  std::vector<uint8_t> save_pixels;
+
+  const Clock::time_point t0 = Clock::now();
+  Clock::time_point last_draw = t0;
+  bool drew_last_iteration = false, held = false;
+  unsigned seen_events = g_input_events.load();
+  int active_frames = 3;  // ImGui settles hover/focus state over a few frames after any input
+  long long frame = 0;
+  int bench_index = 0;
+  double smoothed_ms = 0.0, image_height = 1.0;
+  int rc = 0;
+
+  for (;;) {
+    const Clock::time_point start = Clock::now();
+    glfwPollEvents();
+    // Quitting draws one last frame when a screenshot is wanted (the back buffer is undefined after a swap).
+    const bool quitting = glfwWindowShouldClose(window) || model.quit_requested || g_interrupted ||
+                          (o.seconds > 0.0 && ms_between(t0, start) >= o.seconds * 1e3);
+    if (quitting && o.screenshot.empty()) break;
+    const unsigned events = g_input_events.load();
+    if (events != seen_events) active_frames = 3;
+    seen_events = events;
+    if (o.bench_edits > 0.0 && ms_between(t0, start) * 1e-3 >= o.bench_edits * (bench_index + 1))
+      scripted_edit(model, bench_index++, static_cast<float>(image_height));
+
+    const Clock::time_point upload_start = Clock::now();
+    const bool new_image = model.session().take_frame(front);  // never waits for a pass
+    if (new_image) {
+      presenter.upload(front);
+      times.upload.add(ms_between(upload_start, Clock::now()));
+      shown.width = front.width;
+      shown.height = front.height;
+      shown.preview = front.preview;
+      shown.spp = front.spp;
+      shown.max_count = front.max_count;
+    }
+
+    // Redraw on demand: a new image, input (or a held key/button), a pending save, or, while rendering, the
+    // stats read-outs 10 times a second. Under a software GL (llvmpipe, Xvfb, remote X) every redraw costs CPU
+    // the render threads would otherwise use; on a GPU it saves power. --continuous redraws every frame.
+    const SessionStats st = model.session().stats();
+    const bool rendering = !st.paused && !st.done && st.error.empty();
+    const bool draw = quitting || o.continuous || o.frames > 0 || frame == 0 || new_image || held || active_frames > 0 || model.save_requested ||
+                      (rendering && ms_between(last_draw, start) >= 100.0);
+    if (draw) {
+      if (drew_last_iteration) times.interval.add(ms_between(last_draw, start));
+      // Camera motion uses the time since the last drawn frame, bounded so the first frame after a pause in
+      // drawing does not jump.
+      const double dt = std::min(ms_between(last_draw, start) * 1e-3, 0.05);
+      last_draw = start;
+      if (active_frames > 0) --active_frames;
+
+      const Clock::time_point ui_start = Clock::now();
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      int fb_w = 0, fb_h = 0;
+      glfwGetFramebufferSize(window, &fb_w, &fb_h);
+      const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(fb_w) / io.DisplaySize.x : 1.f;
+      const float panel = model.ui_visible ? std::min(kPanelWidth, io.DisplaySize.x) : 0.f;
+      const Rect r = fit_image(model.scene().width, model.scene().height, fb_w - static_cast<int>(panel * scale), fb_h);
+      image_height = static_cast<double>(r.h) / scale;
+      handle_input(io, model, dt, static_cast<float>(image_height));
+      held = input_held(io);
+
+      shown.frame_ms = smoothed_ms;
+      draw_viewer_panels(model, panels, shown);
+      ImGui::Render();
+      times.ui.add(ms_between(ui_start, Clock::now()));
+
+      glViewport(0, 0, fb_w, fb_h);
+      glClearColor(0.08f, 0.08f, 0.09f, 1.f);
+      glClear(GL_COLOR_BUFFER_BIT);
+      presenter.draw(r.x, r.y, r.w, r.h, model.present);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+      if (model.save_requested) {
+        model.save_requested = false;
+        presenter.read_image(model.present, save_pixels);
+        if (auto stem = model.save_image(save_pixels, front))
+          std::printf("wrote %s.png and %s.pfm\n", stem->c_str(), stem->c_str());
+      }
+
+      ++frame;
+      // With --screenshot, the last frame is no earlier than the first full-resolution image (or 30 s later).
+      const bool image_ready = shown.width > 0 && !shown.preview;
+      const bool last = quitting || (o.frames > 0 && frame >= o.frames &&
+                                     (o.screenshot.empty() || image_ready || ms_between(t0, start) > 30e3));
+      if (last && !o.screenshot.empty() && !write_screenshot(o.screenshot, fb_w, fb_h)) rc = 1;
+      const Clock::time_point swap_start = Clock::now();
+      glfwSwapBuffers(window);
+      const Clock::time_point end = Clock::now();
+      times.swap.add(ms_between(swap_start, end));
+      const double frame_ms = ms_between(start, end);
+      times.work.add(frame_ms);
+      smoothed_ms = smoothed_ms == 0.0 ? frame_ms : 0.9 * smoothed_ms + 0.1 * frame_ms;
+      if (new_image) {
+        if (auto latency = model.note_frame_shown(front.generation, end)) {
+          times.latency.add(*latency);
+          shown.edit_latency_ms = *latency;
+        }
+      }
+      if (last) break;
+    }
+    drew_last_iteration = draw;
+
+    // Pacing: poll at most max_fps times a second (new images arrive without a window event); with nothing to
+    // wait for (paused, done, broken scene, no input), sleep until input, checking 4 times a second.
+    const bool sleepy = !rendering && !draw && !held && o.bench_edits <= 0.0;
+    const double budget_ms = sleepy ? 250.0 : (o.max_fps > 0.0 ? 1e3 / o.max_fps : 0.0);
+    const double remaining_ms = budget_ms - ms_between(start, Clock::now());
+    if (remaining_ms > 0.0) glfwWaitEventsTimeout(remaining_ms * 1e-3);
+  }
+
+  if (o.stats) {
+    std::printf("frames drawn: %lld in %.2f s%s\n", frame, ms_between(t0, Clock::now()) * 1e-3,
+                o.continuous || o.frames > 0 ? " (continuous)" : " (on demand)");
+    times.print();
+    const SessionStats st = model.session().stats();
+    std::printf("render: %llu spp, %.2f Msamples/s, %.2f Mrays/s, %d threads\n", static_cast<unsigned long long>(st.spp),
+                st.samples_per_second * 1e-6, st.rays_per_second * 1e-6, st.threads);
+  }
+  return rc;
+}
+
+}  // namespace
+
+int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const SessionSettings& settings) {
+  glfwSetErrorCallback(on_glfw_error);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  if (!glfwInit()) {
+    std::fprintf(stderr,
+                 "error: `view` needs a display and none is available (%s).\n"
+                 "       Render without a window instead: pathtracer render --scene %s\n",
+                 g_glfw_error.c_str(), o.scene.c_str());
+    return 2;
+  }
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  int width = scene.width + static_cast<int>(kPanelWidth), height = std::max(scene.height, 640);
+  if (GLFWmonitor* monitor = glfwGetPrimaryMonitor()) {
+    int mx = 0, my = 0, mw = 0, mh = 0;
+    glfwGetMonitorWorkarea(monitor, &mx, &my, &mw, &mh);
+    if (mw > 0 && mh > 0) {
+      width = std::min(width, mw * 9 / 10);
+      height = std::min(height, mh * 9 / 10);
+    }
+  }
+  const std::string title = "pathtracer: " + o.scene;
+  GLFWwindow* window = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
+  if (!window) {
+    std::fprintf(stderr, "error: cannot open a window with an OpenGL 3.3 core context (%s)\n", g_glfw_error.c_str());
+    glfwTerminate();
+    return 2;
+  }
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(1);
+  // Installed before ImGui's, which chain to them.
+  glfwSetCursorPosCallback(window, on_cursor);
+  glfwSetMouseButtonCallback(window, on_button);
+  glfwSetScrollCallback(window, on_scroll);
+  glfwSetKeyCallback(window, on_key);
+  glfwSetCharCallback(window, on_char);
+  glfwSetFramebufferSizeCallback(window, on_size);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini dropped into the user's directory
+  ImGui::StyleColorsDark();
+  int rc = 2;
+  const bool glfw_backend = ImGui_ImplGlfw_InitForOpenGL(window, true);
+  const bool gl_backend = glfw_backend && ImGui_ImplOpenGL3_Init("#version 330 core");
+  if (!gl_backend) {
+    std::fprintf(stderr, "error: cannot initialise the ImGui GLFW/OpenGL3 backends\n");
+  } else {
+    try {
+      ViewerModel model(scene, scene_short_name(o.scene), settings);
+      model.present.display.exposure_ev = o.exposure;
+      model.present.display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
+                                       : o.tonemap == "aces"   ? ToneMap::AcesFitted
+                                                               : ToneMap::Clamp;
+      model.present.mode = o.mode == "error" ? ViewMode::RelativeError
+                           : o.mode == "samples" ? ViewMode::SampleCount
+                                                 : ViewMode::Colour;
+      model.output_dir = o.output_dir;
+      model.ui_visible = !o.hide_ui;
+      rc = run_loop(window, model, o);
+    } catch (const GlError& e) {
+      std::fprintf(stderr, "error: %s\n", e.what());
+      rc = 2;
+    }
+    ImGui_ImplOpenGL3_Shutdown();
+  }
+  if (glfw_backend) ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  glfwTerminate();
+  return rc;
+}
+
+}  // namespace pt

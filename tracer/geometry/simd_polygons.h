@@ -1,0 +1,247 @@
+// Ray tests of many polygons at once: the watertight tests of geometry.h, one polygon per SIMD lane.
+//
+// Width: std::experimental::native_simd<float> (libstdc++'s Parallelism TS v2), i.e. 16 lanes with AVX-512,
+// 8 with AVX2, 4 with SSE: the build picks the widest the target CPU has (PT_NATIVE), and any other CPU still
+// gets a correct, portable build. A last, partly filled block of at most 4 or 8 polygons runs on 4- or 8-wide
+// vectors.
+//
+// Triangles and quads share the lanes: a triangle lane holds (a, b, c, a), so its edge c→d is the triangle's
+// edge c→a exactly, and its degenerate edge d→a (identically 0) is replaced by c→a under the lane's triangle
+// mask. Every lane computes exactly the float operations of the scalar tests in geometry.h, in the same order
+// (the project builds with -ffp-contract=off), so SIMD and scalar results are bit-identical and watertightness
+// carries over. Lanes whose edge function is exactly 0 are re-tested by the scalar routine, which settles them
+// in double as Woop et al. prescribe.
+//
+// Only distances leave the kernels: the winner's barycentrics are recomputed once, by the scalar test, when the
+// hit is shaded. The kernels are short dependency chains with few branches, since a single incoherent ray is
+// bound by latency, not by arithmetic.
+#pragma once
+#include <experimental/simd>
+#include <vector>
+
+#include "geometry/geometry.h"
+
+namespace pt {
+
+namespace stdx = std::experimental;
+using vfloat = stdx::native_simd<float>;
+inline constexpr int kLanes = static_cast<int>(vfloat::size());
+
+// Polygons as padded structure of arrays: coord[k][axis][i] is axis `axis` of vertex k of polygon i, and
+// triangle[i] is 1 for triangles (0 for quads). Padding lanes hold NaN, which fails every comparison and so
+// never reports a hit.
+struct PolygonLanes {
+  uint32_t count = 0;
+  std::vector<float> coord[4][3];
+  std::vector<float> triangle;
+
+  void assign(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
+    const size_t n = is_triangle.size();
+    count = static_cast<uint32_t>(n);
+    const size_t padded = (n + kLanes - 1) / kLanes * kLanes;
+    for (int k = 0; k < 4; ++k)
+      for (int a = 0; a < 3; ++a) {
+        coord[k][a].assign(padded, std::numeric_limits<float>::quiet_NaN());
+        for (size_t i = 0; i < n; ++i) coord[k][a][i] = v[k][i][a];
+      }
+    triangle.assign(padded, 0.f);
+    for (size_t i = 0; i < n; ++i) triangle[i] = is_triangle[i] ? 1.f : 0.f;
+  }
+};
+
+namespace simd_detail {
+
+// Everything a block test needs, resolved once per ray: the permuted origin, the shear, and the base pointers
+// of the permuted coordinate arrays (so the loop does no per-iteration index arithmetic on glm vectors).
+struct RayLanes {
+  float ox, oy, oz, sx, sy, sz;
+  const float *x[4], *y[4], *z[4];
+  const float* triangle;
+  RayLanes(const PolygonLanes& L, Vec3 o, const RayShear& s)
+      : ox(o[s.kx]), oy(o[s.ky]), oz(o[s.kz]), sx(s.sx), sy(s.sy), sz(s.sz), triangle(L.triangle.data()) {
+    for (int k = 0; k < 4; ++k) {
+      x[k] = L.coord[k][s.kx].data();
+      y[k] = L.coord[k][s.ky].data();
+      z[k] = L.coord[k][s.kz].data();
+    }
+  }
+};
+
+template <class V>
+struct LaneVertex {
+  V x, y, z;
+};
+
+// shear_vertex() of geometry.h, lane-wise.
+template <class V>
+[[gnu::always_inline]] inline LaneVertex<V> load_sheared(const RayLanes& R, int k, size_t i) {
+  const V px = V(R.x[k] + i, stdx::element_aligned) - R.ox;
+  const V py = V(R.y[k] + i, stdx::element_aligned) - R.oy;
+  const V pz = V(R.z[k] + i, stdx::element_aligned) - R.oz;
+  return {px - R.sx * pz, py - R.sy * pz, R.sz * pz};
+}
+
+// The edge function q.x·p.y − q.y·p.x of geometry.h (exactly antisymmetric: no FMA).
+template <class V>
+[[gnu::always_inline]] inline V edge(const LaneVertex<V>& p, const LaneVertex<V>& q) {
+  return q.x * p.y - q.y * p.x;
+}
+
+template <class V>
+struct BlockResult {
+  V t;                              // hit distance, +inf where the lane has no hit in (0, t_max)
+  typename V::mask_type zero_edge;  // lanes to settle with the scalar test
+};
+
+// Lanes i … i + |V| − 1 against the ray, with intersect_triangle()/intersect_quad()'s arithmetic.
+template <class V>
+[[gnu::always_inline]] inline BlockResult<V> test_block(const RayLanes& R, size_t i, float t_max) {
+  using M = typename V::mask_type;
+  const LaneVertex<V> A = load_sheared<V>(R, 0, i), B = load_sheared<V>(R, 1, i), C = load_sheared<V>(R, 2, i),
+                      D = load_sheared<V>(R, 3, i);
+  const V eab = edge(A, B), ebc = edge(B, C), eca = edge(C, A), ecd = edge(C, D);
+  V eda = edge(D, A);
+  const M is_triangle = V(R.triangle + i, stdx::element_aligned) > 0.f;
+  stdx::where(is_triangle, eda) = eca;
+  // Inside when no edge function is negative or none is positive (two-sided). A lane that is inside only
+  // because some edge function is exactly 0 goes to the scalar test for the double-precision settlement
+  // (a quad's diagonal c→a only locates the hit within the quad and is not checked).
+  const V lo = stdx::min(stdx::min(eab, ebc), stdx::min(ecd, eda));
+  const V hi = stdx::max(stdx::max(eab, ebc), stdx::max(ecd, eda));
+  BlockResult<V> r;
+  r.zero_edge = lo == 0.f || hi == 0.f;
+  const M inside = lo > 0.f || hi < 0.f;
+  // det = U + V + W and t = (U·a.z + V·b.z + W·c.z)/det with U = e(b→c), V = e(c→a), W = e(a→b).
+  const V det = ebc + eca + eab;
+  r.t = (ebc * A.z + eca * B.z + eab * C.z) / det;
+  // det = 0 gives ±inf or NaN, which fail the comparisons.
+  stdx::where(!(inside && r.t > 0.f && r.t < t_max), r.t) = kInfinity;
+  return r;
+}
+
+template <class V>
+[[gnu::always_inline]] inline V lane_indices() {
+  return V([](auto k) { return static_cast<float>(k); });
+}
+
+// Masks out lane `skip − i` (no-op when polygon `skip` is not in this block: the difference, as an unsigned
+// number converted to float, then equals no lane index).
+template <class V>
+[[gnu::always_inline]] inline void mask_lane(V& t, uint32_t skip, size_t i) {
+  stdx::where(lane_indices<V>() == static_cast<float>(static_cast<uint32_t>(skip - i)), t) = kInfinity;
+}
+
+using vfloat4 = stdx::simd<float, stdx::simd_abi::deduce_t<float, 4>>;
+using vfloat8 = stdx::simd<float, stdx::simd_abi::deduce_t<float, 8>>;
+
+// Calls f(i, V{}) for the last, partly filled block of polygons starting at i, with V the narrowest vector
+// type that holds it.
+template <class F>
+[[gnu::always_inline]] inline auto tail_block(size_t i, size_t rest, const F& f) {
+  if constexpr (kLanes > 4)
+    if (rest <= 4) return f(i, vfloat4{});
+  if constexpr (kLanes > 8)
+    if (rest <= 8) return f(i, vfloat8{});
+  return f(i, vfloat{});
+}
+
+// The first lane holding the minimum of t, and that minimum.
+template <class V>
+[[gnu::always_inline]] inline float block_min(const V& t, int& lane) {
+  const float m = stdx::hmin(t);
+  lane = stdx::find_first_set(t == m);
+  return m;
+}
+
+}  // namespace simd_detail
+
+// Closest hit in (0, t_max) among the polygons, never reporting polygon `skip`. On a hit, lowers t_max to its
+// distance, sets id and returns true. `scalar_test(i, t_max, hit)` re-tests polygon i with the scalar routine
+// (lanes with a zero edge function).
+template <class ScalarTest>
+inline bool closest_polygon(const PolygonLanes& L, Vec3 o, const RayShear& s, uint32_t skip, float& t_max,
+                            uint32_t& id, const ScalarTest& scalar_test) {
+  using namespace simd_detail;
+  const RayLanes R(L, o, s);
+  const float t_in = t_max;
+  // Lanes settled by the scalar test are rare: they update t_max and id directly.
+  auto settle = [&](const auto& r, size_t i, size_t width) {
+    for (size_t lane = 0; lane < width; ++lane) {
+      if (!r.zero_edge[lane] || i + lane >= L.count || i + lane == skip) continue;
+      PolygonHit h{};
+      if (scalar_test(static_cast<uint32_t>(i + lane), t_max, h) && h.t < t_max) {
+        t_max = h.t;
+        id = static_cast<uint32_t>(i + lane);
+      }
+    }
+  };
+  // Full blocks: a running per-lane minimum and the block it came from, one horizontal reduction at the end.
+  const size_t full = L.count / kLanes * kLanes;
+  if (full > 0) {
+    vfloat best(kInfinity), best_block(0.f);
+    for (size_t i = 0; i < full; i += kLanes) {
+      BlockResult<vfloat> r = test_block<vfloat>(R, i, t_in);
+      mask_lane(r.t, skip, i);
+      if (stdx::any_of(r.zero_edge)) [[unlikely]] {
+        stdx::where(r.zero_edge, r.t) = kInfinity;
+        settle(r, i, kLanes);
+      }
+      const auto closer = r.t < best;
+      stdx::where(closer, best) = r.t;
+      stdx::where(closer, best_block) = static_cast<float>(i);
+    }
+    int lane;
+    const float t = block_min(best, lane);
+    if (t < t_max) {
+      t_max = t;
+      id = static_cast<uint32_t>(best_block[lane]) + lane;
+    }
+  }
+  if (full < L.count) {
+    tail_block(full, L.count - full, [&](size_t i, auto tag) {
+      using V = decltype(tag);
+      BlockResult<V> r = test_block<V>(R, i, t_in);
+      mask_lane(r.t, skip, i);
+      if (stdx::any_of(r.zero_edge)) [[unlikely]] {
+        stdx::where(r.zero_edge, r.t) = kInfinity;
+        settle(r, i, V::size());
+      }
+      int lane;
+      const float t = block_min(r.t, lane);
+      if (t < t_max) {
+        t_max = t;
+        id = static_cast<uint32_t>(i) + lane;
+      }
+    });
+  }
+  return t_max < t_in;
+}
+
+// Any hit in (0, t_max) among the polygons, ignoring polygons skip_a and skip_b.
+template <class ScalarTest>
+inline bool any_polygon(const PolygonLanes& L, Vec3 o, const RayShear& s, uint32_t skip_a, uint32_t skip_b,
+                        float t_max, const ScalarTest& scalar_test) {
+  using namespace simd_detail;
+  const RayLanes R(L, o, s);
+  auto block = [&](size_t i, auto tag) {
+    using V = decltype(tag);
+    BlockResult<V> r = test_block<V>(R, i, t_max);
+    mask_lane(r.t, skip_a, i);
+    mask_lane(r.t, skip_b, i);
+    if (stdx::any_of(r.zero_edge)) [[unlikely]] {
+      for (size_t lane = 0; lane < V::size(); ++lane) {
+        if (!r.zero_edge[lane] || i + lane >= L.count || i + lane == skip_a || i + lane == skip_b) continue;
+        r.t[lane] = kInfinity;
+        PolygonHit h{};
+        if (scalar_test(static_cast<uint32_t>(i + lane), t_max, h)) return true;
+      }
+    }
+    return stdx::any_of(r.t < t_max);
+  };
+  const size_t full = L.count / kLanes * kLanes;
+  for (size_t i = 0; i < full; i += kLanes)
+    if (block(i, vfloat{})) return true;
+  return full < L.count && tail_block(full, L.count - full, block);
+}
+
+}  // namespace pt

@@ -1,9 +1,0 @@
-// The path-tracing kernels for the SobolSampler (see integrator_kernels.h).
-#include "integrator_kernels.h"
-
-namespace pt {
-
-template RadianceKernel<SobolSampler> select_kernel(const Scene&, Estimator, bool);
-template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, SobolSampler&, RayCount&);
-
-}  // namespace pt

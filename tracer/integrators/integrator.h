@@ -1,0 +1,26 @@
+// The estimators of docs/estimators.md: one path per call, returning the radiance estimate along a camera ray.
+#pragma once
+#include "sampling/sampler.h"
+#include "scene/scene.h"
+
+namespace pt {
+
+struct RayCount {
+  uint64_t rays = 0;  // every ray cast: camera, bounce (closest hit) and shadow (any hit)
+};
+
+// Radiance arriving at the camera along `ray`, estimated with the scene's render settings and the given
+// estimator, drawing random numbers from `sampler` (IndependentSampler or SobolSampler). Never allocates.
+template <class Sampler>
+Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count);
+
+// A radiance estimator compiled for one geometry set (KernelFeature in scene.h).
+template <class Sampler>
+using RadianceKernel = Rgb (*)(const Scene&, Estimator, const Ray&, Sampler&, RayCount&);
+
+// The kernel compiled for exactly the scene's geometry, or with `generic` the one compiled for all features
+// (same image, more work: for instruction-count comparisons). Resolve once per tile, call per sample.
+template <class Sampler>
+RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic);
+
+}  // namespace pt

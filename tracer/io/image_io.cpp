@@ -1,0 +1,321 @@
+#include "io/image_io.h"
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <half.h>
+#include <stb_image.h>
+#include <stb_image_write.h>
+
+namespace pt {
+
+namespace {
+
+void check_size(const Image& img, const std::string& path) {
+  if (img.width <= 0 || img.height <= 0 || img.rgb.size() != 3ull * img.width * img.height)
+    throw ImageError(path + ": image has inconsistent size");
+}
+
+// Write to a temporary file next to the target, then rename, so a reader never sees a half-written image.
+void commit_file(const std::string& tmp, const std::string& path) {
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw ImageError(path + ": cannot write (" + ec.message() + ")");
+  }
+}
+
+}  // namespace
+
+void write_pfm(const std::string& path, const Image& img) {
+  check_size(img, path);
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw ImageError(path + ": cannot open for writing");
+    out << "PF\n" << img.width << " " << img.height << "\n-1.0\n";
+    std::vector<float> row(3 * static_cast<size_t>(img.width));
+    for (int y = img.height - 1; y >= 0; --y) {
+      std::memcpy(row.data(), &img.rgb[3 * static_cast<size_t>(y) * img.width], row.size() * sizeof(float));
+      if constexpr (std::endian::native == std::endian::big)
+        for (float& f : row) f = std::bit_cast<float>(__builtin_bswap32(std::bit_cast<uint32_t>(f)));
+      out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
+    }
+    if (!out) throw ImageError(path + ": write failed");
+  }
+  commit_file(tmp, path);
+}
+
+Image read_pfm(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ImageError(path + ": cannot open");
+  std::string magic;
+  int w = 0, h = 0;
+  double scale = 0;
+  in >> magic >> w >> h >> scale;
+  if (!in || (magic != "PF" && magic != "Pf")) throw ImageError(path + ": not a PFM file");
+  if (w <= 0 || h <= 0 || w > 65536 || h > 65536 || scale == 0.0 || !std::isfinite(scale))
+    throw ImageError(path + ": bad PFM header");
+  in.get();  // the single whitespace byte after the scale
+  const int channels = magic == "PF" ? 3 : 1;
+  const bool file_little = scale < 0;
+  const size_t count = static_cast<size_t>(w) * h * channels;
+  // Check the data is there before allocating for it: a corrupt header must not ask for gigabytes.
+  const std::streampos data_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streampos file_end = in.tellg();
+  if (!in || data_start < 0 || static_cast<unsigned long long>(file_end - data_start) < count * sizeof(float))
+    throw ImageError(path + ": truncated PFM data");
+  in.seekg(data_start);
+  std::vector<float> data(count);
+  in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size() * sizeof(float)));
+  if (!in) throw ImageError(path + ": truncated PFM data");
+  if (file_little != (std::endian::native == std::endian::little))
+    for (float& f : data) f = std::bit_cast<float>(__builtin_bswap32(std::bit_cast<uint32_t>(f)));
+  Image img{w, h, std::vector<float>(3 * static_cast<size_t>(w) * h)};
+  for (int y = 0; y < h; ++y) {
+    const size_t src_row = static_cast<size_t>(h - 1 - y) * w;
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)
+        img.rgb[3 * (static_cast<size_t>(y) * w + x) + c] = data[(src_row + x) * channels + (channels == 3 ? c : 0)];
+  }
+  return img;
+}
+
+void write_png(const std::string& path, const Image& img, const DisplaySettings& display) {
+  check_size(img, path);
+  std::vector<uint8_t> px(img.rgb.size());
+  for (size_t i = 0; i < img.rgb.size(); i += 3) {
+    const Rgb c = tone_map(Rgb(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]), display);
+    for (int k = 0; k < 3; ++k) px[i + k] = to_srgb8(c[k]);
+  }
+  const std::string tmp = path + ".tmp";
+  if (!stbi_write_png(tmp.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
+    throw ImageError(path + ": cannot write PNG");
+  commit_file(tmp, path);
+}
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+Image read_exr(const std::string& path) {
+  Imf::InputFile file(path.c_str());
+  const Imf::Header& header = file.header();
+  const Imath::Box2i dw = header.dataWindow();
+  const long long w = static_cast<long long>(dw.max.x) - dw.min.x + 1;
+  const long long h = static_cast<long long>(dw.max.y) - dw.min.y + 1;
+  if (w <= 0 || h <= 0) throw ImageError(path + ": empty EXR data window");
+  if (w * h > kMaxHdrImagePixels)
+    throw ImageError(path + ": EXR image too large (" + std::to_string(w) + "x" + std::to_string(h) + ")");
+  const Imf::ChannelList& channels = header.channels();
+  const bool rgb = channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
+  const bool grey = !rgb && channels.findChannel("Y");
+  if (!rgb && !grey) throw ImageError(path + ": EXR file has no R, G, B (or Y) channels");
+  for (const char* name : {"R", "G", "B", "Y"}) {
+    const Imf::Channel* c = channels.findChannel(name);
+    if (c && (c->xSampling != 1 || c->ySampling != 1))
+      throw ImageError(path + ": EXR channel " + name + " is subsampled (not supported)");
+  }
+  Image img{static_cast<int>(w), static_cast<int>(h), std::vector<float>(3 * static_cast<size_t>(w * h))};
+  Imf::FrameBuffer fb;
+  const size_t xs = 3 * sizeof(float), ys = xs * static_cast<size_t>(w);
+  if (rgb) {
+    fb.insert("R", Imf::Slice::Make(Imf::FLOAT, &img.rgb[0], dw, xs, ys));
+    fb.insert("G", Imf::Slice::Make(Imf::FLOAT, &img.rgb[1], dw, xs, ys));
+    fb.insert("B", Imf::Slice::Make(Imf::FLOAT, &img.rgb[2], dw, xs, ys));
+  } else {
+    fb.insert("Y", Imf::Slice::Make(Imf::FLOAT, &img.rgb[0], dw, xs, ys));
+  }
+  file.setFrameBuffer(fb);
+  file.readPixels(dw.min.y, dw.max.y);
+  if (grey)
+    for (size_t i = 0; i < img.rgb.size(); i += 3) img.rgb[i + 1] = img.rgb[i + 2] = img.rgb[i];
+  return img;
+}
+
+// stb_image decodes Radiance files but reads past the end of a truncated file as zeros. This walks the pixel
+// data's structure (the same flat / new-style RLE decision as stb) without decoding it, so that a truncated or
+// malformed file is an error. Returns an empty string when the data is complete, else the reason.
+std::string check_radiance_data(const std::string& bytes, int w, int h) {
+  // Header: lines up to an empty line, then the resolution line.
+  size_t pos = bytes.find("\n\n");
+  if (pos == std::string::npos) return "no end of header";
+  pos = bytes.find('\n', pos + 2);
+  if (pos == std::string::npos) return "no resolution line";
+  size_t p = pos + 1;
+  const size_t n = bytes.size();
+  auto byte = [&](size_t i) { return static_cast<unsigned char>(bytes[i]); };
+  const size_t flat = 4 * static_cast<size_t>(w) * static_cast<size_t>(h);
+  if (w < 8 || w >= 32768) return n - p >= flat ? "" : "truncated pixel data";
+  for (int y = 0; y < h; ++y) {
+    if (n - p < 4) return "truncated pixel data";
+    const bool rle = byte(p) == 2 && byte(p + 1) == 2 && (byte(p + 2) & 0x80) == 0;
+    if (!rle) {
+      if (y == 0) return n - p >= flat ? "" : "truncated pixel data";  // the whole image is uncompressed
+      return "scanline " + std::to_string(y) + " is not run-length encoded";
+    }
+    if (((byte(p + 2) << 8) | byte(p + 3)) != w) return "bad scanline length";
+    p += 4;
+    for (int c = 0; c < 4; ++c)
+      for (int x = 0; x < w;) {
+        if (p >= n) return "truncated pixel data";
+        int count = byte(p++);
+        size_t payload = 1;
+        if (count > 128) {
+          count -= 128;
+        } else {
+          payload = static_cast<size_t>(count);
+        }
+        if (count == 0 || count > w - x) return "bad run-length data";
+        if (n - p < payload) return "truncated pixel data";
+        p += payload;
+        x += count;
+      }
+  }
+  return "";
+}
+
+Image read_radiance_hdr(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ImageError(path + ": cannot open");
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0 || size > 4 * kMaxHdrImagePixels + (1 << 20)) throw ImageError(path + ": HDR file too large");
+  in.seekg(0);
+  std::string bytes(static_cast<size_t>(size), '\0');
+  in.read(bytes.data(), size);
+  if (!in) throw ImageError(path + ": read error");
+  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
+  const int len = static_cast<int>(bytes.size());
+  int w = 0, h = 0, n = 0;
+  if (!stbi_is_hdr_from_memory(data, len)) throw ImageError(path + ": not a Radiance HDR file");
+  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
+    const char* why = stbi_failure_reason();
+    throw ImageError(path + ": bad Radiance HDR header (" + (why ? why : "unknown error") + ")");
+  }
+  if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxHdrImagePixels)
+    throw ImageError(path + ": HDR image too large (" + std::to_string(w) + "x" + std::to_string(h) + ")");
+  if (const std::string why = check_radiance_data(bytes, w, h); !why.empty())
+    throw ImageError(path + ": bad Radiance HDR data (" + why + ")");
+  float* px = stbi_loadf_from_memory(data, len, &w, &h, &n, 3);
+  if (!px) {
+    const char* why = stbi_failure_reason();
+    throw ImageError(path + ": cannot read Radiance HDR data (" + (why ? why : "unknown error") + ")");
+  }
+  Image img{w, h, std::vector<float>(px, px + 3 * static_cast<size_t>(w) * h)};
+  stbi_image_free(px);
+  return img;
+}
+
+}  // namespace
+
+void write_exr(const std::string& path, const Image& img, const ExrWriteOptions& options) {
+  check_size(img, path);
+  const std::string tmp = path + ".tmp";
+  try {
+    Imf::Header header(img.width, img.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    const Imf::PixelType type = options.half_float ? Imf::HALF : Imf::FLOAT;
+    const char* names[] = {"R", "G", "B", "A"};
+    const int nc = options.alpha ? 4 : 3;
+    for (int c = 0; c < nc; ++c) header.channels().insert(names[c], Imf::Channel(type));
+    // OpenEXR converts pixel types when reading but not when writing: the frame buffer must match the file.
+    const size_t n = static_cast<size_t>(img.width) * img.height;
+    std::vector<float> f32;
+    std::vector<half> f16;
+    if (options.half_float)
+      f16.resize(n * nc);
+    else
+      f32.resize(n * nc);
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < nc; ++c) {
+        const float v = c < 3 ? img.rgb[3 * i + c] : 1.f;
+        if (options.half_float)
+          f16[i * nc + c] = half(v);
+        else
+          f32[i * nc + c] = v;
+      }
+    char* base = options.half_float ? reinterpret_cast<char*>(f16.data()) : reinterpret_cast<char*>(f32.data());
+    const size_t bytes = options.half_float ? sizeof(half) : sizeof(float);
+    const size_t xs = nc * bytes, ys = xs * static_cast<size_t>(img.width);
+    Imf::FrameBuffer fb;
+    for (int c = 0; c < nc; ++c) fb.insert(names[c], Imf::Slice(type, base + c * bytes, xs, ys));
+    Imf::OutputFile file(tmp.c_str(), header);
+    file.setFrameBuffer(fb);
+    file.writePixels(img.height);
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw ImageError(path + ": cannot write EXR (" + e.what() + ")");
+  }
+  commit_file(tmp, path);
+}
+
+HdrImageResult read_hdr_image(const std::string& path) noexcept {
+  HdrImageResult result;
+  try {
+    const std::string ext = lower_extension(path);
+    {
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(path, ec)) {
+        result.error = path + ": cannot open (no such file)";
+        return result;
+      }
+    }
+    if (ext == ".exr")
+      result.image = read_exr(path);
+    else if (ext == ".hdr")
+      result.image = read_radiance_hdr(path);
+    else if (ext == ".pfm")
+      result.image = read_pfm(path);
+    else {
+      result.error = path + ": unsupported HDR image extension '" + ext + "' (expected .exr, .hdr or .pfm)";
+      return result;
+    }
+    const Image& img = result.image;
+    if (img.width <= 0 || img.height <= 0 || img.rgb.size() != 3ull * img.width * img.height)
+      throw ImageError(path + ": image has inconsistent size");
+    if (static_cast<long long>(img.width) * img.height > kMaxHdrImagePixels)
+      throw ImageError(path + ": image too large");
+    for (size_t i = 0; i < img.rgb.size(); ++i) {
+      const float v = img.rgb[i];
+      if (std::isfinite(v) && v >= 0.f) continue;
+      const size_t texel = i / 3;
+      std::ostringstream msg;
+      msg << path << ": " << (std::isfinite(v) ? "negative" : "non-finite") << " value " << v << " in channel "
+          << "RGB"[i % 3] << " of texel (x " << texel % static_cast<size_t>(img.width) << ", y "
+          << texel / static_cast<size_t>(img.width) << ", from the top)";
+      throw ImageError(msg.str());
+    }
+  } catch (const std::exception& e) {
+    result.image = Image{};
+    result.error = e.what();
+    // ImageError messages already start with the path; OpenEXR's and the standard library's do not.
+    if (result.error.rfind(path, 0) != 0) result.error = path + ": " + result.error;
+  } catch (...) {
+    result.image = Image{};
+    result.error = path + ": unknown error while reading";
+  }
+  return result;
+}
+
+}  // namespace pt

@@ -1,0 +1,97 @@
+#include "lights/environment_map.h"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace pt {
+
+EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
+    : image_(std::move(image)), scale_(scale), rotation_deg_(rotation_deg) {
+  const int W = image_.width, H = image_.height;
+  if (W <= 0 || H <= 0 || image_.rgb.size() != 3ull * W * H)
+    throw std::invalid_argument("environment map: empty or inconsistent image");
+  if (!std::isfinite(scale) || scale < 0.f)
+    throw std::invalid_argument("environment map: scale must be finite and >= 0 (got " + std::to_string(scale) + ")");
+  if (!std::isfinite(rotation_deg))
+    throw std::invalid_argument("environment map: rotation must be finite");
+  for (float v : image_.rgb)
+    if (!std::isfinite(v) || v < 0.f)
+      throw std::invalid_argument("environment map: texels must be finite and >= 0");
+
+  const double alpha = static_cast<double>(rotation_deg) * std::numbers::pi / 180.0;
+  cos_rot_ = static_cast<float>(std::cos(alpha));
+  sin_rot_ = static_cast<float>(std::sin(alpha));
+
+  // Row bounds. cos θ_j − cos θ_{j+1} = 2 sin((θ_j + θ_{j+1})/2) sin(Δθ/2): no cancellation near the poles.
+  const double dtheta = std::numbers::pi / H;
+  row_cos_.resize(static_cast<size_t>(H) + 1);
+  row_cos_width_.resize(static_cast<size_t>(H));
+  row_inv_jacobian_.resize(static_cast<size_t>(H));
+  std::vector<double> width(static_cast<size_t>(H));
+  for (int j = 0; j <= H; ++j) row_cos_[static_cast<size_t>(j)] = static_cast<float>(std::cos(j * dtheta));
+  row_cos_.front() = 1.f;
+  row_cos_.back() = -1.f;
+  for (int j = 0; j < H; ++j) {
+    const double w = 2.0 * std::sin((j + 0.5) * dtheta) * std::sin(0.5 * dtheta);
+    width[static_cast<size_t>(j)] = w;
+    row_cos_width_[static_cast<size_t>(j)] = static_cast<float>(w);
+    row_inv_jacobian_[static_cast<size_t>(j)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * H * w));
+  }
+
+  // Sampling weights: luminance × the row's exact solid-angle factor (scaled by H/2 to keep them near the
+  // luminance; the scale cancels in the normalised density). Power: Σ luminance × texel solid angle.
+  std::vector<float> weights(static_cast<size_t>(W) * H);
+  double power = 0.0;
+  for (int j = 0; j < H; ++j) {
+    double row_sum = 0.0;
+    for (int i = 0; i < W; ++i) {
+      const double lum = std::max(0.f, luminance(image_.at(i, j)));
+      row_sum += lum;
+      weights[static_cast<size_t>(j) * W + i] = static_cast<float>(lum * width[static_cast<size_t>(j)] * 0.5 * H);
+    }
+    power += row_sum * width[static_cast<size_t>(j)] * (2.0 * std::numbers::pi / W);
+  }
+  power_ = power * scale;
+  distribution_ = Distribution2D(weights, W, H);
+}
+
+void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
+  const Vec2 uv = uv_from_direction(d);
+  i = Distribution1D::cell_of(uv.x, image_.width);
+  j = Distribution1D::cell_of(uv.y, image_.height);
+}
+
+Rgb EnvironmentMap::eval(Vec3 dir) const {
+  int i, j;
+  texel_of(world_to_map(dir), i, j);
+  return scale_ * image_.at(i, j);
+}
+
+float EnvironmentMap::pdf(Vec3 dir) const {
+  int i, j;
+  texel_of(world_to_map(dir), i, j);
+  return distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)];
+}
+
+bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
+  int i = 0, j = 0;
+  const Vec2 uv = distribution_.sample_continuous(u, nullptr, &i, &j);
+  // Position within the row, remapped linearly to cos θ so the direction is uniform in the texel's solid angle.
+  const float H = static_cast<float>(image_.height);
+  const float frac = std::clamp(uv.y * H - static_cast<float>(j), 0.f, 1.f);
+  const float cos_theta = std::clamp(row_cos_[static_cast<size_t>(j)] - frac * row_cos_width_[static_cast<size_t>(j)],
+                                     -1.f, 1.f);
+  const float sin_theta = safe_sqrt((1.f - cos_theta) * (1.f + cos_theta));
+  const float phi = 2.f * kPi * uv.x;
+  dir = map_to_world(Vec3(-sin_theta * std::sin(phi), cos_theta, sin_theta * std::cos(phi)));
+  // Le and pdf through the same lookup as eval()/pdf(), so that they agree exactly (MIS needs the same density
+  // from both sides); only a direction rounded across a texel edge sees the neighbour's values.
+  pdf_out = pdf(dir);
+  if (!(pdf_out > 0.f) || !std::isfinite(pdf_out)) return false;
+  Le = eval(dir);
+  return true;
+}
+
+}  // namespace pt

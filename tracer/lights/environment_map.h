@@ -1,0 +1,86 @@
+// Latitude-longitude (equirectangular) environment light: radiance arriving from infinitely far away, looked up
+// in an RGB image, importance-sampled in proportion to luminance × solid angle.
+//
+// Convention (world: right-handed, +y up; the camera's default view is −z with +x to its right):
+//   Texel (i, j) of a W×H image (column i, row j, row 0 = top row of the file) covers
+//     u ∈ [i/W, (i+1)/W),  v ∈ [j/H, (j+1)/H).
+//   Polar angle from straight up: θ = π·v, so row 0 touches +y (zenith), the bottom row −y (nadir).
+//   Azimuth: φ = 2π·u, and the map-space direction is
+//     d(u, v) = (−sin θ · sin φ,  cos θ,  sin θ · cos φ).
+//   Cardinal columns: u = 0 (left edge) → +z (behind the default camera), u = 0.25 → −x, u = 0.5 (centre column)
+//   → −z (straight ahead), u = 0.75 → +x. Seen from inside, looking down −z with +y up, u increases to the right:
+//   the panorama appears unmirrored, exactly as a photograph of it would.
+//   Inverse: u = atan2(−d.x, d.z)/(2π) wrapped into [0, 1), v = acos(d.y)/π.
+//   Rotation: rotation_deg = α turns the whole map by the right-handed (counter-clockwise seen from above)
+//   rotation R_y(α) about +y: world = R_y(α)·map, R_y(α)(x, y, z) = (x cos α + z sin α, y, −x sin α + z cos α).
+//   E.g. α = +90° moves the centre column from −z to −x; the camera looking down −z then sees u = 0.75. In u
+//   terms, a world direction of azimuth column u_w shows the map's column u_w + α/360.
+//
+// Lookup: nearest texel (no filtering), so eval() is piecewise constant exactly like the sampling density.
+// Sampling: a texel is chosen with probability ∝ luminance(texel) × (solid angle of its row's texels), then a
+// direction uniformly within the texel's solid angle (φ uniform, cos θ uniform between the row's bounds). The
+// density per unit solid angle is therefore constant on each texel:
+//     pdf(ω) = pdf_uv / (2π · H · (cos θ_j − cos θ_{j+1}))   for ω in row j,
+// which is the usual pdf_uv / (2π² sin θ) with sin θ replaced by its exact row average H(cos θ_j − cos θ_{j+1})/π.
+// For a constant map this is exactly the uniform sphere density 1/(4π) (up to float rounding).
+// Black texels are never sampled; an all-black map samples uniformly (pdf 1/(4π)) and returns Le = 0.
+#pragma once
+#include <vector>
+
+#include "core/math.h"
+#include "io/image_io.h"
+#include "sampling/distribution.h"
+
+namespace pt {
+
+struct EnvironmentMap {
+  // Throws std::invalid_argument for an empty/inconsistent image, a negative or non-finite texel, a negative or
+  // non-finite scale, or a non-finite rotation. `scale` multiplies every radiance value (eval, sample, power).
+  EnvironmentMap(Image image, float scale = 1.f, float rotation_deg = 0.f);
+
+  // Radiance arriving from world direction `dir` (unit; the radiance travels along −dir).
+  Rgb eval(Vec3 dir) const;
+  // Importance-samples a world direction from u ∈ [0,1)². On success dir is unit, pdf > 0 is per unit solid
+  // angle and equals pdf(dir), Le equals eval(dir). False (nothing usable) only in rare float edge cases.
+  bool sample(Vec2 u, Vec3& dir, float& pdf, Rgb& Le) const;
+  // Solid-angle density with which sample() produces world direction `dir`.
+  float pdf(Vec3 dir) const;
+  // ∫ luminance(eval(ω)) dω over the sphere (radiance units × sr), scale included: exact for the nearest-texel
+  // lookup. For choosing among lights by power.
+  double power_weight() const { return power_; }
+
+  int width() const { return image_.width; }
+  int height() const { return image_.height; }
+  float scale() const { return scale_; }
+  float rotation_deg() const { return rotation_deg_; }
+  const Image& image() const { return image_; }
+
+  Vec3 world_to_map(Vec3 d) const { return {d.x * cos_rot_ - d.z * sin_rot_, d.y, d.x * sin_rot_ + d.z * cos_rot_}; }
+  Vec3 map_to_world(Vec3 d) const { return {d.x * cos_rot_ + d.z * sin_rot_, d.y, -d.x * sin_rot_ + d.z * cos_rot_}; }
+
+  // The convention above, in map space (no rotation).
+  static Vec3 direction_from_uv(Vec2 uv) {
+    const float theta = kPi * uv.y, phi = 2.f * kPi * uv.x;
+    const float s = std::sin(theta);
+    return {-s * std::sin(phi), std::cos(theta), s * std::cos(phi)};
+  }
+  static Vec2 uv_from_direction(Vec3 d) {
+    float u = std::atan2(-d.x, d.z) * kInv2Pi;
+    if (u < 0.f) u += 1.f;
+    return {u, std::acos(std::clamp(d.y, -1.f, 1.f)) * kInvPi};
+  }
+
+ private:
+  // Texel (column, row) hit by map-space direction d.
+  void texel_of(Vec3 d, int& i, int& j) const;
+
+  Image image_;
+  float scale_ = 1.f, rotation_deg_ = 0.f, cos_rot_ = 1.f, sin_rot_ = 0.f;
+  std::vector<float> row_cos_;            // cos θ_j at the row boundaries, H + 1 entries (1 … −1)
+  std::vector<float> row_cos_width_;      // cos θ_j − cos θ_{j+1} (from a cancellation-free product)
+  std::vector<float> row_inv_jacobian_;   // 1/(2π · H · (cos θ_j − cos θ_{j+1})): pdf_uv → pdf per sr
+  Distribution2D distribution_;
+  double power_ = 0.0;
+};
+
+}  // namespace pt

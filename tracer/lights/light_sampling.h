@@ -1,0 +1,249 @@
+// The light interface the integrator sees: choose a light (∝ power), sample a direction to it, evaluate the
+// density of a direction found otherwise (for MIS), and the radiance of escaping rays. After pbrt-v4's Light
+// (SampleLi / PDF_Li / Le), as plain functions over the scene's light list; the integrator never asks which kind
+// of light it holds. All densities are per unit solid angle at the receiving point and exclude the light choice
+// (the caller multiplies by Scene::light_pmf).
+//
+// Strategies per kind:
+// - Polygon: a point uniform by area (pbrt-v4 §6.5), converted to solid angle (dist²/(|cos θl|·A)).
+// - Rectangle: near the light uniform in the subtended solid angle (spherical rectangle, Ureña et al. 2013),
+//   pdf = 1/Ω; farther away by area (use_spherical_rect).
+// - Sphere: uniform in the subtended cone from outside (pbrt-v4 §6.2.4), by area from inside.
+// - Environment, constant: cosine-weighted about the receiver's normal (the ideal density for a diffuse
+//   receiver: in a white furnace every light sample returns exactly 1). Map (file or tabulated sky):
+//   ∝ luminance × sin θ over the lat-long image (lights/environment_map.h).
+// - Sun: uniform in its cone.
+#pragma once
+#include "geometry/interaction.h"
+#include "lights/spherical_rectangle.h"
+#include "sampling/sampling.h"
+
+namespace pt {
+
+struct LightSample {
+  Vec3 p;          // point on an area light (camera-relative); unused for infinite lights
+  Vec3 wi;         // unit direction receiver → light
+  float dist;      // distance receiver → light (infinite for infinite lights)
+  Rgb Le;          // emitted radiance towards the receiver (0 if it sees the back of a one-sided light)
+  float pdf;       // solid-angle density, excluding the light choice
+  uint32_t prim;   // the light's primitive (kNoPrimitive for infinite lights), excluded from the shadow test
+};
+
+// The receiving point of a light sample: position and the unit normal of the side being lit.
+struct LightReference {
+  Vec3 p;
+  Vec3 n;
+};
+
+inline int choose_light(const Scene& s, float u) {
+  const auto it = std::upper_bound(s.light_cdf.begin(), s.light_cdf.end(), u);
+  return static_cast<int>(std::min<size_t>(it - s.light_cdf.begin(), s.light_cdf.size() - 1));
+}
+
+// Emitted radiance leaving an area light's surface point with front normal n towards direction w.
+inline Rgb area_light_emission(const Light& l, Vec3 n, Vec3 w) {
+  const float c = glm::dot(n, w);
+  return (c > 0.f || (l.two_sided && c < 0.f)) ? l.emission : Rgb(0.f);
+}
+
+// Cone of a sphere seen from a point at squared distance d2 > r2 from its centre: 1 − cos θmax, computed as
+// sin²/(1 + cos) to keep its precision for small cones.
+inline float sphere_one_minus_cos_max(double r2, double d2) {
+  const double sin2 = r2 / d2;
+  return static_cast<float>(sin2 / (1.0 + std::sqrt(std::max(0.0, 1.0 - sin2))));
+}
+
+// Spheres are sampled by cone when the receiver is clearly outside; receivers on or inside the sphere sample its
+// area instead. "Clearly": the receiver's height above the surface, h = (d² − r²)/(d + r) (no cancellation),
+// exceeds the rounding error of a point at the receiver's (camera-relative) position, so points on the sphere
+// itself that rounding put a hair outside use area sampling, whatever the sphere's size (a margin relative to
+// r would be metres wide for a sphere 10^5 times the room).
+inline bool sample_sphere_by_cone(double r2, double d2, Vec3 ref) {
+  const double h = (d2 - r2) / (std::sqrt(d2) + std::sqrt(r2));
+  return h > 0x1p-16 * static_cast<double>(max_abs_component(ref)) + 1e-12 * std::sqrt(r2);
+}
+
+// Rectangles are sampled in solid angle only where that pays: where the cosine at the light and 1/r² vary
+// strongly over it, so that area sampling is noisy (Ureña et al. 2013, fig. 9): close to the light
+// (d² ≤ 4·area, d to its centre), or near its plane (height h² ≤ area: the light is seen at grazing angles and
+// cos θl varies by a large factor across it). Elsewhere both densities agree closely and the cheaper area
+// sampling is used. The rule depends on the receiver alone, so sampling and pdf always agree. (Solid-angle
+// sampling keeps its precision down to ~1e-10 sr, lights/spherical_rectangle.h: never approached here.)
+inline bool use_spherical_rect(const Light& l, Vec3 ref, Vec3 light_normal) {
+  const Vec3 d = l.corner + 0.5f * (l.edge_x + l.edge_y) - ref;
+  const float h = glm::dot(d, light_normal);
+  return glm::dot(d, d) <= 4.f * l.area || h * h <= l.area;
+}
+
+// Radiance of the infinite light `l` arriving from direction w (an escaping ray's direction).
+inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 w) {
+  if (l.kind == LightKind::Sun) return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? l.emission : Rgb(0.f);
+  return s.environment.uses_map ? s.environment.map->eval(w) : s.environment.radiance;
+}
+
+// Density with which sample_li() of the infinite light `l` produces direction w at a receiver with normal n.
+inline float infinite_light_pdf(const Scene& s, const Light& l, Vec3 n, Vec3 w) {
+  if (l.kind == LightKind::Sun)
+    return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
+  return s.environment.uses_map ? s.environment.map->pdf(w) : cosine_hemisphere_pdf(glm::dot(n, w));
+}
+
+// Density with which sample_li() of area light li produces the point p_light (front normal n_light) seen from
+// the receiver at `ref`. Used for MIS when a BSDF-sampled ray hits an emitter.
+template <uint32_t F = kAllFeatures>
+inline float area_light_pdf(const Scene& s, const Light& l, Vec3 ref, Vec3 p_light, Vec3 n_light) {
+  if ((l.kind == LightKind::Rectangle || l.kind == LightKind::Polygon) && !l.two_sided &&
+      glm::dot(n_light, ref - p_light) <= 0.f)
+    return 0.f;  // sample_li never samples a one-sided polygon light from behind
+  if (l.kind == LightKind::Rectangle && use_spherical_rect(l, ref, s.polygons.normal[l.prim]))
+    return spherical_rect_pdf(make_spherical_rect(ref, l.corner, l.edge_x, l.edge_y));
+  if ((F & kFeatureSpheres) != 0 && l.kind == LightKind::Sphere) {
+    const uint32_t i = l.prim - s.sphere_begin();
+    const double r = s.spheres.radius[i];
+    const DVec3 dc = DVec3(ref) - s.spheres.center[i];
+    const double d2 = glm::dot(dc, dc);
+    if (sample_sphere_by_cone(r * r, d2, ref)) return uniform_cone_pdf(sphere_one_minus_cos_max(r * r, d2));
+  }
+  const Vec3 d = p_light - ref;
+  const float dist2 = glm::dot(d, d);
+  const float cos_l = std::abs(glm::dot(n_light, d)) / std::sqrt(dist2);
+  if (cos_l == 0.f) return 0.f;
+  return dist2 / (cos_l * l.area);
+}
+
+// Samples light `l` as seen from `ref`. Returns false when no usable sample was produced.
+// F: the kernel's geometry (KernelFeature): light kinds on primitives outside it are left out of the code.
+template <uint32_t F = kAllFeatures>
+inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref, Vec2 u, LightSample& ls) {
+  ls.prim = l.prim;
+  Vec3 n(0.f);
+  switch (l.kind) {
+    case LightKind::Environment: {
+      ls.dist = kInfinity;
+      ls.p = Vec3(0.f);
+      if (s.environment.uses_map) {
+        if (!s.environment.map->sample(u, ls.wi, ls.pdf, ls.Le)) return false;
+        return ls.pdf > 0.f && std::isfinite(ls.pdf);
+      }
+      const Vec3 local = sample_cosine_hemisphere(u);
+      if (!(local.z > 0.f)) return false;
+      ls.wi = Frame::from_normal(ref.n).to_world(local);
+      ls.Le = s.environment.radiance;
+      ls.pdf = cosine_hemisphere_pdf(local.z);
+      return true;
+    }
+    case LightKind::Sun: {
+      ls.dist = kInfinity;
+      ls.p = Vec3(0.f);
+      ls.wi = glm::normalize(Frame::from_normal(l.direction).to_world(sample_uniform_cone(u, l.one_minus_cos_max)));
+      ls.Le = l.emission;
+      ls.pdf = uniform_cone_pdf(l.one_minus_cos_max);
+      return true;
+    }
+    case LightKind::Rectangle: {
+      // A one-sided light seen from behind sends nothing: no sample (its area pdf is never needed there either,
+      // since a ray reaching its back finds no emission to weight).
+      if (!l.two_sided && glm::dot(s.polygons.normal[l.prim], ref.p - l.corner) <= 0.f) return false;
+      if (use_spherical_rect(l, ref.p, s.polygons.normal[l.prim])) {
+        const SphericalRect sr = make_spherical_rect(ref.p, l.corner, l.edge_x, l.edge_y);
+        if (!(sr.solid_angle > 0.0)) return false;  // the receiver is in the light's plane
+        ls.p = sample(sr, u);
+        ls.pdf = spherical_rect_pdf(sr);
+        const Vec3 d = ls.p - ref.p;
+        const float dist2 = glm::dot(d, d);
+        if (!(dist2 > 0.f) || !std::isfinite(ls.pdf)) return false;
+        ls.dist = std::sqrt(dist2);
+        ls.wi = d / ls.dist;
+        ls.Le = area_light_emission(l, s.polygons.normal[l.prim], -ls.wi);
+        return true;
+      }
+      [[fallthrough]];  // far from the light: by area
+    }
+    case LightKind::Polygon: {
+      const uint32_t i = l.prim;
+      const PolygonSoA& P = s.polygons;
+      const Vec3 a = P.v[0][i], b = P.v[1][i], c = P.v[2][i];
+      if (!l.two_sided && glm::dot(P.normal[i], ref.p - a) <= 0.f) return false;  // behind a one-sided light
+      if (P.parallelogram[i]) {
+        ls.p = a + u.x * (b - a) + u.y * (c - b);
+      } else {
+        // Uniform by area: pick a half in proportion to its area (reusing u.x; a triangle is all half 0), then a
+        // point in that triangle.
+        const float f = P.first_half_fraction[i];
+        const bool first = u.x < f;
+        const Vec2 ut(std::min(first ? u.x / f : (u.x - f) / (1.f - f), kOneMinusEpsilon), u.y);
+        const Vec2 bt = sample_uniform_triangle(ut);
+        const Vec3 q = first ? b : c, r = first ? c : P.v[3][i];
+        ls.p = bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
+      }
+      n = P.normal[i];
+      break;
+    }
+    case LightKind::Sphere: {
+      if constexpr ((F & kFeatureSpheres) == 0) return false;
+      const uint32_t i = l.prim - s.sphere_begin();
+      const DVec3 center = s.spheres.center[i];
+      const double r = s.spheres.radius[i];
+      const DVec3 dc = center - DVec3(ref.p);
+      const double d2 = glm::dot(dc, dc);
+      if (sample_sphere_by_cone(r * r, d2, ref.p)) {
+        // Outside: uniform direction in the subtended cone, then the nearest intersection with the sphere.
+        const float omc = sphere_one_minus_cos_max(r * r, d2);
+        const Frame frame = Frame::from_normal(Vec3(glm::normalize(dc)));
+        const Vec3 wi = glm::normalize(frame.to_world(sample_uniform_cone(u, omc)));
+        float t;
+        if (!intersect_sphere(center, r, ref.p, wi, kInfinity, t)) return false;  // grazing the rim
+        const DVec3 p = center + r * glm::normalize(DVec3(ref.p) + static_cast<double>(t) * DVec3(wi) - center);
+        ls.p = Vec3(p);
+        n = Vec3(glm::normalize(p - center));
+        ls.wi = wi;
+        ls.dist = glm::length(ls.p - ref.p);
+        ls.Le = area_light_emission(l, n, -wi);
+        ls.pdf = uniform_cone_pdf(omc);
+        return ls.dist > 0.f && ls.pdf > 0.f && std::isfinite(ls.pdf);
+      }
+      // Inside: uniform over the sphere's area.
+      const Vec3 dir = sample_uniform_sphere(u);
+      ls.p = Vec3(center + r * DVec3(dir));
+      n = dir;
+      break;
+    }
+  }
+  const Vec3 d = ls.p - ref.p;
+  const float dist2 = glm::dot(d, d);
+  if (!(dist2 > 0.f)) return false;
+  ls.dist = std::sqrt(dist2);
+  ls.wi = d / ls.dist;
+  const float cos_l = std::abs(glm::dot(n, ls.wi));
+  if (cos_l == 0.f) return false;
+  ls.Le = area_light_emission(l, n, -ls.wi);
+  ls.pdf = dist2 / (cos_l * l.area);
+  return std::isfinite(ls.pdf);
+}
+
+// The whole light-sampling strategy of next-event estimation: choose a light ∝ power with u_choice, then sample
+// it. ls.pdf includes the choice probability; `li` receives the light's index.
+template <uint32_t F = kAllFeatures>
+inline bool sample_lights(const Scene& s, const LightReference& ref, float u_choice, Vec2 u, LightSample& ls, int& li) {
+  if (s.lights.empty()) return false;
+  li = choose_light(s, u_choice);
+  if (!sample_li<F>(s, s.lights[li], ref, u, ls)) return false;
+  ls.pdf *= s.light_pmf[li];
+  return ls.pdf > 0.f;
+}
+
+// Density of that strategy for the point p_light (front normal n_light) of area light li, seen from `ref`.
+template <uint32_t F = kAllFeatures>
+inline float lights_pdf_area(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_light) {
+  return s.light_pmf[li] * area_light_pdf<F>(s, s.lights[li], ref, p_light, n_light);
+}
+
+// Density of that strategy for an escaping direction w (the sum over the infinite lights, each weighted by its
+// choice probability), at a receiver with normal n.
+inline float lights_pdf_infinite(const Scene& s, Vec3 n, Vec3 w) {
+  float p = 0.f;
+  for (const uint32_t li : s.infinite_lights) p += s.light_pmf[li] * infinite_light_pdf(s, s.lights[li], n, w);
+  return p;
+}
+
+}  // namespace pt

@@ -1,0 +1,113 @@
+// Fresnel reflectance of smooth interfaces and the two directions they produce (mirror reflection, Snell
+// refraction). The formulas are templates over the float type T so that a SIMD lane type can reuse them
+// (Mitsuba 3 style): T must provide +, −, ×, /, comparisons, and the functions sqrt, abs, min, max, copysign
+// found by argument-dependent lookup, plus an overload of pt::select(mask, a, b). The scalar instantiation is
+// T = float.
+//
+// Conventions (pbrt-v4 §9.3): cos_i ≥ 0 is the cosine on the incident side; eta = n_t / n_i is the relative index
+// of the transmitted side over the incident side; reflectance is for unpolarised light (mean of s and p).
+#pragma once
+#include "core/math.h"
+
+namespace pt {
+
+// Lane-wise choice: the scalar form of a SIMD blend.
+inline float select(bool mask, float a, float b) { return mask ? a : b; }
+
+// Exact dielectric Fresnel reflectance (pbrt-v4 eq. 9.4–9.5, FrDielectric without the side flip). Returns 1
+// under total internal reflection (sin²θt ≥ 1).
+template <class T>
+T fresnel_dielectric(T cos_i, T eta) {
+  using std::max;
+  using std::min;
+  using std::sqrt;
+  cos_i = min(max(cos_i, T(0)), T(1));
+  const T sin2_t = (T(1) - cos_i * cos_i) / (eta * eta);
+  const T cos_t = sqrt(max(T(1) - sin2_t, T(0)));
+  const T r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  const T r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  // Under TIR the quotients can be 0/0 (cos_i = cos_t = 0); select discards them.
+  return select(sin2_t >= T(1), T(1), T(0.5) * (r_parl * r_parl + r_perp * r_perp));
+}
+
+// Minimal complex arithmetic over T (pbrt-v4 pstd::complex), enough for the conductor Fresnel equations.
+template <class T>
+struct Complex {
+  T re, im;
+};
+template <class T>
+Complex<T> operator+(Complex<T> a, Complex<T> b) { return {a.re + b.re, a.im + b.im}; }
+template <class T>
+Complex<T> operator-(Complex<T> a, Complex<T> b) { return {a.re - b.re, a.im - b.im}; }
+template <class T>
+Complex<T> operator*(Complex<T> a, Complex<T> b) { return {a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re}; }
+template <class T>
+Complex<T> operator*(Complex<T> a, T s) { return {a.re * s, a.im * s}; }
+template <class T>
+Complex<T> operator/(Complex<T> a, Complex<T> b) {
+  const T d = b.re * b.re + b.im * b.im;
+  return {(a.re * b.re + a.im * b.im) / d, (a.im * b.re - a.re * b.im) / d};
+}
+template <class T>
+T complex_norm(Complex<T> a) { return a.re * a.re + a.im * a.im; }  // |a|²
+// Principal square root (pbrt-v4 pstd::sqrt for complex).
+template <class T>
+Complex<T> complex_sqrt(Complex<T> z) {
+  using std::abs;
+  using std::copysign;
+  using std::max;
+  using std::sqrt;
+  const T n = sqrt(z.re * z.re + z.im * z.im);
+  const T t1 = sqrt(T(0.5) * (n + abs(z.re)));
+  const T t2 = T(0.5) * z.im / max(t1, T(1e-30f));
+  const T re = select(z.re >= T(0), t1, abs(t2));
+  const T im = select(z.re >= T(0), t2, copysign(t1, z.im));
+  return {select(n == T(0), T(0), re), select(n == T(0), T(0), im)};
+}
+
+// Exact Fresnel reflectance of a conductor with complex relative index η + ik, unpolarised (pbrt-v4 FrComplex,
+// eq. 9.6 with the complex Snell law). Evaluate per RGB channel.
+template <class T>
+T fresnel_complex(T cos_i, T eta, T k) {
+  using std::max;
+  using std::min;
+  cos_i = min(max(cos_i, T(0)), T(1));
+  const Complex<T> e{eta, k};
+  const T sin2_i = T(1) - cos_i * cos_i;
+  const Complex<T> sin2_t = Complex<T>{sin2_i, T(0)} / (e * e);
+  const Complex<T> cos_t = complex_sqrt(Complex<T>{T(1), T(0)} - sin2_t);
+  const Complex<T> ci{cos_i, T(0)};
+  const Complex<T> r_parl = (e * ci - cos_t) / (e * ci + cos_t);
+  const Complex<T> r_perp = (ci - e * cos_t) / (ci + e * cos_t);
+  // Grazing incidence reflects everything; it also avoids 0/0 for the degenerate index 1 + 0i.
+  return select(cos_i <= T(0), T(1), T(0.5) * (complex_norm(r_parl) + complex_norm(r_perp)));
+}
+inline Rgb fresnel_complex(float cos_i, Rgb eta, Rgb k) {
+  return {fresnel_complex(cos_i, eta.x, k.x), fresnel_complex(cos_i, eta.y, k.y), fresnel_complex(cos_i, eta.z, k.z)};
+}
+
+// Schlick's approximation F0 + (1 − F0)(1 − cos θ)⁵ (Schlick 1994). S may be a colour (per-channel F0).
+template <class S, class T>
+S fresnel_schlick(S f0, T cos_theta) {
+  using std::max;
+  using std::min;
+  const T m = T(1) - min(max(cos_theta, T(0)), T(1));
+  const T m2 = m * m;
+  return f0 + (S(1) - f0) * (m2 * m2 * m);
+}
+
+// Mirror reflection of an incident direction v (pointing towards the surface) about n: v − 2(v·n)n.
+inline Vec3 reflect(Vec3 v, Vec3 n) { return v - 2.f * glm::dot(v, n) * n; }
+
+// Snell refraction of wo (pointing away from the surface, on the side of n) through an interface with relative
+// index eta = n_t/n_i. Returns false under total internal reflection.
+inline bool refract(Vec3 wo, Vec3 n, float eta, Vec3& wt) {
+  const float cos_i = glm::dot(n, wo);
+  const float sin2_t = std::max(0.f, 1.f - cos_i * cos_i) / (eta * eta);
+  if (sin2_t >= 1.f) return false;
+  const float cos_t = safe_sqrt(1.f - sin2_t);
+  wt = glm::normalize(-wo / eta + (cos_i / eta - cos_t) * n);
+  return true;
+}
+
+}  // namespace pt

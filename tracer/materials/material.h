@@ -1,0 +1,81 @@
+// The render-ready material: plain floats the BSDF functions read (bsdf.h). Compiled from a MaterialDesc by
+// prepare_material(), which also derives what the BSDFs need at every hit but depends only on the parameters
+// (GGX α, energy-compensation tables, the subsurface diffuse albedo), so a live edit of one material recomputes
+// only that material.
+#pragma once
+#include <array>
+#include <cstdint>
+
+#include "core/enum_table.h"
+#include "core/math.h"
+
+namespace pt {
+
+// Scattering models. The integrator never branches on these: it asks the BSDF for its flags (bsdf.h).
+enum class MaterialType { Diffuse, Mirror, Conductor, Dielectric, Plastic, Subsurface };
+
+template <>
+struct EnumTable<MaterialType> {
+  static constexpr std::array<EnumEntry<MaterialType>, 6> kEntries{{
+      {MaterialType::Diffuse, "diffuse", "Diffuse (Lambert)"},
+      {MaterialType::Mirror, "mirror", "Mirror (smooth, tinted)"},
+      {MaterialType::Conductor, "conductor", "Metal (GGX conductor)"},
+      {MaterialType::Dielectric, "dielectric", "Glass (GGX dielectric)"},
+      {MaterialType::Plastic, "plastic", "Plastic (diffuse under a coat)"},
+      {MaterialType::Subsurface, "subsurface", "Subsurface (Jensen 2001 BRDF)"},
+  }};
+};
+
+// Named conductors: RGB complex index of refraction η + ik (materials/conductor_presets.h has the values).
+enum class MetalPreset { None, Gold, Silver, Copper, Aluminium };
+
+template <>
+struct EnumTable<MetalPreset> {
+  static constexpr std::array<EnumEntry<MetalPreset>, 5> kEntries{{
+      {MetalPreset::None, "none", "(albedo)"},
+      {MetalPreset::Gold, "gold", "Gold"},
+      {MetalPreset::Silver, "silver", "Silver"},
+      {MetalPreset::Copper, "copper", "Copper"},
+      {MetalPreset::Aluminium, "aluminium", "Aluminium"},
+  }};
+};
+
+// Directional albedo E(μ) of one microfacet lobe, tabulated over μ = cos θ ∈ [0, 1] at kSize evenly spaced points
+// (linear interpolation), and its cosine-weighted average E_avg = 2∫E(μ)μ dμ. Used for multiple-scattering
+// energy compensation (Kulla & Conty 2017) and for the plastic coat's transmitted energy.
+struct EnergyTable {
+  static constexpr int kSize = 32;
+  std::array<float, kSize> e{};
+  float e_avg = 1.f;
+  float operator()(float mu) const {
+    const float x = std::clamp(mu, 0.f, 1.f) * (kSize - 1);
+    const int i = std::min(static_cast<int>(x), kSize - 2);
+    const float t = x - static_cast<float>(i);
+    return e[i] + t * (e[i + 1] - e[i]);
+  }
+};
+
+struct Material {
+  MaterialType type = MaterialType::Diffuse;
+  Rgb albedo{0.8f};      // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′
+  Rgb emission{0.f};     // emitted radiance
+  bool two_sided = false;  // emission from both faces
+  float roughness = 0.f; // [0, 1]; GGX α = roughness²; 0 = smooth (delta)
+  float ior = 1.5f;      // dielectric / plastic coat / subsurface medium index (outside is 1)
+  float g = 0.f;         // subsurface Henyey–Greenstein asymmetry in (−1, 1)
+  MetalPreset metal = MetalPreset::None;
+  bool complex_ior = false;  // conductor: Fresnel from eta/k instead of the Schlick curve through albedo
+  Rgb eta{1.f}, k{0.f};      // conductor complex index (from the preset or the file)
+
+  // Derived by prepare_material():
+  float alpha = 0.f;     // GGX α = roughness² (roughness clamped to [0, 1]); α < kSmoothAlpha = 1e-3 is smooth
+  EnergyTable energy;    // conductor: E(μ) of the GGX lobe with F = 1; plastic: E(μ) of the coat's reflection
+  Rgb f_avg{1.f};        // conductor: cosine-averaged Fresnel reflectance (Kulla–Conty colour term)
+  Rgb rd{0.f};           // subsurface: multiple-scattering diffuse reflectance R_d per channel (Jensen 2001)
+  Rgb ss_norm{1.f};      // subsurface: per-channel scale ≤ 1 keeping the directional albedo ≤ 1 (subsurface.h)
+};
+
+// Fills the derived fields from the parameters. Call after any parameter change.
+void prepare_material(Material& m);
+
+}  // namespace pt

@@ -1,0 +1,57 @@
+#include "render/film.h"
+
+#include <limits>
+
+namespace pt {
+
+void Film::reset(int width, int height) {
+  width_ = width;
+  height_ = height;
+  const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
+  count_.assign(n, 0);
+  attempts_.assign(n, 0);
+  mean_.assign(3 * n, 0.0);
+  m2_.assign(3 * n, 0.0);
+  rejected_.store(0);
+}
+
+glm::dvec3 Film::variance_of_mean(size_t i) const {
+  const double n = count_[i];
+  if (n < 2) return glm::dvec3(std::numeric_limits<double>::infinity());
+  return glm::dvec3(m2_[3 * i], m2_[3 * i + 1], m2_[3 * i + 2]) / ((n - 1.0) * n);
+}
+
+double Film::estimated_relmse() const {
+  if (count_.empty()) return std::numeric_limits<double>::infinity();
+  double sum = 0.0;
+  for (size_t i = 0; i < count_.size(); ++i) {
+    const double n = count_[i];
+    if (n < 2) return std::numeric_limits<double>::infinity();
+    const double inv = 1.0 / ((n - 1.0) * n);
+    for (int c = 0; c < 3; ++c) {
+      const double m = mean_[3 * i + c];
+      sum += m2_[3 * i + c] * inv / (m * m + 0.01);
+    }
+  }
+  return sum / (3.0 * static_cast<double>(count_.size()));
+}
+
+uint32_t Film::min_count() const {
+  uint32_t m = std::numeric_limits<uint32_t>::max();
+  for (uint32_t c : count_) m = std::min(m, c);
+  return count_.empty() ? 0 : m;
+}
+
+uint64_t Film::total_count() const {
+  uint64_t t = 0;
+  for (uint32_t c : count_) t += c;
+  return t;
+}
+
+std::vector<float> Film::mean_image() const {
+  std::vector<float> img(mean_.size());
+  for (size_t k = 0; k < mean_.size(); ++k) img[k] = static_cast<float>(mean_[k]);
+  return img;
+}
+
+}  // namespace pt

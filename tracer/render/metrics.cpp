@@ -1,0 +1,49 @@
+#include "render/metrics.h"
+
+namespace pt {
+
+namespace {
+void check_same_size(const Image& a, const Image& b) {
+  if (a.width != b.width || a.height != b.height) throw ImageError("images differ in size");
+}
+}  // namespace
+
+double rmse(const Image& x, const Image& ref) {
+  check_same_size(x, ref);
+  double s = 0;
+  for (size_t i = 0; i < x.rgb.size(); ++i) s += sqr(x.rgb[i] - ref.rgb[i]);
+  return std::sqrt(s / static_cast<double>(x.rgb.size()));
+}
+
+double relmse(const Image& x, const Image& ref) {
+  check_same_size(x, ref);
+  double s = 0;
+  for (size_t i = 0; i < x.rgb.size(); ++i) {
+    const double d = static_cast<double>(x.rgb[i]) - ref.rgb[i];
+    s += d * d / (static_cast<double>(ref.rgb[i]) * ref.rgb[i] + 0.01);
+  }
+  return s / static_cast<double>(x.rgb.size());
+}
+
+glm::dvec3 mean_rgb(const Image& img) {
+  glm::dvec3 s(0.0);
+  for (size_t i = 0; i < img.rgb.size(); i += 3) s += glm::dvec3(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]);
+  return s / static_cast<double>(img.rgb.size() / 3);
+}
+
+Image block_average(const Image& img, int f) {
+  if (f < 1 || img.width % f || img.height % f) throw ImageError("block_average: size not divisible by factor");
+  Image out{img.width / f, img.height / f, {}};
+  out.rgb.assign(3 * static_cast<size_t>(out.width) * out.height, 0.f);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      glm::dvec3 s(0.0);
+      for (int dy = 0; dy < f; ++dy)
+        for (int dx = 0; dx < f; ++dx) s += glm::dvec3(img.at(x * f + dx, y * f + dy));
+      s /= static_cast<double>(f * f);
+      for (int c = 0; c < 3; ++c) out.rgb[3 * (static_cast<size_t>(y) * out.width + x) + c] = static_cast<float>(s[c]);
+    }
+  return out;
+}
+
+}  // namespace pt

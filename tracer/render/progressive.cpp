@@ -1,0 +1,35 @@
+#include "render/progressive.h"
+
+#include <algorithm>
+
+#include "render/adaptive.h"
+
+namespace pt {
+
+const char* stop_reason(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse) {
+  if (stop.spp > 0 && spp >= stop.spp) return "target spp";
+  if (stop.seconds > 0.0 && seconds >= stop.seconds) return "time limit";
+  if (stop.relmse > 0.0 && spp >= kRelMseStopMinSpp && estimated_relmse <= stop.relmse) return "target relMSE";
+  return nullptr;
+}
+
+int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,
+                  double seconds_done) {
+  double spp = 1.0;
+  if (seconds_per_spp > 0.0) {
+    double budget = target_seconds;
+    if (stop.seconds > 0.0) budget = std::min(budget, stop.seconds - seconds_done);
+    spp = std::clamp(budget / seconds_per_spp, 1.0, static_cast<double>(kMaxPassSpp));
+  }
+  uint64_t n = static_cast<uint64_t>(spp);
+  if (stop.spp > spp_done) n = std::min<uint64_t>(n, stop.spp - spp_done);
+  return static_cast<int>(std::max<uint64_t>(n, 1));
+}
+
+PassStats run_pass(Renderer& renderer, const Scene& scene, Film& film, int spp, bool adaptive, uint64_t& pass_index,
+                   const std::atomic<bool>* cancel) {
+  if (!adaptive) return renderer.render_pass(scene, film, spp, cancel);
+  return renderer.render_pass(scene, film, plan_adaptive_pass(film, Renderer::kTileSize, spp, pass_index++), cancel);
+}
+
+}  // namespace pt

@@ -1,0 +1,38 @@
+// The progressive loop's rules, in one place for `render`, `bench` and the viewer's RenderSession: when to stop,
+// how many samples per pixel the next pass gets, and how a pass is run (uniform or adaptive). Each caller keeps
+// only what is its own (progress output, error checkpoints, threads and restarts).
+#pragma once
+#include <atomic>
+#include <cstdint>
+
+#include "render/film.h"
+#include "render/renderer.h"
+
+namespace pt {
+
+// The film's relMSE estimate is trusted as a stop condition from this many samples per pixel on.
+inline constexpr uint64_t kRelMseStopMinSpp = 16;
+// A pass never adds more samples per pixel than this (progress, cancellation and stop checks stay timely).
+inline constexpr int kMaxPassSpp = 1024;
+
+struct StopConditions {
+  uint64_t spp = 0;      // stop once every pixel has this many samples; 0 = no limit
+  double seconds = 0.0;  // stop after this much render time (pauses excluded); 0 = no limit
+  double relmse = 0.0;   // stop when the film's estimated relMSE falls to this (from kRelMseStopMinSpp on); 0 = off
+  bool any() const { return spp > 0 || seconds > 0.0 || relmse > 0.0; }
+};
+
+// The first stop condition met ("target spp", "time limit", "target relMSE"), or nullptr.
+const char* stop_reason(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse);
+
+// Samples per pixel of the next pass: about `target_seconds` of work at the measured cost per spp (1 before any
+// measurement), never past the time or spp limit, at most kMaxPassSpp.
+int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,
+                  double seconds_done);
+
+// Renders one pass of `spp` samples per pixel: uniform, or adaptive (plan_adaptive_pass; `pass_index` counts the
+// adaptive passes, every 4th of which is uniform).
+PassStats run_pass(Renderer& renderer, const Scene& scene, Film& film, int spp, bool adaptive, uint64_t& pass_index,
+                   const std::atomic<bool>* cancel = nullptr);
+
+}  // namespace pt

@@ -1,0 +1,387 @@
+#include "render/render_session.h"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
+
+#include "render/film.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
+
+namespace pt {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Linux gives each thread its own nice value and new threads inherit their creator's, so lowering the session
+// thread before it creates the Renderer lowers the whole pool. The owner (UI) thread keeps its priority and gets
+// the CPU as soon as it wants it, whatever the pass costs.
+void lower_this_thread_priority() {
+#if defined(__linux__)
+  const id_t tid = static_cast<id_t>(::gettid());
+  errno = 0;
+  const int nice = getpriority(PRIO_PROCESS, tid);
+  if (errno == 0) setpriority(PRIO_PROCESS, tid, std::min(nice + 5, 19));
+#endif
+}
+
+// Pass length grows with the accumulation: short passes while the image is noisy (frequent updates), up to half
+// a second later (less per-pass overhead, and pause/edits still cancel within one tile).
+double target_pass_seconds(double seconds_so_far) { return std::clamp(0.25 * seconds_so_far, 0.05, 0.5); }
+
+int auto_preview_divisor(double full_seconds_per_spp) {
+  if (full_seconds_per_spp <= 0.0) return 4;        // unknown cost: be safe
+  if (full_seconds_per_spp < 0.02) return 1;        // a full pass is already fluid
+  return std::clamp(static_cast<int>(std::ceil(std::sqrt(full_seconds_per_spp / 0.01))), 2, 16);
+}
+
+}  // namespace
+
+// State only the render thread touches.
+struct RenderSession::Worker {
+  SessionSettings settings;
+  SceneDesc desc;
+  uint64_t generation = 0;
+  bool scene_ok = false;
+  bool full_dirty = true, preview_dirty = true;  // the compiled scenes are out of date
+  std::shared_ptr<const Scene> full, preview;
+  int preview_divisor = 1;  // of this accumulation; 1 = none
+  bool need_preview = false;
+  Film film, preview_film;
+  std::unique_ptr<Renderer> renderer;
+  int renderer_threads = -1;
+  double full_seconds_per_spp = 0.0;  // measured cost of one full-resolution spp (kept across restarts)
+  uint64_t film_spp = 0;
+  DisplayFrame back;  // the triple buffer's render-side slot
+};
+
+RenderSession::RenderSession(const SceneDesc& scene, const SessionSettings& settings) {
+  settings_ = settings;
+  settings_changed_ = true;
+  pending_scene_ = scene;
+  request_restart_locked();  // no other thread yet
+  thread_ = std::thread([this] { run(); });
+}
+
+RenderSession::~RenderSession() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    quit_ = true;
+    cancel_.store(true);
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+uint64_t RenderSession::request_restart_locked() {
+  const uint64_t generation = ++requested_generation_;
+  pending_restart_ = true;
+  // The stats restart at once, so the UI never shows the old accumulation's numbers after an edit.
+  SessionStats fresh;
+  fresh.generation = generation;
+  fresh.paused = paused_;
+  fresh.threads = stats_.threads;
+  fresh.estimated_relmse = kInf;
+  stats_ = std::move(fresh);
+  history_.clear();
+  fresh_ = false;  // an unread frame of the old accumulation is stale now
+  if (!preview_running_) cancel_.store(true);
+  return generation;
+}
+
+uint64_t RenderSession::set_scene(const SceneDesc& scene) {
+  uint64_t g;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pending_scene_ = scene;
+    g = request_restart_locked();
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+  return g;
+}
+
+uint64_t RenderSession::restart() {
+  uint64_t g;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    g = request_restart_locked();
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+  return g;
+}
+
+void RenderSession::set_settings(const SessionSettings& settings) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    settings_ = settings;
+    settings_changed_ = true;
+  }
+  wake_.notify_all();
+}
+
+SessionSettings RenderSession::settings() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return settings_;
+}
+
+void RenderSession::set_paused(bool paused) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (paused_ == paused) return;
+    paused_ = paused;
+    stats_.paused = paused;
+    if (paused && !preview_running_) cancel_.store(true);  // stop within a tile: 0 % CPU promptly
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+}
+
+SessionStats RenderSession::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_locked();
+}
+
+SessionStats RenderSession::stats_locked() const {
+  SessionStats s = stats_;
+  s.rendering = pass_running_;
+  if (pass_running_ && pass_generation_ == stats_.generation) s.seconds = seconds_before_pass_ + std::chrono::duration<double>(Clock::now() - pass_start_).count();
+  return s;
+}
+
+void RenderSession::copy_history(std::vector<RelMsePoint>& out) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  out.assign(history_.begin(), history_.end());
+}
+
+bool RenderSession::take_frame(DisplayFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!fresh_) return false;
+  std::swap(frame, middle_);
+  fresh_ = false;
+  return true;
+}
+
+bool RenderSession::wait_for(const std::function<bool(const SessionStats&)>& pred, double timeout_seconds) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(timeout_seconds));
+  return changed_.wait_until(lock, deadline, [&] { return pred(stats_locked()); });
+}
+
+bool RenderSession::stop_met_locked(std::string& reason) const {
+  const char* r = stop_reason(settings_.stop, stats_.spp, stats_.seconds, stats_.estimated_relmse);
+  if (!r) return false;
+  reason = r;
+  return true;
+}
+
+void RenderSession::run() {
+  Worker w;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (settings_.background_priority) lower_this_thread_priority();
+  }
+  for (;;) {
+    bool restart = false;
+    if (!take_requests(w, restart)) return;
+    if (!prepare(w, restart)) continue;
+    const bool preview = w.need_preview;
+    int spp = 1;
+    if (!begin_pass(w, preview, spp)) continue;
+    const auto start = Clock::now();
+    // Preview passes are never cancelled (see the header); full passes stop within a tile on any request.
+    const PassStats ps = preview ? w.renderer->render_pass(*w.preview, w.preview_film, 1, nullptr)
+                                 : w.renderer->render_pass(*w.full, w.film, spp, &cancel_);
+    const double pass_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!ps.cancelled)
+      w.full_seconds_per_spp = preview ? pass_seconds * w.preview_divisor * w.preview_divisor : pass_seconds / spp;
+    w.need_preview = false;
+    publish(w, preview, start, ps.samples, ps.rays);
+  }
+}
+
+// Sleeps until there is something to do, then adopts every pending request. False when the session ends.
+bool RenderSession::take_requests(Worker& w, bool& restart) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  wake_.wait(lock, [&] {
+    return quit_ || pending_scene_ || pending_restart_ || settings_changed_ || (!paused_ && !stats_.done && w.scene_ok);
+  });
+  if (quit_) return false;
+  if (settings_changed_) {
+    w.settings = settings_;
+    settings_changed_ = false;
+    std::string reason;
+    stats_.done = stop_met_locked(reason);  // a raised limit resumes, a lowered one stops
+    stats_.stop_reason = stats_.done ? reason : "";
+    changed_.notify_all();
+  }
+  if (pending_scene_) {
+    w.desc = std::move(*pending_scene_);
+    pending_scene_.reset();
+    w.full_dirty = w.preview_dirty = true;
+    w.scene_ok = true;
+  }
+  if (pending_restart_) {
+    pending_restart_ = false;
+    w.generation = requested_generation_;
+    restart = true;
+  }
+  cancel_.store(false);  // every request that set it has been consumed above
+  return true;
+}
+
+// Renderer for the thread count, films and compiled scenes for the next pass. False (error reported) if the
+// scene cannot be compiled.
+bool RenderSession::prepare(Worker& w, bool restart) {
+  try {
+    if (w.renderer_threads != w.settings.threads) {
+      w.renderer = std::make_unique<Renderer>(w.settings.threads);
+      w.renderer_threads = w.settings.threads;
+      std::lock_guard<std::mutex> lock(mutex_);
+      stats_.threads = w.renderer->threads();
+    }
+    if (restart && w.scene_ok) {
+      w.film.reset(w.desc.width, w.desc.height);
+      w.film_spp = 0;
+      const int divisor = w.settings.preview_divisor > 0 ? w.settings.preview_divisor
+                                                          : auto_preview_divisor(w.full_seconds_per_spp);
+      if (divisor != w.preview_divisor) w.preview_dirty = true;
+      w.preview_divisor = divisor;
+      w.need_preview = divisor > 1 && (w.desc.width >= 2 * divisor || w.desc.height >= 2 * divisor);
+      if (w.need_preview && w.preview_dirty) {
+        SceneDesc small = w.desc;
+        small.width = std::max(1, w.desc.width / divisor);
+        small.height = std::max(1, w.desc.height / divisor);
+        w.preview = compile_scene(small);
+        w.preview_dirty = false;
+      }
+      if (w.need_preview) w.preview_film.reset(w.preview->width, w.preview->height);
+    }
+    // The full scene is compiled only once a full pass is next: a camera drag compiles just the previews.
+    if (!w.need_preview && w.full_dirty && w.scene_ok) {
+      w.full = compile_scene(w.desc);
+      w.full_dirty = false;
+    }
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    w.scene_ok = false;
+    if (w.generation == requested_generation_) stats_.error = e.what();
+    changed_.notify_all();
+    return false;
+  }
+  return true;
+}
+
+// Sizes the next pass and marks it running; false if it should not run (paused, done, or a newer request).
+bool RenderSession::begin_pass(Worker& w, bool preview, int& spp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!w.scene_ok || paused_ || stats_.done || pending_scene_ || pending_restart_) return false;
+  spp = preview ? 1
+                : next_pass_spp(w.full_seconds_per_spp, target_pass_seconds(stats_.seconds), w.settings.stop, w.film_spp,
+                                stats_.seconds);
+  pass_running_ = true;
+  pass_generation_ = w.generation;
+  preview_running_ = preview;
+  pass_start_ = Clock::now();
+  seconds_before_pass_ = stats_.seconds;
+  return true;
+}
+
+// Converts the film just rendered into the back frame (outside the lock: the reader never waits for this), then,
+// unless a restart was requested meanwhile, publishes it.
+void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (w.generation != requested_generation_) {  // stale already: skip the conversion, restart sooner
+      pass_running_ = preview_running_ = false;
+      changed_.notify_all();
+      return;
+    }
+  }
+  const Film& film = preview ? w.preview_film : w.film;
+  DisplayFrame& f = w.back;
+  const size_t n = film.pixel_count();
+  f.width = film.width();
+  f.height = film.height();
+  f.generation = w.generation;
+  f.preview = preview;
+  f.rgba.resize(4 * n);
+  f.count.resize(n);
+  uint32_t min_count = n ? std::numeric_limits<uint32_t>::max() : 0, max_count = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t c = film.count(i);
+    min_count = std::min(min_count, c);
+    max_count = std::max(max_count, c);
+    const Rgb m = film.mean(i);
+    float rel = DisplayFrame::kUnknownError;
+    if (c >= 2) {
+      const glm::dvec3 var = film.variance_of_mean(i);
+      double sum = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const double mk = film.mean_channel(i, k);
+        sum += var[k] / (mk * mk + 0.01);
+      }
+      rel = static_cast<float>(std::sqrt(sum / 3.0));
+    }
+    float* px = &f.rgba[4 * i];
+    px[0] = m.x;
+    px[1] = m.y;
+    px[2] = m.z;
+    px[3] = rel;
+    f.count[i] = static_cast<float>(c);
+  }
+  f.spp = min_count;
+  f.max_count = static_cast<float>(max_count);
+  const double relmse = preview ? kInf : film.estimated_relmse();
+  if (!preview) w.film_spp = min_count;
+  const double seconds = std::chrono::duration<double>(Clock::now() - pass_start).count();
+
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pass_running_ = false;
+    preview_running_ = false;
+    if (w.generation == requested_generation_) publish_locked(w, preview, min_count, relmse, seconds, samples, rays);
+    // else: an edit arrived meanwhile and this image is already stale.
+  }
+  changed_.notify_all();
+}
+
+// Makes the converted frame current and accounts for its pass (mutex_ held, generation current).
+void RenderSession::publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds,
+                                   uint64_t samples, uint64_t rays) {
+  std::swap(w.back, middle_);
+  fresh_ = true;
+  SessionStats& s = stats_;
+  s.seconds += seconds;
+  s.samples += samples;
+  s.rays += rays;
+  s.samples_per_second = s.seconds > 0.0 ? static_cast<double>(s.samples) / s.seconds : 0.0;
+  s.rays_per_second = s.seconds > 0.0 ? static_cast<double>(s.rays) / s.seconds : 0.0;
+  if (preview) return;  // a preview is not the accumulation: no spp, error or stop condition
+  s.spp = min_count;
+  s.estimated_relmse = relmse;
+  s.rejected = w.film.rejected();
+  if (std::isfinite(relmse)) {
+    if (history_.size() >= 4096) {  // keep the plot bounded: drop every other point
+      size_t k = 0;
+      for (size_t j = 0; j < history_.size(); j += 2) history_[k++] = history_[j];
+      history_.resize(k);
+    }
+    history_.push_back({s.seconds, relmse});
+  }
+  std::string reason;
+  if (stop_met_locked(reason)) {
+    s.done = true;
+    s.stop_reason = reason;
+  }
+}
+
+}  // namespace pt

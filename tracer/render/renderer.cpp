@@ -1,0 +1,71 @@
+#include "render/renderer.h"
+
+#include "integrators/integrator.h"
+#include "sampling/sampler.h"
+
+namespace pt {
+
+Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads()) {}
+
+namespace {
+
+// One tile: every pixel gets `spp` more samples, numbered after those it already has.
+template <class Sampler>
+void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count,
+                 uint64_t& samples) {
+  // The kernel compiled for the scene's feature set, resolved once per tile.
+  const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, scene.render.generic_kernel);
+  const Estimator estimator = scene.render.estimator;
+  const uint64_t seed = scene.render.seed;
+  const int w = film.width();
+  for (int y = y0; y < y1; ++y) {
+    for (int x = x0; x < x1; ++x) {
+      const size_t pixel = static_cast<size_t>(y) * w + x;
+      for (int s = 0; s < spp; ++s) {
+        Sampler sampler(pixel, film.next_sample_index(pixel), seed);
+        film.note_attempt(pixel);
+        const Vec2 jitter = sampler.next_2d();
+        const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
+        film.add_sample(pixel, radiance(scene, estimator, ray, sampler, count));
+        ++samples;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+PassStats Renderer::render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel) {
+  const int tiles = ((film.width() + kTileSize - 1) / kTileSize) * ((film.height() + kTileSize - 1) / kTileSize);
+  return render_pass(scene, film, std::vector<int>(tiles, spp), cancel);
+}
+
+PassStats Renderer::render_pass(const Scene& scene, Film& film, const std::vector<int>& tile_spp,
+                                const std::atomic<bool>* cancel) {
+  const int w = film.width(), h = film.height();
+  const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
+  std::atomic<uint64_t> samples{0}, rays{0};
+  std::atomic<bool> cancelled{false};
+
+  pool_.parallel_for(tiles_x * tiles_y, [&](int tile, int /*thread*/) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) {
+      cancelled.store(true, std::memory_order_relaxed);
+      return;
+    }
+    const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
+    const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
+    RayCount count;
+    uint64_t tile_samples = 0;
+    const int spp = tile_spp[tile];
+    if (spp <= 0) return;
+    if (scene.render.sampler == SamplerType::Sobol)
+      render_tile<SobolSampler>(scene, film, x0, y0, x1, y1, spp, count, tile_samples);
+    else
+      render_tile<IndependentSampler>(scene, film, x0, y0, x1, y1, spp, count, tile_samples);
+    samples.fetch_add(tile_samples, std::memory_order_relaxed);
+    rays.fetch_add(count.rays, std::memory_order_relaxed);
+  });
+  return {samples.load(), rays.load(), cancelled.load()};
+}
+
+}  // namespace pt

@@ -1,0 +1,22 @@
+#include "scene/camera.h"
+
+namespace pt {
+
+Camera Camera::make(DVec3 forward, DVec3 up, double fov_deg, bool fov_horizontal, int width, int height) {
+  Camera c;
+  const DVec3 f = glm::normalize(forward);
+  const DVec3 r = glm::normalize(glm::cross(f, up));
+  const DVec3 u = glm::cross(r, f);
+  c.forward = Vec3(f);
+  c.right = Vec3(r);
+  c.up = Vec3(u);
+  c.width = width;
+  c.height = height;
+  const double half = std::tan(glm::radians(fov_deg) * 0.5);
+  const double aspect = static_cast<double>(width) / height;
+  c.tan_half_x = static_cast<float>(fov_horizontal ? half : half * aspect);
+  c.tan_half_y = static_cast<float>(fov_horizontal ? half / aspect : half);
+  return c;
+}
+
+}  // namespace pt

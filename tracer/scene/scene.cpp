@@ -1,0 +1,362 @@
+#include "scene/scene.h"
+
+#include "geometry/scene_queries.h"
+#include "io/image_io.h"
+#include "lights/sky_preetham.h"
+#include "materials/bsdf.h"
+
+#include <glm/gtx/component_wise.hpp>
+
+#include <sstream>
+#include <stdexcept>
+
+namespace pt {
+
+namespace {
+
+bool finite3(DVec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite3(Vec3 v) { return is_finite(v); }
+
+// A polygon corner (b−a, c−a) is degenerate when the sine of its angle is below 1e-12 (in double): slivers
+// 10^-7 thin are legitimate geometry, zero-area triangles are not.
+bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c) {
+  const DVec3 e1 = b - a, e2 = c - a;
+  const double l1 = glm::length(e1), l2 = glm::length(e2);
+  if (!(l1 > 0.0) || !(l2 > 0.0)) return true;
+  return !(glm::length(glm::cross(e1, e2)) > 1e-12 * l1 * l2);
+}
+
+// A quad is a parallelogram when d = a + c − b up to rounding of the input (relative 1e-9 of the quad's size).
+bool is_parallelogram(const ShapeDesc& s) {
+  const DVec3 a = s.vertices[0], b = s.vertices[1], c = s.vertices[2], d = s.vertices[3];
+  const double size = std::max(glm::length(c - a), glm::length(d - b));
+  return glm::length(a + c - b - d) <= 1e-9 * size;
+}
+
+// A quad stays one primitive when it is planar (d within 1e-9 of the quad's size from the plane of a, b, c: far
+// below float rounding, so the plane through a, b, c that the hit test uses is the quad's own) and strictly
+// convex (every corner turns the same way, sine above 1e-9), which is what the four-edge inside test assumes.
+// Any other valid quad becomes the two triangles (a, b, c), (a, c, d).
+bool is_planar_convex_quad(const ShapeDesc& s) {
+  const auto& v = s.vertices;
+  const DVec3 n = glm::normalize(glm::cross(v[1] - v[0], v[2] - v[0]));
+  const double size = std::max(glm::length(v[2] - v[0]), glm::length(v[3] - v[1]));
+  if (!(std::abs(glm::dot(v[3] - v[0], n)) <= 1e-9 * size)) return false;
+  for (int k = 0; k < 4; ++k) {
+    const DVec3 e1 = v[(k + 1) % 4] - v[k], e2 = v[(k + 2) % 4] - v[(k + 1) % 4];
+    if (!(glm::dot(glm::cross(e1, e2), n) > 1e-9 * glm::length(e1) * glm::length(e2))) return false;
+  }
+  return true;
+}
+
+std::string validate_environment(const EnvironmentDesc& e) {
+  if (!finite3(e.radiance) || glm::any(glm::lessThan(e.radiance, Vec3(0.f))))
+    return "environment.radiance: components must be finite and >= 0";
+  if (!(std::isfinite(e.scale) && e.scale >= 0.f)) return "environment.scale: must be finite and >= 0";
+  if (e.type == EnvironmentType::Sky) {
+    if (!finite3(e.sun_direction) || !(glm::length(e.sun_direction) > 0.0))
+      return "environment.sun_direction: must be a finite, non-zero vector";
+    if (!(e.turbidity >= 1.7f && e.turbidity <= 10.f)) return "environment.turbidity: must be in [1.7, 10]";
+  }
+  if (e.type == EnvironmentType::Map) {
+    if (!std::isfinite(e.rotation_deg)) return "environment.rotation_deg: must be finite";
+    if (e.file.empty() && !e.image) return "environment.file: missing (a .exr, .hdr or .pfm lat-long image)";
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string validate_scene(const SceneDesc& s) {
+  std::ostringstream e;
+  const CameraDesc& c = s.camera;
+  if (!finite3(c.position)) return "camera.position: must be finite";
+  if (!finite3(c.look_at)) return "camera.look_at: must be finite";
+  if (!finite3(c.up)) return "camera.up: must be finite";
+  if (!(glm::length(c.look_at - c.position) > 0.0)) return "camera.look_at: must differ from camera.position";
+  const DVec3 f = glm::normalize(c.look_at - c.position);
+  if (!(glm::length(c.up) > 0.0) || glm::length(glm::cross(f, glm::normalize(c.up))) < 1e-9)
+    return "camera.up: must not be zero or parallel to the viewing direction";
+  if (!(c.fov_deg > 0.0 && c.fov_deg < 180.0)) return "camera.fov_deg: must be in (0, 180) degrees";
+  if (s.width < 1 || s.width > 16384) return "film.width: must be in [1, 16384]";
+  if (s.height < 1 || s.height > 16384) return "film.height: must be in [1, 16384]";
+  if (s.render.max_bounces < 0) return "render.max_bounces: must be >= 0";
+  if (s.render.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  if (std::string err = validate_environment(s.environment); !err.empty()) return err;
+  if (s.materials.empty()) return "materials: the scene defines no material";
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const MaterialDesc& m = s.materials[i];
+    const std::string p = "materials." + m.name;
+    if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
+        glm::any(glm::greaterThan(m.albedo, Vec3(1.f))))
+      return p + ".albedo: components must be in [0, 1]";
+    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, Vec3(0.f))))
+      return p + ".emission: components must be finite and >= 0";
+    if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
+      return p + ".ior: must be finite and > 0 (the index inside; outside is 1)";
+    if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface) && !(m.ior >= 1.f && m.ior <= 4.f))
+      return p + ".ior: must be in [1, 4] (the index inside; outside is 1)";
+    if (!(m.roughness >= 0.f && m.roughness <= 1.f)) return p + ".roughness: must be in [0, 1]";
+    if (!(m.g > -1.f && m.g < 1.f)) return p + ".g: must be in (-1, 1)";
+    if (m.complex_ior) {
+      if (!finite3(m.eta) || !glm::all(glm::greaterThan(m.eta, Vec3(0.f)))) return p + ".eta: components must be finite and > 0";
+      if (!finite3(m.k) || glm::any(glm::lessThan(m.k, Vec3(0.f)))) return p + ".k: components must be finite and >= 0";
+    }
+  }
+  if (s.shapes.empty()) return "shapes: the scene has no shape";
+  for (size_t i = 0; i < s.shapes.size(); ++i) {
+    const ShapeDesc& sh = s.shapes[i];
+    const std::string p = "shapes[" + std::to_string(i) + "]";
+    if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
+      return p + ".material: no such material";
+    if (sh.type == ShapeType::Sphere) {
+      if (!finite3(sh.center)) return p + ".center: must be finite";
+      if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return p + ".radius: must be finite and > 0";
+      continue;
+    }
+    const int n = sh.type == ShapeType::Triangle ? 3 : 4;
+    for (int k = 0; k < n; ++k)
+      if (!finite3(sh.vertices[k])) return p + ".vertices[" + std::to_string(k) + "]: must be finite";
+    const auto& v = sh.vertices;
+    if (degenerate_triangle(v[0], v[1], v[2]) || (n == 4 && degenerate_triangle(v[0], v[2], v[3])))
+      return p + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
+    if (n == 4 && !is_planar_convex_quad(sh)) {
+      // Two triangles: their front normals must agree, or the quad folds over itself.
+      const DVec3 n1 = glm::cross(v[1] - v[0], v[2] - v[0]), n2 = glm::cross(v[2] - v[0], v[3] - v[0]);
+      if (glm::dot(n1, n2) <= 0.0) return p + ".vertices: quad is folded or not convex (vertex order?)";
+    }
+  }
+  return {};
+}
+
+uint32_t Scene::material_of(uint32_t prim) const {
+  if (prim < sphere_begin()) return polygons.material[prim];
+  return spheres.material[prim - sphere_begin()];
+}
+
+namespace {
+
+// Smallest barycentrics (b0, b1, b2) of a point inside triangle (a, b, c) that keep it `err` away from each
+// edge: b_k = distance to the edge opposite vertex k over that vertex's altitude = err·|edge|/(2·area).
+Vec3 triangle_margins(DVec3 a, DVec3 b, DVec3 c, double err) {
+  const double a2 = glm::length(glm::cross(b - a, c - a));  // twice the area
+  DVec3 m = DVec3(glm::length(c - b), glm::length(a - c), glm::length(b - a)) * (err / a2);
+  if (m.x + m.y + m.z >= 0.5) m = DVec3(1.0 / 3.0);  // a sliver below float resolution: use its centroid
+  return Vec3(m);
+}
+
+// Appends a triangle (N = 3) or a convex planar quad (N = 4).
+template <int N>
+void add_polygon(PolygonSoA& soa, const std::array<DVec3, N>& world, DVec3 origin, uint32_t material,
+                 bool parallelogram = false) {
+  const DVec3 n = glm::cross(world[1] - world[0], world[2] - world[0]);
+  // Planar polygon area: half the cross product of the diagonals (for a triangle, half of n).
+  const double area = N == 4 ? 0.5 * glm::length(glm::cross(world[2] - world[0], world[3] - world[1]))
+                             : 0.5 * glm::length(n);
+  for (int k = 0; k < 4; ++k) soa.v[k].push_back(Vec3(world[k < N ? k : 0] - origin));
+  soa.triangle.push_back(N == 3);
+  soa.normal.push_back(Vec3(glm::normalize(n)));
+  soa.area.push_back(static_cast<float>(area));
+  soa.material.push_back(material);
+  // Hit-point rounding error bound γ7·Σ|bᵢvᵢ| ≤ γ7·max|v| (camera-relative), with a 4× margin.
+  double max_abs = 0.0;
+  for (int k = 0; k < N; ++k) max_abs = std::max(max_abs, glm::compMax(glm::abs(world[k] - origin)));
+  const double err = 4.0 * 7.0 * 0x1p-24 * max_abs;
+  std::array<Vec3, 2> margins{Vec3(0.f), Vec3(0.f)};
+  std::array<std::array<Vec3, 2>, 2> dual{};
+  for (int h = 0; h < N - 2; ++h) {
+    const DVec3 a = world[0], q = world[h + 1], r = world[h + 2];
+    margins[h] = triangle_margins(a, q, r, err);
+    const DVec3 e1 = q - a, e2 = r - a, nh = glm::cross(e1, e2);
+    const double inv = 1.0 / glm::dot(nh, nh);
+    dual[h] = {Vec3(glm::cross(e2, nh) * inv), Vec3(glm::cross(nh, e1) * inv)};
+  }
+  soa.edge_margin.push_back(margins);
+  soa.dual.push_back(dual);
+  soa.parallelogram.push_back(parallelogram);
+  soa.first_half_fraction.push_back(static_cast<float>(std::min(1.0, 0.5 * glm::length(n) / area)));
+}
+
+Material compile_material(const MaterialDesc& d) {
+  Material m;
+  m.type = d.type;
+  m.albedo = d.albedo;
+  m.emission = d.emission;
+  m.two_sided = d.two_sided;
+  m.ior = d.ior;
+  m.roughness = d.roughness;
+  m.g = d.g;
+  m.metal = d.metal;
+  m.complex_ior = d.complex_ior;
+  m.eta = d.eta;
+  m.k = d.k;
+  prepare_material(m);
+  return m;
+}
+
+// Resolution of the lat-long image the analytic sky is tabulated into (its importance sampling and lookups then
+// work exactly as for a map file). 512×256 texels of 0.7°: the sky varies smoothly; the sun is a light of its own.
+constexpr int kSkyTableWidth = 512, kSkyTableHeight = 256;
+
+void compile_environment(const EnvironmentDesc& e, Scene& s) {
+  EnvironmentLight& env = s.environment;
+  switch (e.type) {
+    case EnvironmentType::Constant:
+      env.radiance = e.radiance;
+      env.present = !is_black(e.radiance);
+      return;
+    case EnvironmentType::Sky: {
+      Image sky = make_sky_image(Vec3(glm::normalize(e.sun_direction)), e.turbidity, kSkyTableWidth, kSkyTableHeight);
+      env.map = std::make_shared<EnvironmentMap>(sky, e.scale, 0.f);
+      break;
+    }
+    case EnvironmentType::Map: {
+      std::shared_ptr<const Image> image = e.image;
+      if (!image) {
+        HdrImageResult read = read_hdr_image(e.resolved_file.empty() ? e.file : e.resolved_file);
+        if (!read.ok()) throw std::invalid_argument("environment.file: " + read.error);
+        image = std::make_shared<Image>(std::move(read.image));
+      }
+      env.map = std::make_shared<EnvironmentMap>(*image, e.scale, e.rotation_deg);
+      break;
+    }
+  }
+  env.uses_map = true;
+  env.present = env.map->power_weight() > 0.0;
+}
+
+}  // namespace
+
+std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
+  if (std::string err = validate_scene(desc); !err.empty()) throw std::invalid_argument(err);
+  auto scene = std::make_shared<Scene>();
+  Scene& s = *scene;
+  s.render = desc.render;
+  s.width = desc.width;
+  s.height = desc.height;
+  s.world_origin = desc.camera.position;
+  s.camera = Camera::make(desc.camera.look_at - desc.camera.position, desc.camera.up, desc.camera.fov_deg,
+                          desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
+
+  for (const MaterialDesc& m : desc.materials) {
+    s.materials.push_back(compile_material(m));
+    const uint32_t flags = bsdf_flags(s.materials.back());
+    s.features.specular_materials |= is_specular(flags);
+    s.features.transmissive_materials |= is_transmissive(flags);
+  }
+
+  const DVec3 o = s.world_origin;
+  for (const ShapeDesc& sh : desc.shapes) {
+    const uint32_t mat = static_cast<uint32_t>(sh.material);
+    const auto& v = sh.vertices;
+    if (sh.type == ShapeType::Triangle) {
+      add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
+    } else if (sh.type == ShapeType::Quad) {
+      if (is_planar_convex_quad(sh)) {
+        add_polygon<4>(s.polygons, {v[0], v[1], v[2], v[3]}, o, mat, is_parallelogram(sh));
+      } else {
+        add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
+        add_polygon<3>(s.polygons, {v[0], v[2], v[3]}, o, mat);
+      }
+    } else {
+      s.spheres.center.push_back(sh.center - o);
+      s.spheres.radius.push_back(sh.radius);
+      s.spheres.material.push_back(mat);
+    }
+  }
+  s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
+  for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
+  s.features.spheres = s.spheres.size() > 0;
+
+  // Lights: every primitive whose material emits. Selection ∝ emitted power = π·A·mean(Le)·(sides).
+  s.light_of_prim.assign(s.primitive_count(), -1);
+  std::vector<double> power;
+  for (uint32_t prim = 0; prim < s.primitive_count(); ++prim) {
+    const Material& m = s.materials[s.material_of(prim)];
+    if (is_black(m.emission)) continue;
+    Light l;
+    l.prim = prim;
+    l.emission = m.emission;
+    l.two_sided = m.two_sided;
+    if (prim < s.sphere_begin()) {
+      l.area = s.polygons.area[prim];
+      l.kind = LightKind::Polygon;
+      const PolygonSoA& P = s.polygons;
+      if (P.parallelogram[prim]) {
+        // A rectangle (perpendicular edges) is sampled in solid angle: far less noise near the light.
+        const Vec3 ex = P.v[1][prim] - P.v[0][prim], ey = P.v[3][prim] - P.v[0][prim];
+        if (std::abs(glm::dot(ex, ey)) <= 1e-5f * glm::length(ex) * glm::length(ey)) {
+          l.kind = LightKind::Rectangle;
+          l.corner = P.v[0][prim];
+          l.edge_x = ex;
+          l.edge_y = ey;
+        }
+      }
+    } else {
+      const double r = s.spheres.radius[prim - s.sphere_begin()];
+      l.area = static_cast<float>(4.0 * glm::pi<double>() * r * r);
+      l.kind = LightKind::Sphere;
+      s.features.emissive_spheres = true;
+    }
+    s.light_of_prim[prim] = static_cast<int32_t>(s.lights.size());
+    s.lights.push_back(l);
+    power.push_back(double(l.area) * (m.emission.x + m.emission.y + m.emission.z) * (m.two_sided ? 2.0 : 1.0));
+  }
+  // Infinite lights' power is counted as pbrt-v4 counts it, Φ = π R²·∫Le dω for the scene's bounding radius R
+  // (camera-centred); only its ratio to the other lights matters, and any positive choice keeps the estimate
+  // unbiased.
+  double r2 = 0.0;
+  for (const auto& arr : s.polygons.v)
+    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
+  for (size_t i = 0; i < s.spheres.size(); ++i) {
+    const double r = glm::length(s.spheres.center[i]) + s.spheres.radius[i];
+    r2 = std::max(r2, r * r);
+  }
+  s.bounding_radius = std::sqrt(r2);
+  const double disk = glm::pi<double>() * std::max(r2, 1e-30);
+  compile_environment(desc.environment, s);
+  if (s.environment.present) {
+    s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
+    Light l;
+    l.kind = LightKind::Environment;
+    s.lights.push_back(l);
+    // power_weight() integrates luminance; ×3 puts it on the same footing as the RGB sums used for area lights.
+    const double integral = s.environment.uses_map ? 3.0 * s.environment.map->power_weight()
+                                                   : 4.0 * glm::pi<double>() * (s.environment.radiance.x + s.environment.radiance.y + s.environment.radiance.z);
+    power.push_back(disk * integral);
+  }
+  if (desc.environment.type == EnvironmentType::Sky && desc.environment.sun) {
+    const SunDisk sun = preetham_sun(Vec3(glm::normalize(desc.environment.sun_direction)), desc.environment.turbidity);
+    Light l;
+    l.kind = LightKind::Sun;
+    l.direction = Vec3(glm::normalize(desc.environment.sun_direction));
+    l.emission = sun.radiance * desc.environment.scale;
+    l.one_minus_cos_max = sun.one_minus_cos;
+    if (!is_black(l.emission)) {
+      s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
+      s.lights.push_back(l);
+      power.push_back(disk * 2.0 * glm::pi<double>() * l.one_minus_cos_max * (l.emission.x + l.emission.y + l.emission.z));
+    }
+  }
+  s.features.environment = !s.infinite_lights.empty();
+  double total = 0.0;
+  for (double p : power) total += p;
+  double running = 0.0;
+  for (double p : power) {
+    running += p;
+    s.light_pmf.push_back(static_cast<float>(p / total));
+    s.light_cdf.push_back(static_cast<float>(running / total));
+  }
+  if (!s.light_cdf.empty()) s.light_cdf.back() = 1.f;
+  return scene;
+}
+
+bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const {
+  return intersect_scene<kAllFeatures>(*this, ray, t_max, skip, hit);
+}
+
+bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const {
+  return occluded_scene<kAllFeatures>(*this, ray, t_max, skip_a, skip_b);
+}
+
+}  // namespace pt

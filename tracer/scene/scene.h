@@ -1,0 +1,160 @@
+// The render-ready scene: an immutable snapshot compiled from a validated SceneDesc.
+//
+// All geometry is stored relative to the camera position (subtracted in double at compile time, then rounded to
+// float). Camera rays therefore start exactly at the origin, and the float precision available to a hit point
+// depends on its distance from the camera, not on where the scene sits in the world: a scene translated by 10^6
+// renders the same image.
+//
+// Primitives are kept as structure-of-arrays by kind (polygons, spheres) so that the SIMD kernels test 16
+// (AVX-512) polygons per instruction; a primitive's global id is its index in the concatenation
+// polygons ‖ spheres. Triangles and convex planar quads share one polygon array (a triangle is a quad with a
+// flag), so a scene of up to 16 polygons, whatever their mix, costs one SIMD block per ray; the Cornell box
+// (15 planar quads and the two triangles of its non-planar right wall) costs one block and a 4-wide tail.
+#pragma once
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "scene/camera.h"
+#include "geometry/geometry.h"
+#include "scene/scene_desc.h"
+#include "geometry/simd_polygons.h"
+#include "lights/environment_map.h"
+#include "materials/material.h"
+
+namespace pt {
+
+// Structure of arrays of polygons: triangles (a, b, c) and convex planar quads (a, b, c, d). A quad is split by
+// its diagonal a–c into two triangles ("halves") (a, b, c) and (a, c, d); a triangle is its own half 0.
+struct PolygonSoA {
+  std::vector<Vec3> v[4];         // vertex k of every polygon; a triangle's v[3] repeats v[0]
+  std::vector<uint8_t> triangle;  // 1 for triangles, 0 for quads
+  std::vector<Vec3> normal;       // unit front normal normalize((b−a)×(c−a))
+  std::vector<float> area;        // world units²
+  std::vector<uint32_t> material;
+  // Per half, the smallest barycentrics (b0, b1, b2) a hit point may take: 4·γ7·max|vertex| over the altitude
+  // to the opposite edge. Keeps interpolated hit points inside the polygon by more than their rounding error,
+  // so a point near an edge shared with another face can never round to the far side of that face (a light
+  // leak through closed geometry).
+  std::vector<std::array<Vec3, 2>> edge_margin;
+  // Per half (a, q, r), the dual vectors that give the barycentrics of q and r of a point p in the plane:
+  // b_q = (p − a)·dual[half][0], b_r = (p − a)·dual[half][1] (with e1 = q − a, e2 = r − a, n = e1 × e2:
+  // dual = (e2 × n, n × e1)/|n|²). Shading turns the hit distance into barycentrics with them.
+  std::vector<std::array<std::array<Vec3, 2>, 2>> dual;
+  // Parallelograms map a 2D light sample onto their area directly (keeping its stratification); other quads
+  // pick a half with probability area(a, b, c)/area, stored here (1 for triangles).
+  std::vector<uint8_t> parallelogram;
+  std::vector<float> first_half_fraction;
+  size_t size() const { return normal.size(); }
+};
+
+struct SphereSoA {
+  std::vector<DVec3> center;  // camera-relative, double: the stable intersection runs in double
+  std::vector<double> radius;
+  std::vector<uint32_t> material;
+  size_t size() const { return center.size(); }
+};
+
+// Everything that emits: area lights (emitting polygons and spheres) and the infinitely distant ones (the
+// environment and the sun). Lights are chosen with probability proportional to their power (Scene::light_pmf);
+// lights/light_sampling.h samples and evaluates them.
+enum class LightKind : uint8_t {
+  Polygon,      // a triangle or quad, sampled uniformly by area
+  Rectangle,    // a rectangular quad, sampled uniformly in solid angle (spherical rectangle, Ureña et al. 2013)
+  Sphere,       // sampled in its cone (outside) or by area (inside)
+  Environment,  // constant radiance or a lat-long map (Scene::environment)
+  Sun,          // a distant disk: a cone of directions of constant radiance
+};
+inline constexpr uint32_t kNoPrimitive = ~0u;
+struct Light {
+  LightKind kind = LightKind::Polygon;
+  uint32_t prim = kNoPrimitive;  // global primitive id of an area light
+  float area = 0.f;              // world units²
+  Rgb emission{0.f};             // area light and sun radiance
+  bool two_sided = false;
+  Vec3 corner{0.f}, edge_x{0.f}, edge_y{0.f};  // Rectangle: corner and perpendicular edges (camera-relative)
+  Vec3 direction{0.f};           // Sun: unit direction towards it
+  float one_minus_cos_max = 0.f; // Sun: angular radius as 1 − cos
+  bool infinite() const { return kind == LightKind::Environment || kind == LightKind::Sun; }
+};
+
+// The environment as compiled: what escaping rays see (besides the sun, a Light of its own).
+struct EnvironmentLight {
+  bool present = false;    // emits anything at all
+  bool uses_map = false;   // a lat-long map (a file, or the tabulated sky); else the constant `radiance`
+  Rgb radiance{0.f};
+  std::shared_ptr<const EnvironmentMap> map;
+};
+
+// What the scene contains, recorded when it is compiled.
+struct SceneFeatures {
+  bool triangles = false, quads = false, spheres = false;  // quads: non-triangle polygons
+  bool specular_materials = false, transmissive_materials = false, emissive_spheres = false, environment = false;
+};
+
+// The geometry a rendering kernel is compiled for (a bit mask, a template argument): the intersection code of a
+// primitive kind outside the set is not in the kernel at all. Materials, lights and the estimator are chosen at
+// run time (a few well-predicted branches per bounce), so there are 3 kernels per sampler: polygons, spheres,
+// both. kAllFeatures is the generic kernel, used by the plain query functions and for comparisons.
+enum KernelFeature : uint32_t {
+  kFeaturePolygons = 1,  // triangles or quads
+  kFeatureSpheres = 2,   // spheres (emitting ones included)
+};
+inline constexpr uint32_t kAllFeatures = kFeaturePolygons | kFeatureSpheres;
+
+// What the ray queries report. Polygon barycentrics are recomputed for the one winning polygon when the hit is
+// shaded (make_interaction), so the SIMD kernels only track distances.
+struct Hit {
+  float t = kInfinity;
+  uint32_t prim = ~0u;
+};
+
+// The scalar watertight test of polygon i (triangle or quad).
+inline bool intersect_polygon(const PolygonSoA& p, uint32_t i, Vec3 o, const RayShear& s, float t_max, PolygonHit& h) {
+  if (p.triangle[i]) return intersect_triangle(p.v[0][i], p.v[1][i], p.v[2][i], o, s, t_max, h);
+  return intersect_quad(p.v[0][i], p.v[1][i], p.v[2][i], p.v[3][i], o, s, t_max, h);
+}
+
+class Scene {
+ public:
+  Camera camera;
+  RenderSettings render;
+  EnvironmentLight environment;
+  int width = 0, height = 0;
+  DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
+
+  std::vector<Material> materials;
+  PolygonSoA polygons;
+  SphereSoA spheres;
+  PolygonLanes polygon_lanes;  // the same vertices, padded SoA for the SIMD tests
+  SceneFeatures features;
+
+  std::vector<Light> lights;
+  std::vector<int32_t> light_of_prim;  // light index of each primitive, −1 for non-emitters
+  std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
+  std::vector<float> light_pmf;
+  std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
+  double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
+
+  uint32_t sphere_begin() const { return static_cast<uint32_t>(polygons.size()); }
+  uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
+  uint32_t material_of(uint32_t prim) const;
+  uint32_t kernel_features() const {
+    return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u);
+  }
+
+  // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
+  // (The kernels call the feature-specialised versions in scene_queries.h.)
+  bool intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const;
+  // Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
+  bool occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const;
+};
+
+// Builds the render-ready scene. The description must already be valid (scene_json validates files; code that
+// builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
+std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc);
+
+// Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
+std::string validate_scene(const SceneDesc& desc);
+
+}  // namespace pt

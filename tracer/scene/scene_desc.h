@@ -1,0 +1,136 @@
+// The authoring model of a scene: what a JSON file says, what the viewer's UI edits, what `save scene` writes.
+// Coordinates are double precision world units (the scene's own). Nothing here is render-ready: compile_scene()
+// (scene.h) turns a validated SceneDesc into the tracer's camera-relative float structures.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/enum_table.h"
+#include "core/math.h"
+#include "io/image_io.h"
+#include "materials/material.h"
+
+namespace pt {
+
+enum class ShapeType { Triangle, Quad, Sphere };
+enum class FovAxis { Vertical, Horizontal };
+// Estimators of docs/estimators.md; all converge to the same image.
+enum class Estimator { Uniform, Cosine, Nee, Mis };
+// Sample generators (sampler.h): independent PCG32 numbers, or Owen-scrambled padded Sobol points.
+enum class SamplerType { Independent, Sobol };
+// What lights the scene from infinitely far away (lights/environment.h).
+enum class EnvironmentType { Constant, Sky, Map };
+
+template <>
+struct EnumTable<ShapeType> {
+  static constexpr std::array<EnumEntry<ShapeType>, 3> kEntries{{
+      {ShapeType::Triangle, "triangle", "Triangle"},
+      {ShapeType::Quad, "quad", "Quad"},
+      {ShapeType::Sphere, "sphere", "Sphere"},
+  }};
+};
+template <>
+struct EnumTable<FovAxis> {
+  static constexpr std::array<EnumEntry<FovAxis>, 2> kEntries{{
+      {FovAxis::Vertical, "vertical", "Vertical"},
+      {FovAxis::Horizontal, "horizontal", "Horizontal"},
+  }};
+};
+template <>
+struct EnumTable<Estimator> {
+  static constexpr std::array<EnumEntry<Estimator>, 4> kEntries{{
+      {Estimator::Uniform, "uniform", "Uniform hemisphere"},
+      {Estimator::Cosine, "cosine", "BSDF sampling"},
+      {Estimator::Nee, "nee", "Next-event estimation"},
+      {Estimator::Mis, "mis", "MIS (light + BSDF)"},
+  }};
+};
+template <>
+struct EnumTable<SamplerType> {
+  static constexpr std::array<EnumEntry<SamplerType>, 2> kEntries{{
+      {SamplerType::Independent, "independent", "Independent (PCG32)"},
+      {SamplerType::Sobol, "sobol", "Sobol (Owen-scrambled)"},
+  }};
+};
+template <>
+struct EnumTable<EnvironmentType> {
+  static constexpr std::array<EnumEntry<EnvironmentType>, 3> kEntries{{
+      {EnvironmentType::Constant, "constant", "Constant colour"},
+      {EnvironmentType::Sky, "sky", "Daylight sky (Preetham)"},
+      {EnvironmentType::Map, "map", "HDR map (lat-long)"},
+  }};
+};
+
+// The table's name of any enum value (enum_name), for messages and files.
+template <class E>
+const char* to_string(E value) {
+  return enum_name(value);
+}
+
+struct MaterialDesc {
+  std::string name;
+  MaterialType type = MaterialType::Diffuse;
+  Rgb albedo{0.8f};         // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′
+  Rgb emission{0.f};        // emitted radiance (W·sr⁻¹·m⁻² in scene units), any material may emit
+  bool two_sided = false;   // emission from both faces (default: front face only)
+  float ior = 1.5f;         // dielectric / plastic coat / subsurface medium index inside (outside is 1)
+  float roughness = 0.f;    // conductor, dielectric, plastic: [0, 1], GGX α = roughness², 0 = smooth
+  float g = 0.f;            // subsurface Henyey–Greenstein asymmetry, (−1, 1)
+  MetalPreset metal = MetalPreset::None;  // conductor: measured η, k instead of albedo
+  bool complex_ior = false;               // conductor: eta/k given in the file
+  Rgb eta{1.f}, k{0.f};
+};
+
+struct ShapeDesc {
+  ShapeType type = ShapeType::Triangle;
+  std::array<DVec3, 4> vertices{};  // triangle: 3, quad: 4 (counter-clockwise seen from the front)
+  DVec3 center{0.0};                // sphere
+  double radius = 0.0;              // sphere
+  int material = 0;                 // index into SceneDesc::materials
+};
+
+struct CameraDesc {
+  DVec3 position{278, 273, -800};
+  DVec3 look_at{278, 273, 0};
+  DVec3 up{0, 1, 0};
+  double fov_deg = 39.3077;
+  FovAxis fov_axis = FovAxis::Vertical;
+};
+
+struct RenderSettings {
+  int max_bounces = 8;             // scattering events after the camera ray's first hit (0 = emitters only)
+  Estimator estimator = Estimator::Mis;
+  SamplerType sampler = SamplerType::Sobol;
+  int russian_roulette_depth = 3;  // bounce index from which Russian roulette runs; -1 = off
+  uint64_t seed = 0;
+  // Diagnostic, not part of scene files: run the kernel compiled for every geometry kind instead of the one for
+  // the scene's own (same image; for instruction-count comparisons, `render --generic-kernel`).
+  bool generic_kernel = false;
+};
+
+struct EnvironmentDesc {
+  EnvironmentType type = EnvironmentType::Constant;
+  Rgb radiance{0.f};                    // constant: radiance of every escaping ray ("background" in files)
+  DVec3 sun_direction{0.3, 0.6, -0.4};  // sky: towards the sun (normalised when compiled; y up)
+  float turbidity = 3.f;                // sky: Preetham turbidity, [1.7, 10]
+  bool sun = true;                      // sky: add the solar disk as a light
+  float scale = 1.f;                    // sky and map: radiance multiplier
+  std::string file;                     // map: lat-long image (.exr, .hdr, .pfm), as written in the scene file
+  std::string resolved_file;            // map: `file` relative to the scene file's directory (not saved)
+  float rotation_deg = 0.f;             // map: rotation about +y
+  std::shared_ptr<const Image> image;    // map: the loaded image (loaded by the scene reader / the viewer)
+};
+
+struct SceneDesc {
+  CameraDesc camera;
+  int width = 512, height = 512;
+  RenderSettings render;
+  EnvironmentDesc environment;
+  std::vector<MaterialDesc> materials;
+  std::vector<ShapeDesc> shapes;
+};
+
+}  // namespace pt

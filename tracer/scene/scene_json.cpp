@@ -1,0 +1,644 @@
+#include "scene/scene_json.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cerrno>
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <unordered_map>
+#include <utility>
+
+#include "scene/scene.h"
+#include "io/image_io.h"
+
+namespace pt {
+namespace {
+
+// ordered_json keeps the materials in file order (their order is their index).
+using Json = nlohmann::ordered_json;
+
+// A structural problem found while reading the JSON tree; parse_scene() prefixes the source name.
+struct PathError {
+  std::string path;  // "" for the document itself
+  std::string reason;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& reason) { throw PathError{path, reason}; }
+
+std::string member(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+std::string element(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+std::string quoted(const std::string& s) { return Json(s).dump(-1, ' ', false, Json::error_handler_t::replace); }
+std::string got(const Json& v) { return std::string("got ") + v.type_name(); }
+
+std::string join_names(std::initializer_list<const char*> names) {
+  std::string out;
+  for (const char* n : names) out += (out.empty() ? "" : ", ") + std::string(n);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Syntax level: nlohmann's parser, plus duplicate-key detection and the JSON path of the value being read (the
+// parser reports a number overflow such as 1e999 without a position, so the path is what names it).
+
+class PathTracker {
+ public:
+  bool on_event(nlohmann::json::parse_event_t event, Json& parsed) {
+    using E = nlohmann::json::parse_event_t;
+    switch (event) {
+      case E::object_start: frames_.push_back({false, 0, {}, {}}); break;
+      case E::array_start: frames_.push_back({true, 0, {}, {}}); break;
+      case E::key: {
+        Frame& f = frames_.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second) fail(path(), "duplicate key");
+        break;
+      }
+      case E::object_end:
+      case E::array_end:
+        frames_.pop_back();
+        element_done();
+        break;
+      case E::value: element_done(); break;
+    }
+    return true;
+  }
+
+  // Path of the value currently being read.
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : frames_) p = f.array ? element(p, f.index) : member(p, f.key);
+    return p;
+  }
+
+ private:
+  struct Frame {
+    bool array;
+    size_t index;
+    std::string key;
+    std::set<std::string> keys;
+  };
+  void element_done() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+  }
+  std::vector<Frame> frames_;
+};
+
+// "line L, column C: reason" from nlohmann's "[json.exception.parse_error.101] parse error at line L, column C: ...".
+std::string syntax_message(const nlohmann::json::parse_error& e, const std::string& text) {
+  const std::string w = e.what();
+  const size_t at = w.find(" at line ");
+  if (at != std::string::npos) {
+    const size_t colon = w.find(": ", at);
+    if (colon != std::string::npos) return w.substr(at + 4, colon - (at + 4)) + ": " + w.substr(colon + 2);
+  }
+  // Fallback: position from the byte offset (1-based index of the last character read).
+  size_t line = 1, column = 0;
+  for (size_t i = 0; i < e.byte && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 0;
+    } else {
+      ++column;
+    }
+  }
+  std::string reason = w;
+  if (const size_t p = w.find("] "); p != std::string::npos) reason = w.substr(p + 2);
+  return "line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + reason;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Typed readers. Each takes the JSON value and its path and either returns the value or fails with the path.
+
+const Json& expect_object(const Json& v, const std::string& path) {
+  if (!v.is_object()) fail(path, "expected an object, " + got(v));
+  return v;
+}
+
+const Json* optional_key(const Json& obj, const char* key) {
+  const auto it = obj.find(key);
+  return it == obj.end() ? nullptr : &*it;
+}
+
+const Json& required_key(const Json& obj, const std::string& path, const char* key) {
+  if (const Json* v = optional_key(obj, key)) return *v;
+  fail(member(path, key), "missing required key");
+}
+
+// Every key must be one of `known`; the message lists them.
+void check_known_keys(const Json& obj, const std::string& path, std::initializer_list<const char*> known) {
+  for (const auto& item : obj.items()) {
+    bool found = false;
+    for (const char* k : known) found = found || item.key() == k;
+    if (!found) fail(member(path, item.key()), "unknown key (expected one of: " + join_names(known) + ")");
+  }
+}
+
+// Keys that are known but do not apply to this variant (e.g. "ior" on a diffuse material).
+void check_applicable_keys(const Json& obj, const std::string& path, std::initializer_list<const char*> applicable,
+                           const std::string& variant) {
+  for (const auto& item : obj.items()) {
+    bool found = false;
+    for (const char* k : applicable) found = found || item.key() == k;
+    if (!found) fail(member(path, item.key()), "does not apply to " + variant);
+  }
+}
+
+double read_double(const Json& v, const std::string& path) {
+  if (!v.is_number()) fail(path, "expected a number, " + got(v));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) fail(path, "must be finite");
+  return d;
+}
+
+float read_float(const Json& v, const std::string& path) {
+  const double d = read_double(v, path);
+  // Values from FLT_MAX up to half an ulp above it round to FLT_MAX ("3.4028235e+38" is FLT_MAX); beyond, to inf.
+  if (std::fabs(d) >= 0x1.ffffffp127) fail(path, "must be finite (out of single-precision range)");
+  return static_cast<float>(d);
+}
+
+// An integer: a JSON integer, or a number with an integral value (512.0, 1e3).
+int read_int(const Json& v, const std::string& path) {
+  if (!v.is_number()) fail(path, "expected an integer, " + got(v));
+  if (v.is_number_unsigned()) {
+    const uint64_t u = v.get<uint64_t>();
+    if (u > static_cast<uint64_t>(INT_MAX)) fail(path, "integer out of range");
+    return static_cast<int>(u);
+  }
+  if (v.is_number_integer()) {
+    const int64_t i = v.get<int64_t>();
+    if (i < INT_MIN || i > INT_MAX) fail(path, "integer out of range");
+    return static_cast<int>(i);
+  }
+  const double d = v.get<double>();
+  if (!std::isfinite(d) || d != std::trunc(d)) fail(path, "expected an integer, got " + v.dump());
+  if (d < static_cast<double>(INT_MIN) || d > static_cast<double>(INT_MAX)) fail(path, "integer out of range");
+  return static_cast<int>(d);
+}
+
+uint64_t read_uint64(const Json& v, const std::string& path) {
+  if (!v.is_number()) fail(path, "expected a non-negative integer, " + got(v));
+  if (v.is_number_unsigned()) return v.get<uint64_t>();
+  if (v.is_number_integer()) {
+    const int64_t i = v.get<int64_t>();
+    if (i < 0) fail(path, "must be a non-negative integer, got " + v.dump());
+    return static_cast<uint64_t>(i);
+  }
+  const double d = v.get<double>();
+  if (!std::isfinite(d) || d != std::trunc(d)) fail(path, "expected a non-negative integer, got " + v.dump());
+  if (d < 0.0) fail(path, "must be a non-negative integer, got " + v.dump());
+  if (d >= 18446744073709551616.0) fail(path, "integer out of range");
+  return static_cast<uint64_t>(d);
+}
+
+bool read_bool(const Json& v, const std::string& path) {
+  if (!v.is_boolean()) fail(path, "expected true or false, " + got(v));
+  return v.get<bool>();
+}
+
+const std::string& read_string(const Json& v, const std::string& path) {
+  if (!v.is_string()) fail(path, "expected a string, " + got(v));
+  return v.get_ref<const std::string&>();
+}
+
+const Json& expect_triple(const Json& v, const std::string& path) {
+  if (!v.is_array()) fail(path, "expected an array of 3 numbers, " + got(v));
+  if (v.size() != 3) fail(path, "expected an array of 3 numbers, got " + std::to_string(v.size()) + " elements");
+  return v;
+}
+
+DVec3 read_dvec3(const Json& v, const std::string& path) {
+  expect_triple(v, path);
+  return {read_double(v[0], element(path, 0)), read_double(v[1], element(path, 1)),
+          read_double(v[2], element(path, 2))};
+}
+
+Rgb read_rgb(const Json& v, const std::string& path) {
+  expect_triple(v, path);
+  return {read_float(v[0], element(path, 0)), read_float(v[1], element(path, 1)), read_float(v[2], element(path, 2))};
+}
+
+// Reads an enum by its table's name (core/enum_table.h); the error lists the accepted names.
+template <class E>
+E read_enum(const Json& v, const std::string& path, const char* noun) {
+  const std::string& s = read_string(v, path);
+  E value;
+  if (parse_enum(s, value)) return value;
+  fail(path, "unknown " + std::string(noun) + " " + quoted(s) + " (expected one of: " + enum_names_joined<E>() + ")");
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The schema.
+
+CameraDesc read_camera(const Json& j, const std::string& path) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"position", "look_at", "up", "fov_deg", "fov_axis"});
+  CameraDesc c;
+  c.position = read_dvec3(required_key(j, path, "position"), member(path, "position"));
+  c.look_at = read_dvec3(required_key(j, path, "look_at"), member(path, "look_at"));
+  c.up = DVec3(0, 1, 0);
+  if (const Json* v = optional_key(j, "up")) c.up = read_dvec3(*v, member(path, "up"));
+  c.fov_deg = read_double(required_key(j, path, "fov_deg"), member(path, "fov_deg"));
+  c.fov_axis = FovAxis::Vertical;
+  if (const Json* v = optional_key(j, "fov_axis")) c.fov_axis = read_enum<FovAxis>(*v, member(path, "fov_axis"), "fov_axis");
+  return c;
+}
+
+void read_film(const Json& j, const std::string& path, SceneDesc& s) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"width", "height"});
+  if (const Json* v = optional_key(j, "width")) s.width = read_int(*v, member(path, "width"));
+  if (const Json* v = optional_key(j, "height")) s.height = read_int(*v, member(path, "height"));
+}
+
+RenderSettings read_render(const Json& j, const std::string& path) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"max_bounces", "estimator", "sampler", "russian_roulette_depth", "seed"});
+  RenderSettings r;
+  if (const Json* v = optional_key(j, "max_bounces")) r.max_bounces = read_int(*v, member(path, "max_bounces"));
+  if (const Json* v = optional_key(j, "estimator"))
+    r.estimator = read_enum<Estimator>(*v, member(path, "estimator"), "estimator");
+  if (const Json* v = optional_key(j, "sampler"))
+    r.sampler = read_enum<SamplerType>(*v, member(path, "sampler"), "sampler");
+  if (const Json* v = optional_key(j, "russian_roulette_depth"))
+    r.russian_roulette_depth = read_int(*v, member(path, "russian_roulette_depth"));
+  if (const Json* v = optional_key(j, "seed")) r.seed = read_uint64(*v, member(path, "seed"));
+  return r;
+}
+
+MaterialDesc read_material(const std::string& name, const Json& j, const std::string& path) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"type", "albedo", "emission", "two_sided", "ior", "roughness", "g", "metal", "eta", "k"});
+  MaterialDesc m;
+  m.name = name;
+  m.type = read_enum<MaterialType>(required_key(j, path, "type"), member(path, "type"), "material type");
+  const std::string variant = std::string("a ") + to_string(m.type) + " material";
+  switch (m.type) {
+    case MaterialType::Diffuse:
+    case MaterialType::Mirror:
+      check_applicable_keys(j, path, {"type", "albedo", "emission", "two_sided"}, variant);
+      if (m.type == MaterialType::Mirror) m.albedo = Rgb(1.f);
+      break;
+    case MaterialType::Conductor: {
+      check_applicable_keys(j, path, {"type", "albedo", "metal", "eta", "k", "roughness", "emission", "two_sided"},
+                            variant);
+      const int given = (optional_key(j, "albedo") ? 1 : 0) + (optional_key(j, "metal") ? 1 : 0) +
+                        (optional_key(j, "eta") || optional_key(j, "k") ? 1 : 0);
+      if (given > 1) fail(path, "a conductor takes one of: albedo, metal, or eta and k");
+      if (const Json* v = optional_key(j, "metal"))
+        m.metal = read_enum<MetalPreset>(*v, member(path, "metal"), "metal");
+      if (optional_key(j, "eta") || optional_key(j, "k")) {
+        m.complex_ior = true;
+        m.eta = read_rgb(required_key(j, path, "eta"), member(path, "eta"));
+        m.k = read_rgb(required_key(j, path, "k"), member(path, "k"));
+      }
+      break;
+    }
+    case MaterialType::Dielectric:
+      check_applicable_keys(j, path, {"type", "emission", "two_sided", "ior", "roughness"}, variant);
+      break;
+    case MaterialType::Plastic:
+      check_applicable_keys(j, path, {"type", "albedo", "ior", "roughness", "emission", "two_sided"}, variant);
+      break;
+    case MaterialType::Subsurface:
+      check_applicable_keys(j, path, {"type", "albedo", "ior", "g", "emission", "two_sided"}, variant);
+      m.ior = 1.3f;
+      break;
+  }
+  if (const Json* v = optional_key(j, "albedo")) m.albedo = read_rgb(*v, member(path, "albedo"));
+  if (const Json* v = optional_key(j, "ior")) m.ior = read_float(*v, member(path, "ior"));
+  if (const Json* v = optional_key(j, "roughness")) m.roughness = read_float(*v, member(path, "roughness"));
+  if (const Json* v = optional_key(j, "g")) m.g = read_float(*v, member(path, "g"));
+  if (const Json* v = optional_key(j, "emission")) m.emission = read_rgb(*v, member(path, "emission"));
+  if (const Json* v = optional_key(j, "two_sided")) m.two_sided = read_bool(*v, member(path, "two_sided"));
+  return m;
+}
+
+// A radiance: finite and >= 0 in every channel (checked here so the message names the key the file used).
+Rgb read_radiance(const Json& v, const std::string& path) {
+  const Rgb c = read_rgb(v, path);
+  if (glm::any(glm::lessThan(c, Rgb(0.f)))) fail(path, "components must be finite and >= 0");
+  return c;
+}
+
+// The environment object; "background": [r, g, b] is the shorthand for a constant one.
+EnvironmentDesc read_environment(const Json& j, const std::string& path, const std::string& base_dir) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"type", "radiance", "sun_direction", "turbidity", "sun", "scale", "file", "rotation_deg"});
+  EnvironmentDesc e;
+  e.type = read_enum<EnvironmentType>(required_key(j, path, "type"), member(path, "type"), "environment type");
+  const std::string variant = std::string("a ") + to_string(e.type) + " environment";
+  switch (e.type) {
+    case EnvironmentType::Constant:
+      check_applicable_keys(j, path, {"type", "radiance"}, variant);
+      e.radiance = read_radiance(required_key(j, path, "radiance"), member(path, "radiance"));
+      break;
+    case EnvironmentType::Sky:
+      check_applicable_keys(j, path, {"type", "sun_direction", "turbidity", "sun", "scale"}, variant);
+      if (const Json* v = optional_key(j, "sun_direction")) e.sun_direction = read_dvec3(*v, member(path, "sun_direction"));
+      if (const Json* v = optional_key(j, "turbidity")) e.turbidity = read_float(*v, member(path, "turbidity"));
+      if (const Json* v = optional_key(j, "sun")) e.sun = read_bool(*v, member(path, "sun"));
+      break;
+    case EnvironmentType::Map: {
+      check_applicable_keys(j, path, {"type", "file", "scale", "rotation_deg"}, variant);
+      e.file = read_string(required_key(j, path, "file"), member(path, "file"));
+      if (e.file.empty()) fail(member(path, "file"), "must not be empty");
+      if (const Json* v = optional_key(j, "rotation_deg")) e.rotation_deg = read_float(*v, member(path, "rotation_deg"));
+      const std::filesystem::path file(e.file);
+      e.resolved_file = file.is_absolute() || base_dir.empty() ? e.file : (std::filesystem::path(base_dir) / file).string();
+      HdrImageResult read = read_hdr_image(e.resolved_file);
+      if (!read.ok()) fail(member(path, "file"), read.error);
+      e.image = std::make_shared<Image>(std::move(read.image));
+      break;
+    }
+  }
+  if (const Json* v = optional_key(j, "scale")) e.scale = read_float(*v, member(path, "scale"));
+  return e;
+}
+
+ShapeDesc read_shape(const Json& j, const std::string& path,
+                     const std::unordered_map<std::string, int>& material_index) {
+  expect_object(j, path);
+  check_known_keys(j, path, {"type", "vertices", "center", "radius", "material"});
+  ShapeDesc s;
+  s.type = read_enum<ShapeType>(required_key(j, path, "type"), member(path, "type"), "shape type");
+  const std::string type_name = to_string(s.type);
+  if (s.type == ShapeType::Sphere) {
+    check_applicable_keys(j, path, {"type", "center", "radius", "material"}, "a sphere");
+    s.center = read_dvec3(required_key(j, path, "center"), member(path, "center"));
+    s.radius = read_double(required_key(j, path, "radius"), member(path, "radius"));
+  } else {
+    check_applicable_keys(j, path, {"type", "vertices", "material"}, "a " + type_name);
+    const size_t n = s.type == ShapeType::Triangle ? 3 : 4;
+    const std::string vpath = member(path, "vertices");
+    const Json& v = required_key(j, path, "vertices");
+    if (!v.is_array()) fail(vpath, "expected an array of " + std::to_string(n) + " points, " + got(v));
+    if (v.size() != n)
+      fail(vpath, "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
+    for (size_t k = 0; k < n; ++k) s.vertices[k] = read_dvec3(v[k], element(vpath, k));
+  }
+  const std::string mpath = member(path, "material");
+  const std::string& mname = read_string(required_key(j, path, "material"), mpath);
+  const auto it = material_index.find(mname);
+  if (it == material_index.end()) fail(mpath, "unknown material " + quoted(mname));
+  s.material = it->second;
+  return s;
+}
+
+SceneDesc read_scene(const Json& root, const std::string& base_dir) {
+  if (!root.is_object()) fail("", "the top level must be an object, " + got(root));
+  check_known_keys(root, "", {"camera", "film", "render", "background", "environment", "materials", "shapes"});
+  SceneDesc s;
+  s.camera = read_camera(required_key(root, "", "camera"), "camera");
+  if (const Json* v = optional_key(root, "film")) read_film(*v, "film", s);
+  if (const Json* v = optional_key(root, "render")) s.render = read_render(*v, "render");
+  if (optional_key(root, "background") && optional_key(root, "environment"))
+    fail("background", "give either background (a constant environment) or environment, not both");
+  if (const Json* v = optional_key(root, "background")) s.environment.radiance = read_radiance(*v, "background");
+  if (const Json* v = optional_key(root, "environment")) s.environment = read_environment(*v, "environment", base_dir);
+
+  const Json& materials = expect_object(required_key(root, "", "materials"), "materials");
+  if (materials.empty()) fail("materials", "must define at least one material");
+  std::unordered_map<std::string, int> material_index;
+  for (const auto& item : materials.items()) {
+    if (item.key().empty()) fail("materials", "a material name must not be empty");
+    material_index.emplace(item.key(), static_cast<int>(s.materials.size()));
+    s.materials.push_back(read_material(item.key(), item.value(), "materials." + item.key()));
+  }
+
+  const Json& shapes = required_key(root, "", "shapes");
+  if (!shapes.is_array()) fail("shapes", "expected an array, " + got(shapes));
+  if (shapes.empty()) fail("shapes", "must contain at least one shape");
+  for (size_t i = 0; i < shapes.size(); ++i) s.shapes.push_back(read_shape(shapes[i], element("shapes", i), material_index));
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Writing.
+
+// Integral values are written as integers ("278", not "278.0"); the sign of −0 is kept.
+bool integral(double d) { return d == std::trunc(d) && std::fabs(d) < 9007199254740992.0 && !(d == 0.0 && std::signbit(d)); }
+
+Json number(double d) {
+  if (!std::isfinite(d)) return nullptr;
+  if (integral(d)) return static_cast<int64_t>(d);
+  return d;  // nlohmann writes doubles in a form that parses back to the same double
+}
+
+// A float is written as its shortest decimal form ("0.725", not "0.7250000238418579"), provided that decimal read as
+// a double and rounded to float gives the float back (the reader rounds decimal → double → float); otherwise exactly.
+Json number(float f) {
+  if (!std::isfinite(f)) return nullptr;
+  if (integral(f)) return static_cast<int64_t>(f);
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, f);
+  double d = 0.0;
+  if (r.ec == std::errc() && std::from_chars(buf, r.ptr, d).ec == std::errc() && static_cast<float>(d) == f) return d;
+  return static_cast<double>(f);
+}
+
+Json triple(DVec3 v) { return Json::array({number(v.x), number(v.y), number(v.z)}); }
+Json triple(Rgb v) { return Json::array({number(v.x), number(v.y), number(v.z)}); }
+bool positive_zero(float f) { return f == 0.f && !std::signbit(f); }
+
+Json to_json(const SceneDesc& s) {
+  Json root = Json::object();
+  const CameraDesc& c = s.camera;
+  root["camera"] = {{"position", triple(c.position)},
+                    {"look_at", triple(c.look_at)},
+                    {"up", triple(c.up)},
+                    {"fov_deg", number(c.fov_deg)},
+                    {"fov_axis", to_string(c.fov_axis)}};
+  root["film"] = {{"width", s.width}, {"height", s.height}};
+  root["render"] = {{"max_bounces", s.render.max_bounces},
+                    {"estimator", to_string(s.render.estimator)},
+                    {"sampler", to_string(s.render.sampler)},
+                    {"russian_roulette_depth", s.render.russian_roulette_depth},
+                    {"seed", s.render.seed}};
+  const EnvironmentDesc& e = s.environment;
+  if (e.type == EnvironmentType::Constant) {
+    root["background"] = triple(e.radiance);
+  } else {
+    Json env = {{"type", to_string(e.type)}};
+    if (e.type == EnvironmentType::Sky) {
+      env["sun_direction"] = triple(e.sun_direction);
+      env["turbidity"] = number(e.turbidity);
+      env["sun"] = e.sun;
+    } else {
+      env["file"] = e.file;
+      env["rotation_deg"] = number(e.rotation_deg);
+    }
+    env["scale"] = number(e.scale);
+    root["environment"] = std::move(env);
+  }
+  Json materials = Json::object();
+  for (const MaterialDesc& m : s.materials) {
+    Json j = {{"type", to_string(m.type)}};
+    const MaterialType t = m.type;
+    if (t == MaterialType::Conductor && m.metal != MetalPreset::None) {
+      j["metal"] = to_string(m.metal);
+    } else if (t == MaterialType::Conductor && m.complex_ior) {
+      j["eta"] = triple(m.eta);
+      j["k"] = triple(m.k);
+    } else if (t != MaterialType::Dielectric) {
+      j["albedo"] = triple(m.albedo);
+    }
+    if (t == MaterialType::Dielectric || t == MaterialType::Plastic || t == MaterialType::Subsurface) j["ior"] = number(m.ior);
+    if (t == MaterialType::Conductor || t == MaterialType::Dielectric || t == MaterialType::Plastic)
+      j["roughness"] = number(m.roughness);
+    if (t == MaterialType::Subsurface) j["g"] = number(m.g);
+    if (!(positive_zero(m.emission.x) && positive_zero(m.emission.y) && positive_zero(m.emission.z)))
+      j["emission"] = triple(m.emission);
+    if (m.two_sided) j["two_sided"] = true;
+    materials[m.name] = std::move(j);
+  }
+  root["materials"] = std::move(materials);
+  Json shapes = Json::array();
+  for (size_t i = 0; i < s.shapes.size(); ++i) {
+    const ShapeDesc& sh = s.shapes[i];
+    if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
+      throw std::invalid_argument("scene_to_json: shapes[" + std::to_string(i) + "].material: no such material");
+    Json j = {{"type", to_string(sh.type)}};
+    if (sh.type == ShapeType::Sphere) {
+      j["center"] = triple(sh.center);
+      j["radius"] = number(sh.radius);
+    } else {
+      Json v = Json::array();
+      for (int k = 0; k < (sh.type == ShapeType::Triangle ? 3 : 4); ++k) v.push_back(triple(sh.vertices[k]));
+      j["vertices"] = std::move(v);
+    }
+    j["material"] = s.materials[sh.material].name;
+    shapes.push_back(std::move(j));
+  }
+  root["shapes"] = std::move(shapes);
+  return root;
+}
+
+// Pretty printer: a container goes on one line when it fits in kWidth columns (a shape of the canonical scenes
+// does), else one element per line.
+constexpr size_t kWidth = 150;
+
+std::string scalar(const Json& v) { return v.dump(-1, ' ', false, Json::error_handler_t::replace); }
+
+std::string one_line(const Json& v) {
+  if (v.is_array()) {
+    std::string out = "[";
+    for (size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + one_line(v[i]);
+    return out + "]";
+  }
+  if (v.is_object()) {
+    std::string out = "{";
+    bool first = true;
+    for (const auto& item : v.items()) {
+      out += (first ? "" : ", ") + quoted(item.key()) + ": " + one_line(item.value());
+      first = false;
+    }
+    return out + "}";
+  }
+  return scalar(v);
+}
+
+// `column` is where the value starts on its line (after the indentation and any "key": prefix).
+void write(std::string& out, const Json& v, size_t indent, size_t column, bool force_break) {
+  const bool container = v.is_array() || v.is_object();
+  if (!container || v.empty() || !force_break) {
+    std::string line = one_line(v);
+    if (!container || v.empty() || column + line.size() <= kWidth) {
+      out += line;
+      return;
+    }
+  }
+  const std::string pad(indent + 2, ' ');
+  out += v.is_array() ? "[\n" : "{\n";
+  size_t i = 0;
+  for (const auto& item : v.items()) {
+    out += pad;
+    size_t col = pad.size();
+    if (v.is_object()) {
+      const std::string key = quoted(item.key()) + ": ";
+      out += key;
+      col += key.size();
+    }
+    write(out, item.value(), indent + 2, col, false);
+    out += ++i < v.size() ? ",\n" : "\n";
+  }
+  out += std::string(indent, ' ') + (v.is_array() ? "]" : "}");
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------------------------
+
+SceneDesc parse_scene(const std::string& json_text, const std::string& source_name, const std::string& base_dir) {
+  const auto where = [&](const PathError& e) {
+    return source_name + ": " + (e.path.empty() ? "" : e.path + ": ") + e.reason;
+  };
+  PathTracker tracker;
+  Json root;
+  try {
+    root = Json::parse(json_text, [&tracker](int, nlohmann::json::parse_event_t event, Json& parsed) {
+      return tracker.on_event(event, parsed);
+    });
+  } catch (const nlohmann::json::parse_error& e) {
+    throw SceneError(source_name + ": " + syntax_message(e, json_text));
+  } catch (const nlohmann::json::out_of_range&) {  // a number literal that overflows a double, e.g. 1e999
+    throw SceneError(where({tracker.path(), "must be finite (number too large for a double)"}));
+  } catch (const PathError& e) {
+    throw SceneError(where(e));
+  }
+  SceneDesc desc;
+  try {
+    desc = read_scene(root, base_dir);
+  } catch (const PathError& e) {
+    throw SceneError(where(e));
+  }
+  if (const std::string err = validate_scene(desc); !err.empty()) throw SceneError(source_name + ": " + err);
+  return desc;
+}
+
+SceneDesc load_scene_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw SceneError(path + ": cannot open (is a directory)");
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(path + ": cannot open (" + (errno ? std::strerror(errno) : "unknown error") + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw SceneError(path + ": cannot read (" + (errno ? std::strerror(errno) : "I/O error") + ")");
+  return parse_scene(text.str(), path, std::filesystem::path(path).parent_path().string());
+}
+
+std::string scene_to_json(const SceneDesc& scene) {
+  // The top level and the material and shape lists always get one entry per line; the rest fits where it can.
+  const Json root = to_json(scene);
+  std::string out = "{\n";
+  size_t i = 0;
+  for (const auto& item : root.items()) {
+    const std::string key = "  " + quoted(item.key()) + ": ";
+    out += key;
+    write(out, item.value(), 2, key.size(), item.key() == "materials" || item.key() == "shapes");
+    out += ++i < root.size() ? ",\n" : "\n";
+  }
+  return out + "}\n";
+}
+
+SceneDesc load_scene(const std::string& spec) {
+  const bool is_file = spec.find('/') != std::string::npos ||
+                       (spec.size() >= 5 && spec.compare(spec.size() - 5, 5, ".json") == 0);
+  if (is_file) return load_scene_file(spec);
+  if (const auto text = builtin_scene_json(spec)) return parse_scene(std::string(*text), "builtin:" + spec);
+  std::string names;
+  for (const std::string& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
+  throw SceneError(spec + ": unknown built-in scene (built-in scenes: " + names +
+                   "; a scene file path must end in .json or contain '/')");
+}
+
+}  // namespace pt

@@ -1,0 +1,47 @@
+// Scene files: JSON <-> SceneDesc, and the built-in scenes compiled into the binary.
+// The format is documented in docs/scene-format.md.
+#pragma once
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "scene/scene_desc.h"
+
+namespace pt {
+
+// Thrown for any unreadable or invalid scene. what() is "SOURCE: JSON.PATH: reason", e.g.
+// "scenes/bad.json: shapes[3].radius: must be finite and > 0"; for syntax errors "SOURCE: line L, column C: reason".
+struct SceneError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Parses and fully validates (structure, then validate_scene) a scene. `source_name` only prefixes error messages;
+// files the scene refers to (an environment map) are found relative to `base_dir` ("" = the working directory)
+// and read here, so that a missing or bad file is reported with its JSON path.
+SceneDesc parse_scene(const std::string& json_text, const std::string& source_name, const std::string& base_dir = "");
+
+// Reads and parses a file; errors (including "cannot open") name the file.
+SceneDesc load_scene_file(const std::string& path);
+
+// Pretty JSON (2-space indent, short arrays and shapes on one line). For a valid scene,
+// parse_scene(scene_to_json(s)) reproduces s exactly, floats included. Fields the scene's types do not use
+// (a dielectric's albedo, a non-dielectric's ior, a sphere's vertices, a polygon's centre/radius, a triangle's
+// 4th vertex) are not written, so they come back as their defaults. Non-finite numbers are written as null.
+// Throws std::invalid_argument when a shape's material index is out of range.
+std::string scene_to_json(const SceneDesc& scene);
+
+// Names of the built-in scenes, the default ("cornell") first: {"cornell", "cornell-spheres", "shadertoy",
+// "materials", "sky"}.
+std::vector<std::string> builtin_scene_names();
+
+// JSON text of a built-in scene, or nullopt for an unknown name.
+std::optional<std::string_view> builtin_scene_json(const std::string& name);
+
+// `spec` is a built-in name or a file path: anything ending in ".json" or containing '/' is a file; otherwise a
+// built-in name (the error lists the built-in names). The source name used in messages is the path or
+// "builtin:NAME".
+SceneDesc load_scene(const std::string& spec);
+
+}  // namespace pt
