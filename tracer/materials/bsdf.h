@@ -11,42 +11,126 @@
 //   dielectrics use the sign of wo.z to tell entering (outside, z > 0) from leaving.
 // - Transmission carries radiance scaling 1/η² (non-symmetric transport, Veach 1997 §5.2); BsdfSample::eta is
 //   the relative index n_t/n_i of the crossed interface (1 for reflection), for Russian roulette's η-scale.
+//
+// The functions below dispatch from the material type to its lobe (materials/*.h): the only place that names a
+// material type besides material.cpp; the integrator sees flags only. Reflection-only lobes assume wo.z ≥ 0:
+// when wo is below the surface both directions are mirrored in z first and the sampled direction is mirrored
+// back, which makes those materials two-sided. The functions are inline, so the path loop pays no call per BSDF query and a scene of diffuse surfaces runs
+// only the few instructions of the Lambert case.
 #pragma once
-#include "materials/material.h"
+#include "materials/bsdf_sample.h"
+#include "materials/conductor.h"
+#include "materials/dielectric.h"
+#include "materials/diffuse.h"
+#include "materials/plastic.h"
+#include "materials/subsurface.h"
 
 namespace pt {
 
-enum BsdfFlags : uint32_t {
-  kBsdfNone = 0,
-  kBsdfReflection = 1,
-  kBsdfTransmission = 2,
-  kBsdfDiffuse = 4,
-  kBsdfGlossy = 8,
-  kBsdfSpecular = 16,
-};
+namespace bsdf_detail {
+inline Vec3 front(Vec3 w, bool flip) { return flip ? Vec3(w.x, w.y, -w.z) : w; }
+}  // namespace bsdf_detail
 
 // True when the BSDF has a lobe that eval/pdf can see (diffuse or glossy): light sampling makes sense there.
 inline bool has_non_specular(uint32_t flags) { return (flags & (kBsdfDiffuse | kBsdfGlossy)) != 0; }
 inline bool is_specular(uint32_t flags) { return (flags & kBsdfSpecular) != 0; }
 inline bool is_transmissive(uint32_t flags) { return (flags & kBsdfTransmission) != 0; }
 
-struct BsdfSample {
-  Vec3 wi{0.f};
-  Rgb f{0.f};
-  float pdf = 0.f;
-  uint32_t flags = kBsdfNone;  // the sampled lobe: reflection|transmission × diffuse|glossy|specular
-  float eta = 1.f;             // n_t/n_i on transmission, 1 on reflection
-};
-
 // The lobes this material has (a union over its lobes: plastic with a smooth coat is Specular|Diffuse).
-uint32_t bsdf_flags(const Material& m);
+inline uint32_t bsdf_flags(const Material& m) {
+  const bool smooth = effectively_smooth(m.alpha);
+  switch (m.type) {
+    case MaterialType::Diffuse:
+      return kBsdfReflection | kBsdfDiffuse;
+    case MaterialType::Mirror:
+      return kBsdfReflection | kBsdfSpecular;
+    case MaterialType::Conductor:
+      return kBsdfReflection | (smooth ? kBsdfSpecular : kBsdfGlossy);
+    case MaterialType::Dielectric:
+      return kBsdfReflection | kBsdfTransmission | (smooth ? kBsdfSpecular : kBsdfGlossy);
+    case MaterialType::Plastic:
+      return kBsdfReflection | kBsdfDiffuse | (smooth ? kBsdfSpecular : kBsdfGlossy);
+    case MaterialType::Subsurface:
+      return kBsdfReflection | kBsdfDiffuse;
+  }
+  return kBsdfNone;
+}
+
 // f(wo, wi) of the non-specular lobes.
-Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi);
+inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
+  if (m.type == MaterialType::Dielectric) return dielectric_eval(m, wo, wi);
+  const bool flip = wo.z < 0.f;
+  wo = bsdf_detail::front(wo, flip);
+  wi = bsdf_detail::front(wi, flip);
+  switch (m.type) {
+    case MaterialType::Diffuse:
+      return diffuse_eval(m, wo, wi);
+    case MaterialType::Mirror:
+      return Rgb(0.f);
+    case MaterialType::Conductor:
+      return conductor_eval(m, wo, wi);
+    case MaterialType::Plastic:
+      return plastic_eval(m, wo, wi);
+    case MaterialType::Subsurface:
+      return subsurface_eval(m, wo, wi);
+    case MaterialType::Dielectric:
+      break;
+  }
+  return Rgb(0.f);
+}
+
 // Solid-angle density with which bsdf_sample produces wi from wo (non-specular lobes only, each weighted by its
 // selection probability).
-float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi);
+inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
+  if (m.type == MaterialType::Dielectric) return dielectric_pdf(m, wo, wi);
+  const bool flip = wo.z < 0.f;
+  wo = bsdf_detail::front(wo, flip);
+  wi = bsdf_detail::front(wi, flip);
+  switch (m.type) {
+    case MaterialType::Diffuse:
+      return diffuse_pdf(wo, wi);
+    case MaterialType::Mirror:
+      return 0.f;
+    case MaterialType::Conductor:
+      return conductor_pdf(m, wo, wi);
+    case MaterialType::Plastic:
+      return plastic_pdf(m, wo, wi);
+    case MaterialType::Subsurface:
+      return subsurface_pdf(wo, wi);
+    case MaterialType::Dielectric:
+      break;
+  }
+  return 0.f;
+}
+
 // Samples wi from wo with uc (lobe choice) and u (direction). Returns false when no sample was produced
 // (grazing, below the surface, zero albedo).
-bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out);
+inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
+  if (m.type == MaterialType::Dielectric) return dielectric_sample(m, wo, uc, u, out);
+  const bool flip = wo.z < 0.f;
+  wo = bsdf_detail::front(wo, flip);
+  bool ok = false;
+  switch (m.type) {
+    case MaterialType::Diffuse:
+      ok = diffuse_sample(m, wo, u, out);
+      break;
+    case MaterialType::Mirror:
+      ok = mirror_sample(m, wo, out);
+      break;
+    case MaterialType::Conductor:
+      ok = conductor_sample(m, wo, uc, u, out);
+      break;
+    case MaterialType::Plastic:
+      ok = plastic_sample(m, wo, uc, u, out);
+      break;
+    case MaterialType::Subsurface:
+      ok = subsurface_sample(m, wo, u, out);
+      break;
+    case MaterialType::Dielectric:
+      break;
+  }
+  if (ok) out.wi = bsdf_detail::front(out.wi, flip);
+  return ok;
+}
 
 }  // namespace pt

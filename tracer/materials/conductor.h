@@ -1,5 +1,5 @@
 // Conductors: the tinted mirror and the GGX microfacet conductor with multiple-scattering compensation.
-// Reflection-only: wo.z ≥ 0 on entry (bsdf.cpp mirrors to the front).
+// Reflection-only: wo.z ≥ 0 on entry (bsdf.h mirrors to the front).
 //
 // Single scattering (Walter et al. 2007 eq. 20; pbrt-v4 ConductorBxDF):
 //   f_ss(wo, wi) = D(wm) G2(wo, wi) F(wo·wm) / (4 cos θo cos θi),   wm = normalize(wo + wi),
@@ -18,7 +18,7 @@
 // hemisphere for f_ms (probability p_ms = 1 − E(μo), the share of f_ms in a white conductor's albedo); pdf is
 // the matching mixture density, and the sample returns the full f and pdf (one-sample MIS over the two lobes).
 #pragma once
-#include "materials/bsdf.h"
+#include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
 #include "sampling/sampling.h"
 

@@ -17,7 +17,7 @@
 // dot products with the mirrored wm, so the formulas above apply unchanged. BsdfSample::eta = η on
 // transmission. Dielectrics are colourless (the albedo is not used).
 #pragma once
-#include "materials/bsdf.h"
+#include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
 
 namespace pt {

@@ -1,8 +1,8 @@
 // Lambertian reflection f = ρ/π with cosine-weighted sampling (pbrt-v4 DiffuseBxDF).
-// Like every reflection-only lobe here, the functions take wo in the upper hemisphere (wo.z ≥ 0): bsdf.cpp
+// Like every reflection-only lobe here, the functions take wo in the upper hemisphere (wo.z ≥ 0): bsdf.h
 // mirrors both directions to the front first, which makes the material two-sided.
 #pragma once
-#include "materials/bsdf.h"
+#include "materials/bsdf_sample.h"
 #include "sampling/sampling.h"
 
 namespace pt {

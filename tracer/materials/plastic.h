@@ -11,9 +11,9 @@
 // Lobe choice: the coat with probability p_c = E_c(μo) / (E_c(μo) + (1 − E_c(μo)) lum(albedo)) (each lobe's
 // share of the reflected energy, by luminance), else the cosine hemisphere. pdf is the matching mixture (only
 // the diffuse part for a smooth coat); rough samples return the full f and pdf.
-// Reflection-only and two-sided: wo.z ≥ 0 on entry (bsdf.cpp mirrors to the front).
+// Reflection-only and two-sided: wo.z ≥ 0 on entry (bsdf.h mirrors to the front).
 #pragma once
-#include "materials/bsdf.h"
+#include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
 #include "sampling/sampling.h"
 

@@ -33,9 +33,9 @@
 // energy_tables.h) and stores m.ss_norm = min(1, 1/max E), which multiplies f: channels that conserve energy
 // are untouched, the others are scaled to a maximum albedo of exactly 1.
 // f is reciprocal. Sampling: cosine-weighted hemisphere. Reflection-only, two-sided: wo.z ≥ 0 on entry
-// (bsdf.cpp mirrors).
+// (bsdf.h mirrors).
 #pragma once
-#include "materials/bsdf.h"
+#include "materials/bsdf_sample.h"
 #include "materials/fresnel.h"
 #include "sampling/sampling.h"
 
