@@ -74,6 +74,28 @@ Blocks blocks_of(const Film& f, int b) {
   return r;
 }
 
+// z-scores of the differences of two films' 8×8 (b×b) block means, per channel, from the films' own variances
+// (blocks of zero variance in both are skipped).
+struct BlockZ {
+  double max_abs = 0, sum_sq = 0;
+  int n = 0;
+  double mean_sq() const { return n ? sum_sq / n : 0.0; }
+};
+BlockZ block_z_scores(const Film& a, const Film& b, int block) {
+  const Blocks ba = blocks_of(a, block), bb = blocks_of(b, block);
+  BlockZ z;
+  for (size_t k = 0; k < ba.mean.size(); ++k)
+    for (int c = 0; c < 3; ++c) {
+      const double sd = std::sqrt(ba.var[k][c] + bb.var[k][c]);
+      if (!(sd > 0)) continue;
+      const double v = (ba.mean[k][c] - bb.mean[k][c]) / sd;
+      z.sum_sq += v * v;
+      z.max_abs = std::max(z.max_abs, std::abs(v));
+      ++z.n;
+    }
+  return z;
+}
+
 // `modify` adjusts the scene; estimators before `first` are left out (for lights only light sampling can find).
 void check_estimators_agree(const char* scene_name, int size, int spp, int max_bounces = -1,
                             void (*modify)(SceneDesc&) = nullptr, Estimator first = Estimator::Uniform) {
@@ -95,25 +117,13 @@ void check_estimators_agree(const char* scene_name, int size, int spp, int max_b
   // 3 channels × (size/8)² blocks × 3 pairs ≈ 150 z-scores: |z| < 4.5 for all (a two-sided 4.5σ event has
   // probability 7e-6 each, 1e-3 for the set) and the mean z² must be near 1 (it is ≈ 1 ± 0.2 for agreeing
   // estimators; a bias of one standard error anywhere pushes it well above 1.5).
-  const Blocks ref = blocks_of(films[3], 8);
   for (int e = static_cast<int>(first); e < 3; ++e) {
-    const Blocks b = blocks_of(films[e], 8);
-    const std::string name = to_string(kAll[e]);
-    double z2 = 0, zmax = 0;
-    int n = 0;
-    for (size_t k = 0; k < b.mean.size(); ++k)
-      for (int c = 0; c < 3; ++c) {
-        const double s = std::sqrt(b.var[k][c] + ref.var[k][c]);
-        if (!(s > 0)) continue;
-        const double z = (b.mean[k][c] - ref.mean[k][c]) / s;
-        z2 += z * z;
-        zmax = std::max(zmax, std::abs(z));
-        ++n;
-      }
-    INFO(std::string(scene_name) << ": " << name << " vs mis: max |z| " << zmax << ", mean z² " << z2 / n << " over " << n);
-    CHECK(n > 0);
-    CHECK(zmax < 4.5);
-    CHECK(z2 / n < 1.6);
+    const BlockZ z = block_z_scores(films[e], films[3], 8);
+    INFO(std::string(scene_name) << ": " << to_string(kAll[e]) << " vs mis: max |z| " << z.max_abs << ", mean z² "
+                                 << z.mean_sq() << " over " << z.n);
+    CHECK(z.n > 0);
+    CHECK(z.max_abs < 4.5);
+    CHECK(z.mean_sq() < 1.6);
   }
 }
 
@@ -296,20 +306,11 @@ TEST_CASE("environment: a constant map renders the image of the constant environ
   map.render.seed = 7;
   const Film a = render_film(constant, 256), b = render_film(map, 256);
   std::filesystem::remove(path);
-  const Blocks ba = blocks_of(a, 8), bb = blocks_of(b, 8);
-  double z2 = 0, zmax = 0;
-  int n = 0;
-  for (size_t k = 0; k < ba.mean.size(); ++k)
-    for (int c = 0; c < 3; ++c) {
-      const double sd = std::sqrt(ba.var[k][c] + bb.var[k][c]);
-      if (!(sd > 0)) continue;
-      const double z = (ba.mean[k][c] - bb.mean[k][c]) / sd;
-      z2 += z * z, zmax = std::max(zmax, std::abs(z)), ++n;
-    }
-  INFO("max |z| " << zmax << ", mean z² " << z2 / n << " over " << n);
-  CHECK(n >= 24);  // blocks that see only the environment are exactly equal (zero variance): not counted
-  CHECK(zmax < 4.5);  // two-sided 4.5σ: 7e-6 per z-score
-  CHECK(z2 / n < 1.6);
+  const BlockZ z = block_z_scores(a, b, 8);
+  INFO("max |z| " << z.max_abs << ", mean z² " << z.mean_sq() << " over " << z.n);
+  CHECK(z.n >= 24);  // blocks that see only the environment are exactly equal (zero variance): not counted
+  CHECK(z.max_abs < 4.5);  // two-sided 4.5σ: 7e-6 per z-score
+  CHECK(z.mean_sq() < 1.6);
 }
 
 TEST_CASE("sobol sampler: unbiased, and lower error than independent samples at equal sample count") {
