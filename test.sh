@@ -16,5 +16,5 @@ if [ "${CI:-}" = "true" ] || [ "${1:-}" = "--sanitize" ]; then
   cd "$here/build-asan"
   ctest -j"$(nproc)" --output-on-failure --timeout 900 \
     -R 'scene_json|intersection|watertight|sphere|film:|fresnel|energy|refraction|sampling|rng|cli: errors|PFM round|metrics|furnace|determinism|bsdf|environment|spherical rectangle|analytic irradiance' \
-    -E 'default scene|just below 1|albedo-1 closed room|cornell, 1 bounce|agreement:|constant map renders|adaptive sampling'
+    -E 'default scene|just below 1|albedo-1 closed room|cornell, 1 bounce|agreement:|constant map renders'
 fi
