@@ -264,7 +264,7 @@ TEST_CASE("white furnace: a white conductor returns 1 within 1 % at every roughn
     for (Estimator est : {Estimator::Cosine, Estimator::Mis}) {
       const Film f = render_film(white_furnace(MaterialType::Conductor, est, 1.f, roughness), 256);
       const MeanWithError m = film_mean(f);
-      INFO("roughness " << roughness << ", " << to_string(est) << ": " << m.mean.x << " ± " << m.se.x);
+      INFO("roughness " << roughness << ", " << std::string(to_string(est)) << ": " << m.mean.x << " ± " << m.se.x);
       CHECK(m.mean.x > 0.99 - 4 * m.se.x);
       CHECK(m.mean.x < 1.01 + 4 * m.se.x);
       CHECK(m.se.x < 2e-3);
@@ -281,7 +281,7 @@ TEST_CASE("white furnace: a diffuse sphere of albedo ρ under a constant environ
       // Pixels on the sphere only: a narrow field of view inside its silhouette.
       d.camera.fov_deg = 10;
       const MeanWithError m = film_mean(render_film(d, 64));
-      INFO("ρ " << rho << ", " << to_string(est) << ": " << m.mean.x << " ± " << m.se.x);
+      INFO("ρ " << rho << ", " << std::string(to_string(est)) << ": " << m.mean.x << " ± " << m.se.x);
       CHECK(std::abs(m.mean.x - rho) <= 4 * m.se.x + 1e-5);
     }
 }

@@ -87,7 +87,7 @@ void check_direction_sampler(const char* name, const DirSampler& sample, const D
   double integral = 0;
   const auto exp = expected_counts(pdf, produced, &integral);
   const auto r = chi2_test(obs, exp);
-  INFO(name << ": chi2 = " << r.statistic << ", dof = " << r.dof << ", p = " << r.p_value << ", pdf integral = " << integral);
+  INFO(std::string(name) << ": chi2 = " << r.statistic << ", dof = " << r.dof << ", p = " << r.p_value << ", pdf integral = " << integral);
   // Samples in cells whose integrated pdf is 0: only a support boundary slipping between the 32×32 integration
   // points can cause that, which holds a negligible share of the mass.
   CHECK(r.unexpected <= 2e-5 * produced);
