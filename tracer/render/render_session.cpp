@@ -49,8 +49,12 @@ struct RenderSession::Worker {
   SceneDesc desc;
   uint64_t generation = 0;
   bool scene_ok = false;
-  bool full_dirty = true, preview_dirty = true;  // the compiled scenes are out of date
-  std::shared_ptr<const Scene> full, preview;
+  bool full_dirty = true, preview_dirty = true;  // the compiled scenes must be rebuilt
+  // Edits that keep the geometry (materials, environment, render settings) are applied to the compiled scenes in
+  // place (update_scene_appearance): `appearance_from` is the description they were compiled from.
+  bool appearance_dirty = false;
+  SceneDesc appearance_from;
+  std::shared_ptr<Scene> full, preview;
   int preview_divisor = 1;  // of this accumulation; 1 = none
   bool need_preview = false;
   Film film, preview_film;
@@ -224,9 +228,15 @@ bool RenderSession::take_requests(Worker& w, bool& restart) {
     changed_.notify_all();
   }
   if (pending_scene_) {
+    if (w.scene_ok && same_geometry(w.desc, *pending_scene_)) {
+      if (!w.appearance_dirty) w.appearance_from = std::move(w.desc);  // what the compiled scenes show
+      w.appearance_dirty = true;
+    } else {
+      w.full_dirty = w.preview_dirty = true;
+      w.appearance_dirty = false;
+    }
     w.desc = std::move(*pending_scene_);
     pending_scene_.reset();
-    w.full_dirty = w.preview_dirty = true;
     w.scene_ok = true;
   }
   if (pending_restart_) {
@@ -247,6 +257,12 @@ bool RenderSession::prepare(Worker& w, bool restart) {
       w.renderer_threads = w.settings.threads;
       std::lock_guard<std::mutex> lock(mutex_);
       stats_.threads = w.renderer->threads();
+    }
+    if (w.appearance_dirty && w.scene_ok) {
+      // A scene not compiled yet, or due for a rebuild anyway, needs no update.
+      if (w.full && !w.full_dirty) update_scene_appearance(*w.full, w.appearance_from, w.desc);
+      if (w.preview && !w.preview_dirty) update_scene_appearance(*w.preview, w.appearance_from, w.desc);
+      w.appearance_dirty = false;
     }
     if (restart && w.scene_ok) {
       w.film.reset(w.desc.width, w.desc.height);

@@ -225,50 +225,39 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
   env.present = env.map->power_weight() > 0.0;
 }
 
-}  // namespace
-
-std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
-  if (std::string err = validate_scene(desc); !err.empty()) throw std::invalid_argument(err);
-  auto scene = std::make_shared<Scene>();
-  Scene& s = *scene;
-  s.render = desc.render;
-  s.width = desc.width;
-  s.height = desc.height;
-  s.world_origin = desc.camera.position;
-  s.camera = Camera::make(desc.camera.look_at - desc.camera.position, desc.camera.up, desc.camera.fov_deg,
-                          desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
-
+// Materials and the material features of the scene.
+void compile_materials(const SceneDesc& desc, Scene& s) {
+  s.materials.clear();
+  s.features.specular_materials = s.features.transmissive_materials = false;
   for (const MaterialDesc& m : desc.materials) {
     s.materials.push_back(compile_material(m));
     const uint32_t flags = bsdf_flags(s.materials.back());
     s.features.specular_materials |= is_specular(flags);
     s.features.transmissive_materials |= is_transmissive(flags);
   }
+}
 
-  const DVec3 o = s.world_origin;
-  for (const ShapeDesc& sh : desc.shapes) {
-    const uint32_t mat = static_cast<uint32_t>(sh.material);
-    const auto& v = sh.vertices;
-    if (sh.type == ShapeType::Triangle) {
-      add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
-    } else if (sh.type == ShapeType::Quad) {
-      if (is_planar_convex_quad(sh)) {
-        add_polygon<4>(s.polygons, {v[0], v[1], v[2], v[3]}, o, mat, is_parallelogram(sh));
-      } else {
-        add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
-        add_polygon<3>(s.polygons, {v[0], v[2], v[3]}, o, mat);
-      }
-    } else {
-      s.spheres.center.push_back(sh.center - o);
-      s.spheres.radius.push_back(sh.radius);
-      s.spheres.material.push_back(mat);
-    }
-  }
-  s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
-  for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
-  s.features.spheres = s.spheres.size() > 0;
+bool same_material(const MaterialDesc& a, const MaterialDesc& b) {
+  return a.type == b.type && a.albedo == b.albedo && a.emission == b.emission && a.two_sided == b.two_sided &&
+         a.ior == b.ior && a.roughness == b.roughness && a.g == b.g && a.metal == b.metal &&
+         a.complex_ior == b.complex_ior && a.eta == b.eta && a.k == b.k;
+}
 
-  // Lights: every primitive whose material emits. Selection ∝ emitted power = π·A·mean(Le)·(sides).
+bool same_environment(const EnvironmentDesc& a, const EnvironmentDesc& b) {
+  return a.type == b.type && a.radiance == b.radiance && a.sun_direction == b.sun_direction &&
+         a.turbidity == b.turbidity && a.sun == b.sun && a.scale == b.scale && a.file == b.file &&
+         a.resolved_file == b.resolved_file && a.rotation_deg == b.rotation_deg && a.image == b.image;
+}
+
+// The light list (emitting primitives, then the environment and the sun) and its power-proportional selection
+// distribution, from the compiled materials, geometry and environment.
+void compile_lights(const EnvironmentDesc& env, Scene& s) {
+  s.lights.clear();
+  s.light_pmf.clear();
+  s.light_cdf.clear();
+  s.infinite_lights.clear();
+  s.features.emissive_spheres = false;
+  // Every primitive whose material emits. Selection ∝ emitted power = π·A·mean(Le)·(sides).
   s.light_of_prim.assign(s.primitive_count(), -1);
   std::vector<double> power;
   for (uint32_t prim = 0; prim < s.primitive_count(); ++prim) {
@@ -305,16 +294,7 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
   // Infinite lights' power is counted as pbrt-v4 counts it, Φ = π R²·∫Le dω for the scene's bounding radius R
   // (camera-centred); only its ratio to the other lights matters, and any positive choice keeps the estimate
   // unbiased.
-  double r2 = 0.0;
-  for (const auto& arr : s.polygons.v)
-    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
-  for (size_t i = 0; i < s.spheres.size(); ++i) {
-    const double r = glm::length(s.spheres.center[i]) + s.spheres.radius[i];
-    r2 = std::max(r2, r * r);
-  }
-  s.bounding_radius = std::sqrt(r2);
-  const double disk = glm::pi<double>() * std::max(r2, 1e-30);
-  compile_environment(desc.environment, s);
+  const double disk = glm::pi<double>() * std::max(s.bounding_radius * s.bounding_radius, 1e-30);
   if (s.environment.present) {
     s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
     Light l;
@@ -325,12 +305,12 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
                                                    : 4.0 * glm::pi<double>() * (s.environment.radiance.x + s.environment.radiance.y + s.environment.radiance.z);
     power.push_back(disk * integral);
   }
-  if (desc.environment.type == EnvironmentType::Sky && desc.environment.sun) {
-    const SunDisk sun = preetham_sun(Vec3(glm::normalize(desc.environment.sun_direction)), desc.environment.turbidity);
+  if (env.type == EnvironmentType::Sky && env.sun) {
+    const SunDisk sun = preetham_sun(Vec3(glm::normalize(env.sun_direction)), env.turbidity);
     Light l;
     l.kind = LightKind::Sun;
-    l.direction = Vec3(glm::normalize(desc.environment.sun_direction));
-    l.emission = sun.radiance * desc.environment.scale;
+    l.direction = Vec3(glm::normalize(env.sun_direction));
+    l.emission = sun.radiance * env.scale;
     l.one_minus_cos_max = sun.one_minus_cos;
     if (!is_black(l.emission)) {
       s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
@@ -348,8 +328,103 @@ std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc) {
     s.light_cdf.push_back(static_cast<float>(running / total));
   }
   if (!s.light_cdf.empty()) s.light_cdf.back() = 1.f;
+}
+
+}  // namespace
+
+std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
+  if (std::string err = validate_scene(desc); !err.empty()) throw std::invalid_argument(err);
+  auto scene = std::make_shared<Scene>();
+  Scene& s = *scene;
+  s.render = desc.render;
+  s.width = desc.width;
+  s.height = desc.height;
+  s.world_origin = desc.camera.position;
+  s.camera = Camera::make(desc.camera.look_at - desc.camera.position, desc.camera.up, desc.camera.fov_deg,
+                          desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
+
+  const DVec3 o = s.world_origin;
+  for (const ShapeDesc& sh : desc.shapes) {
+    const uint32_t mat = static_cast<uint32_t>(sh.material);
+    const auto& v = sh.vertices;
+    if (sh.type == ShapeType::Triangle) {
+      add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
+    } else if (sh.type == ShapeType::Quad) {
+      if (is_planar_convex_quad(sh)) {
+        add_polygon<4>(s.polygons, {v[0], v[1], v[2], v[3]}, o, mat, is_parallelogram(sh));
+      } else {
+        add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);
+        add_polygon<3>(s.polygons, {v[0], v[2], v[3]}, o, mat);
+      }
+    } else {
+      s.spheres.center.push_back(sh.center - o);
+      s.spheres.radius.push_back(sh.radius);
+      s.spheres.material.push_back(mat);
+    }
+  }
+  s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
+  for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
+  s.features.spheres = s.spheres.size() > 0;
+
+  double r2 = 0.0;
+  for (const auto& arr : s.polygons.v)
+    for (const Vec3& p : arr) r2 = std::max(r2, static_cast<double>(glm::dot(p, p)));
+  for (size_t i = 0; i < s.spheres.size(); ++i) {
+    const double r = glm::length(s.spheres.center[i]) + s.spheres.radius[i];
+    r2 = std::max(r2, r * r);
+  }
+  s.bounding_radius = std::sqrt(r2);
+  compile_materials(desc, s);
+  compile_environment(desc.environment, s);
+  compile_lights(desc.environment, s);
   return scene;
 }
+
+namespace {
+
+bool same_shapes_and_camera(const SceneDesc& a, const SceneDesc& b) {
+  if (a.materials.size() != b.materials.size()) return false;
+  const CameraDesc &ca = a.camera, &cb = b.camera;
+  if (ca.position != cb.position || ca.look_at != cb.look_at || ca.up != cb.up || ca.fov_deg != cb.fov_deg ||
+      ca.fov_axis != cb.fov_axis)
+    return false;
+  if (a.shapes.size() != b.shapes.size()) return false;
+  for (size_t i = 0; i < a.shapes.size(); ++i) {
+    const ShapeDesc &x = a.shapes[i], &y = b.shapes[i];
+    if (x.type != y.type || x.vertices != y.vertices || x.center != y.center || x.radius != y.radius ||
+        x.material != y.material)
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool same_geometry(const SceneDesc& a, const SceneDesc& b) {
+  return a.width == b.width && a.height == b.height && same_shapes_and_camera(a, b);
+}
+
+void update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after) {
+  if (std::string err = validate_scene(after); !err.empty()) throw std::invalid_argument(err);
+  // The film size may differ (a reduced-resolution preview of the same scene): the compiled scene keeps its own.
+  if (!same_shapes_and_camera(before, after))
+    throw std::invalid_argument("update_scene_appearance: the geometry changed");
+  s.render = after.render;
+  for (size_t i = 0; i < after.materials.size(); ++i)
+    if (!same_material(before.materials[i], after.materials[i])) s.materials[i] = compile_material(after.materials[i]);
+  s.features.specular_materials = s.features.transmissive_materials = false;
+  for (const Material& m : s.materials) {
+    const uint32_t flags = bsdf_flags(m);
+    s.features.specular_materials |= is_specular(flags);
+    s.features.transmissive_materials |= is_transmissive(flags);
+  }
+  if (!same_environment(before.environment, after.environment)) {
+    s.environment = EnvironmentLight{};
+    compile_environment(after.environment, s);
+  }
+  compile_lights(after.environment, s);
+}
+
 
 bool Scene::intersect(const Ray& ray, float t_max, uint32_t skip, Hit& hit) const {
   return intersect_scene<kAllFeatures>(*this, ray, t_max, skip, hit);

@@ -152,7 +152,17 @@ class Scene {
 
 // Builds the render-ready scene. The description must already be valid (scene_json validates files; code that
 // builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
-std::shared_ptr<const Scene> compile_scene(const SceneDesc& desc);
+std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);
+
+// True when b has a's shapes, camera, film size and number of materials: then the compiled geometry of a serves
+// b, and update_scene_appearance can apply the difference in place.
+bool same_geometry(const SceneDesc& a, const SceneDesc& b);
+
+// Edits without recompiling geometry: `s` was compiled from `before`; applies `after` (same_geometry(before,
+// after) must hold) by recompiling only the materials that differ, the environment if it differs, the light
+// list (cheap: emitters may have changed) and the render settings. A live material edit therefore costs the
+// material's tables (≤ 1 ms), not a rebuild of the scene. Throws std::invalid_argument as compile_scene does.
+void update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after);
 
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
