@@ -7,7 +7,7 @@
 // 1e-5 quantile (4.42): a correct tracer fails it with probability 1e-5 for a given seed. A check on many
 // z-scores allows max |z| up to the Bonferroni bound for 1e-5 over all of them, and a mean z² up to the 1e-5 χ²
 // quantile (stress::compare_blocks). The scenes and statistics are shared with `pathtracer stress`
-// (app/stress_scenes.h).
+// (app/cli/stress_scenes.h).
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -227,7 +227,7 @@ TEST_CASE("huge spheres: the closed room of six 1e5-radius spheres is a furnace 
   }
 }
 
-// NEE must find huge emitting spheres: the cone/area choice of sample_light() is tied to the receiver's rounding
+// NEE must find huge emitting spheres: the cone/area choice of sample_li() is tied to the receiver's rounding
 // error, not to the sphere's radius (with a margin relative to r, NEE returned Le instead of 1.96875 here).
 TEST_CASE("huge spheres: NEE in the furnace room of huge emitting spheres") {
   const double e = furnace_expected(1.0, 0.5, 5, false);
