@@ -427,12 +427,15 @@ TEST_CASE("environment: Preetham zenith luminance and chromaticity match the pap
     REQUIRE(z.y > 0.f);
     REQUIRE(z.z > 0.f);
     // Back to XYZ with the sRGB (D65) matrix: Y in 10⁴ cd/m² and the chromaticity must be the paper's.
-    const double X = 0.4124564 * z.x + 0.3575761 * z.y + 0.1804375 * z.z;
-    const double Y = 0.2126729 * z.x + 0.7151522 * z.y + 0.0721750 * z.z;
-    const double Z = 0.0193339 * z.x + 0.1191920 * z.y + 0.9503041 * z.z;
-    CHECK(Y == rel(Yz / 10.0, 1e-4));
-    CHECK(X / (X + Y + Z) == rel(xz, 1e-4));
-    CHECK(Y / (X + Y + Z) == rel(yz, 1e-4));
+    auto check_xyY = [](Rgb c, double Y_expected, double x_expected, double y_expected) {
+      const double X = 0.4124564 * c.x + 0.3575761 * c.y + 0.1804375 * c.z;
+      const double Y = 0.2126729 * c.x + 0.7151522 * c.y + 0.0721750 * c.z;
+      const double Z = 0.0193339 * c.x + 0.1191920 * c.y + 0.9503041 * c.z;
+      CHECK(Y == rel(Y_expected, 1e-4));
+      CHECK(X / (X + Y + Z) == rel(x_expected, 1e-4));
+      CHECK(Y / (X + Y + Z) == rel(y_expected, 1e-4));
+    };
+    check_xyY(z, Yz / 10.0, xz, yz);
 
     // Off the zenith: Perez F(θ, γ) with the Appendix A.2 coefficients; value = zenith value × F(θ, γ)/F(0, θs).
     // Views (zenith angle, azimuth from the sun) chosen with γ far from θs so that every coefficient matters.
@@ -459,12 +462,7 @@ TEST_CASE("environment: Preetham zenith luminance and chromaticity match the pap
       REQUIRE(v.x > 0.f);
       REQUIRE(v.y > 0.f);
       REQUIRE(v.z > 0.f);
-      const double vX = 0.4124564 * v.x + 0.3575761 * v.y + 0.1804375 * v.z;
-      const double vY = 0.2126729 * v.x + 0.7151522 * v.y + 0.0721750 * v.z;
-      const double vZ = 0.0193339 * v.x + 0.1191920 * v.y + 0.9503041 * v.z;
-      CHECK(vY == rel(Yv / 10.0, 1e-4));
-      CHECK(vX / (vX + vY + vZ) == rel(xv, 1e-4));
-      CHECK(vY / (vX + vY + vZ) == rel(yv, 1e-4));
+      check_xyY(v, Yv / 10.0, xv, yv);
     }
   }
 }
