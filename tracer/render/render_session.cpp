@@ -50,8 +50,8 @@ struct RenderSession::Worker {
   uint64_t generation = 0;
   bool scene_ok = false;
   bool full_dirty = true, preview_dirty = true;  // the compiled scenes must be rebuilt
-  // Edits that keep the geometry (materials, environment, render settings) are applied to the compiled scenes in
-  // place (update_scene_appearance): `appearance_from` is the description they were compiled from.
+  // Edits that keep the geometry (camera, materials, environment, render settings) are applied to the compiled
+  // scenes in place (update_scene_appearance): `appearance_from` is the description they show.
   bool appearance_dirty = false;
   SceneDesc appearance_from;
   std::shared_ptr<Scene> full, preview;
@@ -260,8 +260,10 @@ bool RenderSession::prepare(Worker& w, bool restart) {
     }
     if (w.appearance_dirty && w.scene_ok) {
       // A scene not compiled yet, or due for a rebuild anyway, needs no update.
-      if (w.full && !w.full_dirty) update_scene_appearance(*w.full, w.appearance_from, w.desc);
-      if (w.preview && !w.preview_dirty) update_scene_appearance(*w.preview, w.appearance_from, w.desc);
+      // A camera moved far from where the geometry was compiled: recompile instead.
+      if (w.full && !w.full_dirty && !update_scene_appearance(*w.full, w.appearance_from, w.desc)) w.full_dirty = true;
+      if (w.preview && !w.preview_dirty && !update_scene_appearance(*w.preview, w.appearance_from, w.desc))
+        w.preview_dirty = true;
       w.appearance_dirty = false;
     }
     if (restart && w.scene_ok) {

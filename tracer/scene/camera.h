@@ -9,6 +9,9 @@ struct Camera {
   Vec3 forward{0, 0, 1}, right{-1, 0, 0}, up{0, 1, 0};  // orthonormal, world orientation
   float tan_half_x = 1, tan_half_y = 1;                  // half extents of the image plane at distance 1
   int width = 1, height = 1;
+  // The eye in the scene's (camera-relative) coordinates: 0 as compiled; a camera moved in place
+  // (update_scene_appearance) keeps the geometry where it was and starts its rays here.
+  Vec3 origin{0.f};
 
   // A camera at the (camera-relative) origin; fov in degrees along the given axis.
   static Camera make(DVec3 forward, DVec3 up, double fov_deg, bool fov_horizontal, int width, int height);
@@ -17,7 +20,7 @@ struct Camera {
   Ray generate_ray(float x, float y) const {
     const float sx = (2.f * x / static_cast<float>(width) - 1.f) * tan_half_x;
     const float sy = (1.f - 2.f * y / static_cast<float>(height)) * tan_half_y;
-    return {Vec3(0.f), glm::normalize(forward + sx * right + sy * up)};
+    return {origin, glm::normalize(forward + sx * right + sy * up)};
   }
 };
 

@@ -382,13 +382,13 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
 
 namespace {
 
-bool same_shapes_and_camera(const SceneDesc& a, const SceneDesc& b) {
-  if (a.materials.size() != b.materials.size()) return false;
-  const CameraDesc &ca = a.camera, &cb = b.camera;
-  if (ca.position != cb.position || ca.look_at != cb.look_at || ca.up != cb.up || ca.fov_deg != cb.fov_deg ||
-      ca.fov_axis != cb.fov_axis)
-    return false;
-  if (a.shapes.size() != b.shapes.size()) return false;
+bool same_camera(const CameraDesc& a, const CameraDesc& b) {
+  return a.position == b.position && a.look_at == b.look_at && a.up == b.up && a.fov_deg == b.fov_deg &&
+         a.fov_axis == b.fov_axis;
+}
+
+bool same_shapes(const SceneDesc& a, const SceneDesc& b) {
+  if (a.materials.size() != b.materials.size() || a.shapes.size() != b.shapes.size()) return false;
   for (size_t i = 0; i < a.shapes.size(); ++i) {
     const ShapeDesc &x = a.shapes[i], &y = b.shapes[i];
     if (x.type != y.type || x.vertices != y.vertices || x.center != y.center || x.radius != y.radius ||
@@ -398,17 +398,29 @@ bool same_shapes_and_camera(const SceneDesc& a, const SceneDesc& b) {
   return true;
 }
 
+// The camera moved within this many bounding radii of the origin the geometry was compiled around keeps the
+// geometry: its float precision relative to the eye stays that of the scene's own extent. Farther moves
+// recompile, so that precision never depends on how far the camera has travelled.
+constexpr double kCameraRebaseRadii = 1.0;
+
 }  // namespace
 
 bool same_geometry(const SceneDesc& a, const SceneDesc& b) {
-  return a.width == b.width && a.height == b.height && same_shapes_and_camera(a, b);
+  return a.width == b.width && a.height == b.height && same_shapes(a, b);
 }
 
-void update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after) {
+bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after) {
   if (std::string err = validate_scene(after); !err.empty()) throw std::invalid_argument(err);
   // The film size may differ (a reduced-resolution preview of the same scene): the compiled scene keeps its own.
-  if (!same_shapes_and_camera(before, after))
-    throw std::invalid_argument("update_scene_appearance: the geometry changed");
+  if (!same_shapes(before, after)) throw std::invalid_argument("update_scene_appearance: the geometry changed");
+  if (!same_camera(before.camera, after.camera)) {
+    const CameraDesc& c = after.camera;
+    const DVec3 offset = c.position - s.world_origin;
+    if (glm::length(offset) > kCameraRebaseRadii * s.bounding_radius) return false;
+    s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, s.width,
+                            s.height);
+    s.camera.origin = Vec3(offset);
+  }
   s.render = after.render;
   for (size_t i = 0; i < after.materials.size(); ++i)
     if (!same_material(before.materials[i], after.materials[i])) s.materials[i] = compile_material(after.materials[i]);
@@ -423,6 +435,7 @@ void update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc&
     compile_environment(after.environment, s);
   }
   compile_lights(after.environment, s);
+  return true;
 }
 
 

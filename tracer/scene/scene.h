@@ -154,15 +154,19 @@ class Scene {
 // builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
 std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);
 
-// True when b has a's shapes, camera, film size and number of materials: then the compiled geometry of a serves
-// b, and update_scene_appearance can apply the difference in place.
+// True when b has a's shapes, film size and number of materials: then the compiled geometry of a serves b, and
+// update_scene_appearance can apply the difference in place.
 bool same_geometry(const SceneDesc& a, const SceneDesc& b);
 
-// Edits without recompiling geometry: `s` was compiled from `before`; applies `after` (same_geometry(before,
-// after) must hold) by recompiling only the materials that differ, the environment if it differs, the light
-// list (cheap: emitters may have changed) and the render settings. A live material edit therefore costs the
-// material's tables (≤ 1 ms), not a rebuild of the scene. Throws std::invalid_argument as compile_scene does.
-void update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after);
+// Edits without recompiling geometry: `s` was compiled from `before` (possibly at another film size: a
+// preview); applies `after`, whose shapes must be before's, by recompiling only the materials that differ, the
+// environment if it differs, the light list (cheap: emitters may have changed) and the render settings, and by
+// moving the camera in place (the geometry stays camera-relative to where it was compiled; rays start at the
+// new eye). A live material edit thus costs that material's tables (≤ 1 ms), a camera drag almost nothing.
+// Returns false, changing nothing, when the camera moved farther than the scene's bounding radius from where
+// the geometry was compiled: recompile then (compile_scene), so precision never depends on the path travelled.
+// Throws std::invalid_argument as compile_scene does.
+bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after);
 
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
