@@ -119,6 +119,10 @@ template <uint32_t F = kAllFeatures>
 inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref, Vec2 u, LightSample& ls) {
   ls.prim = l.prim;
   Vec3 n(0.f);
+  // A one-sided polygon light seen from behind sends nothing: no sample (area_light_pdf is 0 there too).
+  if ((l.kind == LightKind::Rectangle || l.kind == LightKind::Polygon) && !l.two_sided &&
+      glm::dot(s.polygons.normal[l.prim], ref.p - s.polygons.v[0][l.prim]) <= 0.f)
+    return false;
   switch (l.kind) {
     case LightKind::Environment: {
       ls.dist = kInfinity;
@@ -143,9 +147,6 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       return true;
     }
     case LightKind::Rectangle: {
-      // A one-sided light seen from behind sends nothing: no sample (its area pdf is never needed there either,
-      // since a ray reaching its back finds no emission to weight).
-      if (!l.two_sided && glm::dot(s.polygons.normal[l.prim], ref.p - l.corner) <= 0.f) return false;
       if (use_spherical_rect(l, ref.p)) {
         const SphericalRect sr = make_spherical_rect(ref.p, l.corner, l.edge_x, l.edge_y);
         if (!(sr.solid_angle > 0.0)) return false;  // the receiver is in the light's plane
@@ -165,7 +166,6 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       const uint32_t i = l.prim;
       const PolygonSoA& P = s.polygons;
       const Vec3 a = P.v[0][i], b = P.v[1][i], c = P.v[2][i];
-      if (!l.two_sided && glm::dot(P.normal[i], ref.p - a) <= 0.f) return false;  // behind a one-sided light
       if (P.parallelogram[i]) {
         ls.p = a + u.x * (b - a) + u.y * (c - b);
       } else {

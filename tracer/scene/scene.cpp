@@ -226,15 +226,20 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
 }
 
 // Materials and the material features of the scene.
-void compile_materials(const SceneDesc& desc, Scene& s) {
-  s.materials.clear();
+// The scene features that follow from its compiled materials.
+void note_material_features(Scene& s) {
   s.features.specular_materials = s.features.transmissive_materials = false;
-  for (const MaterialDesc& m : desc.materials) {
-    s.materials.push_back(compile_material(m));
-    const uint32_t flags = bsdf_flags(s.materials.back());
+  for (const Material& m : s.materials) {
+    const uint32_t flags = bsdf_flags(m);
     s.features.specular_materials |= is_specular(flags);
     s.features.transmissive_materials |= is_transmissive(flags);
   }
+}
+
+void compile_materials(const SceneDesc& desc, Scene& s) {
+  s.materials.clear();
+  for (const MaterialDesc& m : desc.materials) s.materials.push_back(compile_material(m));
+  note_material_features(s);
 }
 
 bool same_material(const MaterialDesc& a, const MaterialDesc& b) {
@@ -424,12 +429,7 @@ bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc&
   s.render = after.render;
   for (size_t i = 0; i < after.materials.size(); ++i)
     if (!same_material(before.materials[i], after.materials[i])) s.materials[i] = compile_material(after.materials[i]);
-  s.features.specular_materials = s.features.transmissive_materials = false;
-  for (const Material& m : s.materials) {
-    const uint32_t flags = bsdf_flags(m);
-    s.features.specular_materials |= is_specular(flags);
-    s.features.transmissive_materials |= is_transmissive(flags);
-  }
+  note_material_features(s);
   if (!same_environment(before.environment, after.environment)) {
     s.environment = EnvironmentLight{};
     compile_environment(after.environment, s);
