@@ -409,9 +409,9 @@ TEST_CASE("kernels: each scene runs the kernel of exactly its features, with the
     const char* scene;
     uint32_t features;
   };
-  // cornell: polygons only; cornell-spheres: polygons and spheres; shadertoy: read from its file.
+  // cornell: Lambertian polygons only; cornell-spheres: polygons and spheres of mirror and glass.
   for (const Expect& e : {Expect{"cornell", kFeaturePolygons},
-                          Expect{"cornell-spheres", kFeaturePolygons | kFeatureSpheres}}) {
+                          Expect{"cornell-spheres", kFeaturePolygons | kFeatureSpheres | kFeatureGeneralMaterials}}) {
     INFO(e.scene);
     CHECK(compile_scene(load_scene(e.scene))->kernel_features() == e.features);
   }
@@ -428,12 +428,18 @@ TEST_CASE("kernels: each scene runs the kernel of exactly its features, with the
     // Same samples through both kernels: the specialised one must leave out only code that cannot run.
     CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
   }
-  // Materials and lights do not select kernels (they are run-time choices): a background and a mirror leave the
-  // cornell kernel as it is.
+  // Lights do not select kernels (they are a run-time choice): a background leaves the cornell kernel as it is. A
+  // material other than Lambert selects the general-material kernel, and an in-place edit back to Lambert
+  // returns to the lean one.
   SceneDesc desc = load_scene("cornell");
   desc.environment.radiance = Rgb(0.5f);
-  desc.materials[0].type = MaterialType::Mirror;
   CHECK(compile_scene(desc)->kernel_features() == kFeaturePolygons);
+  SceneDesc mirror = desc;
+  mirror.materials[0].type = MaterialType::Mirror;
+  const std::shared_ptr<Scene> scene = compile_scene(mirror);
+  CHECK(scene->kernel_features() == (kFeaturePolygons | kFeatureGeneralMaterials));
+  REQUIRE(update_scene_appearance(*scene, mirror, desc));
+  CHECK(scene->kernel_features() == kFeaturePolygons);
 }
 
 TEST_CASE("edits in place: materials, environment and render settings without recompiling geometry") {

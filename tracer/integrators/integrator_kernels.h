@@ -15,7 +15,8 @@
 // scattering events after the first hit).
 //
 // This header holds the kernel template; integrator_independent.cpp and integrator_sobol.cpp instantiate it for
-// the 3 geometry sets (polygons, spheres, both), one sampler per translation unit.
+// the 3 geometry sets (polygons, spheres, both) × 2 material sets (Lambert, any), one sampler per translation
+// unit.
 #pragma once
 #include "integrators/integrator.h"
 
@@ -52,9 +53,11 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
   return L;
 }
 
-// F: the kernel's geometry (KernelFeature). Intersection code for primitive kinds outside F is compiled out.
+// F: what the kernel is compiled for (KernelFeature): intersection code for primitive kinds outside F is compiled
+// out, and so is the BSDF dispatch when every material is Lambertian.
 template <class Sampler, uint32_t F>
 Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& rng, RayCount& count) {
+  constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   const bool light_sampling = estimator == Estimator::Nee || estimator == Estimator::Mis;
   const bool mis = estimator == Estimator::Mis;
   Ray ray = camera_ray;
@@ -100,7 +103,7 @@ Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& r
     const Frame frame = Frame::from_normal(it.ng);
     const Vec3 wo_local = frame.to_local(wo);
     const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
-    const uint32_t flags = bsdf_flags(m);
+    const uint32_t flags = bsdf_flags<kM>(m);
 
     if (light_sampling && has_non_specular(flags)) {
       const float u_light = rng.next_1d();
@@ -109,7 +112,7 @@ Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& r
       int li;
       if (sample_lights<F>(s, {it.p, n}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
         const Vec3 wi_local = frame.to_local(ls.wi);
-        const Rgb f = bsdf_eval(m, wo_local, wi_local);
+        const Rgb f = bsdf_eval<kM>(m, wo_local, wi_local);
         if (!is_black(f)) {  // no shadow ray where the BSDF is zero
           const Vec3 origin = offset_ray_origin(it, ls.wi);
           Vec3 dir = ls.wi;
@@ -122,7 +125,7 @@ Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& r
           }
           ++count.rays;
           if (t_max > 0.f && !occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(it), ls.prim)) {
-            const float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(m, wo_local, wi_local)) : 1.f;
+            const float w = mis ? power_heuristic(ls.pdf, bsdf_pdf<kM>(m, wo_local, wi_local)) : 1.f;
             L += beta * f * ls.Le * (std::abs(wi_local.z) * w / ls.pdf);
           }
         }
@@ -136,8 +139,8 @@ Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& r
     if (estimator == Estimator::Uniform && (flags & ~(kBsdfReflection | kBsdfDiffuse)) == 0) {
       Vec3 local = sample_uniform_hemisphere(u);
       if (wo_local.z < 0.f) local.z = -local.z;
-      bs = {local, bsdf_eval(m, wo_local, local), uniform_hemisphere_pdf(), kBsdfReflection | kBsdfDiffuse, 1.f};
-    } else if (!bsdf_sample(m, wo_local, uc, u, bs)) {
+      bs = {local, bsdf_eval<kM>(m, wo_local, local), uniform_hemisphere_pdf(), kBsdfReflection | kBsdfDiffuse, 1.f};
+    } else if (!bsdf_sample<kM>(m, wo_local, uc, u, bs)) {
       break;
     }
     if (!(bs.pdf > 0.f) || bs.wi.z == 0.f) break;  // grazing sample of measure zero
@@ -173,7 +176,7 @@ constexpr std::array<RadianceKernel<Sampler>, sizeof...(F)> kernels_for(std::ind
   return {&trace<Sampler, static_cast<uint32_t>(F)>...};
 }
 
-// One kernel per geometry set, indexed by the KernelFeature mask (0, the empty scene, never runs).
+// One kernel per feature set, indexed by the KernelFeature mask (masks without geometry never run).
 template <class Sampler>
 constexpr std::array<RadianceKernel<Sampler>, kAllFeatures + 1> kKernels =
     kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});

@@ -15,8 +15,12 @@
 // The functions below dispatch from the material type to its lobe (materials/*.h): the only place that names a
 // material type besides material.cpp; the integrator sees flags only. Reflection-only lobes assume wo.z ≥ 0:
 // when wo is below the surface both directions are mirrored in z first and the sampled direction is mirrored
-// back, which makes those materials two-sided. The functions are inline, so the path loop pays no call per BSDF query and a scene of diffuse surfaces runs
-// only the few instructions of the Lambert case.
+// back, which makes those materials two-sided.
+//
+// Each function takes the material set it is compiled for (a template argument, like the kernels' geometry):
+// with MaterialSet::Lambert, for scenes whose materials are all Lambertian (the Cornell box), the dispatch is
+// compiled out and the path loop runs only the few instructions of the Lambert lobe; MaterialSet::Any serves
+// every scene.
 #pragma once
 #include "materials/bsdf_sample.h"
 #include "materials/conductor.h"
@@ -26,6 +30,11 @@
 #include "materials/subsurface.h"
 
 namespace pt {
+
+enum class MaterialSet { Lambert, Any };
+
+// True when the material is the Lambert lobe alone (what MaterialSet::Lambert may assume).
+inline bool is_lambertian(const Material& m) { return m.type == MaterialType::Diffuse; }
 
 namespace bsdf_detail {
 inline Vec3 front(Vec3 w, bool flip) { return flip ? Vec3(w.x, w.y, -w.z) : w; }
@@ -37,7 +46,9 @@ inline bool is_specular(uint32_t flags) { return (flags & kBsdfSpecular) != 0; }
 inline bool is_transmissive(uint32_t flags) { return (flags & kBsdfTransmission) != 0; }
 
 // The lobes this material has (a union over its lobes: plastic with a smooth coat is Specular|Diffuse).
+template <MaterialSet S = MaterialSet::Any>
 inline uint32_t bsdf_flags(const Material& m) {
+  if constexpr (S == MaterialSet::Lambert) return kBsdfReflection | kBsdfDiffuse;
   const bool smooth = effectively_smooth(m.alpha);
   switch (m.type) {
     case MaterialType::Diffuse:
@@ -57,7 +68,9 @@ inline uint32_t bsdf_flags(const Material& m) {
 }
 
 // f(wo, wi) of the non-specular lobes.
+template <MaterialSet S = MaterialSet::Any>
 inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
+  if constexpr (S == MaterialSet::Lambert) return wo.z * wi.z > 0.f ? diffuse_f(m.albedo) : Rgb(0.f);
   if (m.type == MaterialType::Dielectric) return dielectric_eval(m, wo, wi);
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);
@@ -81,7 +94,9 @@ inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
 
 // Solid-angle density with which bsdf_sample produces wi from wo (non-specular lobes only, each weighted by its
 // selection probability).
+template <MaterialSet S = MaterialSet::Any>
 inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
+  if constexpr (S == MaterialSet::Lambert) return wo.z * wi.z > 0.f ? cosine_hemisphere_pdf(std::abs(wi.z)) : 0.f;
   if (m.type == MaterialType::Dielectric) return dielectric_pdf(m, wo, wi);
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);
@@ -105,7 +120,13 @@ inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
 
 // Samples wi from wo with uc (lobe choice) and u (direction). Returns false when no sample was produced
 // (grazing, below the surface, zero albedo).
+template <MaterialSet S = MaterialSet::Any>
 inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
+  if constexpr (S == MaterialSet::Lambert) {
+    if (!diffuse_sample(m, bsdf_detail::front(wo, wo.z < 0.f), u, out)) return false;
+    out.wi = bsdf_detail::front(out.wi, wo.z < 0.f);
+    return true;
+  }
   if (m.type == MaterialType::Dielectric) return dielectric_sample(m, wo, uc, u, out);
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);

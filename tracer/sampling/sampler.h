@@ -33,7 +33,7 @@ class IndependentSampler {
 
 namespace sobol_detail {
 
-inline uint32_t reverse_bits_portable(uint32_t x) {
+constexpr uint32_t reverse_bits_portable(uint32_t x) {
   x = (x << 16) | (x >> 16);
   x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
   x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
@@ -70,11 +70,13 @@ inline uint32_t laine_karras(uint32_t x, uint32_t seed) {
 inline uint32_t owen_scramble(uint32_t x, uint32_t seed) { return reverse_bits(laine_karras(reverse_bits(x), seed)); }
 
 // Second Sobol dimension of index i as 32-bit fixed point: the XOR of the generator-matrix columns v_k of i's set
-// bits, with v_1 = 2^31, v_k = v_{k−1} ⊕ (v_{k−1} >> 1) (primitive polynomial x + 1). Shuffled indices use all
+// bits, with v_1 = 2^31, v_k = v_{k−1} ⊕ (v_{k−1} >> 1) (primitive polynomial x + 1). The sampler needs it in
+// the bit-reversed domain, T(r) = reverse(sobol_dim1(reverse(r))), which saves two bit reversals per point
+// (T is linear over GF(2) like the matrix: bit j of r contributes reverse(v_{32−j})). Shuffled indices use all
 // 32 bits, so the columns are combined a byte at a time from four 256-entry tables built at compile time.
-struct SobolDim1Tables {
+struct SobolDim1ReversedTables {
   uint32_t t[4][256];
-  constexpr SobolDim1Tables() : t{} {
+  constexpr SobolDim1ReversedTables() : t{} {
     uint32_t v[32] = {};
     v[0] = 1u << 31;
     for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
@@ -82,16 +84,16 @@ struct SobolDim1Tables {
       for (uint32_t byte = 0; byte < 256; ++byte) {
         uint32_t y = 0;
         for (int bit = 0; bit < 8; ++bit)
-          if (byte & (1u << bit)) y ^= v[8 * b + bit];
+          if (byte & (1u << bit)) y ^= reverse_bits_portable(v[31 - (8 * b + bit)]);
         t[b][byte] = y;
       }
   }
 };
-inline constexpr SobolDim1Tables kSobolDim1{};
+inline constexpr SobolDim1ReversedTables kSobolDim1Reversed{};
 
-inline uint32_t sobol_dim1(uint32_t i) {
-  return kSobolDim1.t[0][i & 0xffu] ^ kSobolDim1.t[1][(i >> 8) & 0xffu] ^ kSobolDim1.t[2][(i >> 16) & 0xffu] ^
-         kSobolDim1.t[3][i >> 24];
+inline uint32_t sobol_dim1_reversed(uint32_t r) {
+  const auto& t = kSobolDim1Reversed.t;
+  return t[0][r & 0xffu] ^ t[1][(r >> 8) & 0xffu] ^ t[2][(r >> 16) & 0xffu] ^ t[3][r >> 24];
 }
 
 // 32-bit integer hash (a "lowbias32" finaliser): cheap, well mixed, for per-dimension seeds.
@@ -118,11 +120,12 @@ class SobolSampler {
   static constexpr uint32_t kSobolPairs = 8;
 
   SobolSampler(uint64_t pixel, uint64_t sample, uint64_t seed)
-      : index_(static_cast<uint32_t>(sample)),
+      : reversed_index_(sobol_detail::reverse_bits(static_cast<uint32_t>(sample))),
         key_(static_cast<uint32_t>(mix64(pixel ^ mix64(seed + 0x51ed270b27a1c3f5ULL)))),
-        rng_(mix64((static_cast<uint64_t>(key_) << 32) | index_), key_) {}
+        rng_(mix64((static_cast<uint64_t>(key_) << 32) | static_cast<uint32_t>(sample)), key_) {}
 
-  Vec2 next_2d() {
+  // Out of line: inlined twice per bounce it would crowd the path loop out of the compiler's inlining budget.
+  [[gnu::noinline]] Vec2 next_2d() {
     using namespace sobol_detail;
     const uint32_t d = dimension_++;
     if (d >= kSobolPairs) {
@@ -132,17 +135,19 @@ class SobolSampler {
     const uint32_t shuffle_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 1)));
     const uint32_t x_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 2)));
     const uint32_t y_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 3)));
-    // Shuffled index i' = owen(i). Sobol's first dimension of i' is reverse(i'), and owen(reverse(i')) =
-    // reverse(LK(i')): one bit reversal saved.
-    const uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(index_), shuffle_seed));
-    const uint32_t x = reverse_bits(laine_karras(shuffled, x_seed));
-    const uint32_t y = owen_scramble(sobol_dim1(shuffled), y_seed);
+    // Shuffled index i' = owen(i) = reverse(r) with r = LK(reverse(i)). Sobol's first dimension of i' is
+    // reverse(i'), and its Owen scramble reverse(LK(i')); the second is sobol_dim1(i'), whose scramble
+    // reverse(LK(reverse(sobol_dim1(i')))) is reverse(LK(T(r))) with the reversed-domain table T. Three bit
+    // reversals per point (reverse(i) is kept from the constructor).
+    const uint32_t r = laine_karras(reversed_index_, shuffle_seed);
+    const uint32_t x = reverse_bits(laine_karras(reverse_bits(r), x_seed));
+    const uint32_t y = reverse_bits(laine_karras(sobol_dim1_reversed(r), y_seed));
     return {to_unit(x), to_unit(y)};
   }
   float next_1d() { return rng_.next_float(); }
 
  private:
-  uint32_t index_;
+  uint32_t reversed_index_;  // the sample index, bit-reversed
   uint32_t key_;
   uint32_t dimension_ = 0;
   Pcg32 rng_;

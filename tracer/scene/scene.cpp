@@ -6,6 +6,7 @@
 #include "materials/bsdf.h"
 
 #include <glm/gtx/component_wise.hpp>
+#include <algorithm>
 
 #include <sstream>
 #include <stdexcept>
@@ -228,12 +229,7 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
 // Materials and the material features of the scene.
 // The scene features that follow from its compiled materials.
 void note_material_features(Scene& s) {
-  s.features.specular_materials = s.features.transmissive_materials = false;
-  for (const Material& m : s.materials) {
-    const uint32_t flags = bsdf_flags(m);
-    s.features.specular_materials |= is_specular(flags);
-    s.features.transmissive_materials |= is_transmissive(flags);
-  }
+  s.features.lambertian_only = std::all_of(s.materials.begin(), s.materials.end(), is_lambertian);
 }
 
 void compile_materials(const SceneDesc& desc, Scene& s) {

@@ -89,18 +89,21 @@ struct EnvironmentLight {
 // What the scene contains, recorded when it is compiled.
 struct SceneFeatures {
   bool triangles = false, quads = false, spheres = false;  // quads: non-triangle polygons
-  bool specular_materials = false, transmissive_materials = false, emissive_spheres = false, environment = false;
+  bool lambertian_only = true;  // every material is the Lambert lobe alone (materials/bsdf.h: is_lambertian)
+  bool emissive_spheres = false, environment = false;
 };
 
-// The geometry a rendering kernel is compiled for (a bit mask, a template argument): the intersection code of a
-// primitive kind outside the set is not in the kernel at all. Materials, lights and the estimator are chosen at
-// run time (a few well-predicted branches per bounce), so there are 3 kernels per sampler: polygons, spheres,
-// both. kAllFeatures is the generic kernel, used by the plain query functions and for comparisons.
+// What a rendering kernel is compiled for (a bit mask, a template argument): the geometry, whose intersection
+// code for a primitive kind outside the set is not in the kernel at all, and whether any material is more than
+// Lambertian (without it the BSDF dispatch is compiled out: materials/bsdf.h, MaterialSet). Lights and the
+// estimator are chosen at run time (a few well-predicted branches per bounce), so there are 6 kernels per
+// sampler. kAllFeatures is the generic kernel, used by the plain query functions and for comparisons.
 enum KernelFeature : uint32_t {
-  kFeaturePolygons = 1,  // triangles or quads
-  kFeatureSpheres = 2,   // spheres (emitting ones included)
+  kFeaturePolygons = 1,          // triangles or quads
+  kFeatureSpheres = 2,           // spheres (emitting ones included)
+  kFeatureGeneralMaterials = 4,  // a material other than Lambert
 };
-inline constexpr uint32_t kAllFeatures = kFeaturePolygons | kFeatureSpheres;
+inline constexpr uint32_t kAllFeatures = kFeaturePolygons | kFeatureSpheres | kFeatureGeneralMaterials;
 
 // What the ray queries report. Polygon barycentrics are recomputed for the one winning polygon when the hit is
 // shaded (make_interaction), so the SIMD kernels only track distances.
@@ -140,7 +143,8 @@ class Scene {
   uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
   uint32_t material_of(uint32_t prim) const;
   uint32_t kernel_features() const {
-    return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u);
+    return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u) |
+           (features.lambertian_only ? 0u : kFeatureGeneralMaterials);
   }
 
   // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
