@@ -380,7 +380,7 @@ TEST_CASE("furnace: Russian roulette ends every path of an albedo-1 closed room"
     IndependentSampler sampler(static_cast<uint64_t>(i), 0, 3);
     RayCount count;
     const Vec2 u = sampler.next_2d();
-    const Rgb L = estimate_radiance(*scene, Estimator::Cosine, scene->camera.generate_ray(u.x * 8, u.y * 8), sampler, count);
+    const Rgb L = estimate_radiance(*scene, s.render, scene->camera.generate_ray(u.x * 8, u.y * 8), sampler, count);
     CHECK(is_finite(L));
     total += count.rays;
     longest = std::max<uint64_t>(longest, count.rays);

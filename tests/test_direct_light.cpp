@@ -183,12 +183,13 @@ Comparison compare(const Film& f, const Reference& r, int b, double scale = 1.0)
 // for the ceiling, which must be 0 in every sample): the wall's precision at a quarter of the full image's cost.
 Film render_wall(Estimator est, int spp, uint64_t seed) {
   const Reference& r = reference();
-  const auto scene = compile_scene(direct_light_scene(est, seed));
+  const SceneDesc desc = direct_light_scene(est, seed);
+  const auto scene = compile_scene(desc);
   constexpr int t = Renderer::kTileSize, tiles = (kSize + t - 1) / t;
   std::vector<int> tile_spp(tiles * tiles, 8);
   for (const size_t i : r.wall) tile_spp[(i / kSize / t) * tiles + (i % kSize) / t] = spp;
   Film film(kSize, kSize);
-  Renderer(0).render_pass(*scene, film, tile_spp);
+  Renderer(0).render_pass(*scene, desc.render, film, tile_spp);
   return film;
 }
 

@@ -45,7 +45,7 @@ inline Film render_film(const SceneDesc& desc, int spp, int threads = 0) {
   const auto scene = compile_scene(desc);
   Film film(desc.width, desc.height);
   Renderer renderer(threads);
-  renderer.render_pass(*scene, film, spp);
+  renderer.render_pass(*scene, desc.render, film, spp);
   return film;
 }
 

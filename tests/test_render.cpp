@@ -165,14 +165,14 @@ TEST_CASE("determinism: identical images for 1, 2 and 3 threads and any pass spl
   for (int threads : {1, 2, 3}) {
     Film film(desc.width, desc.height);
     Renderer r(threads);
-    r.render_pass(*scene, film, 3);
-    r.render_pass(*scene, film, 5);
+    r.render_pass(*scene, desc.render, film, 3);
+    r.render_pass(*scene, desc.render, film, 5);
     images.push_back(film.mean_image());
   }
   {
     Film film(desc.width, desc.height);
     Renderer r(2);
-    r.render_pass(*scene, film, 8);  // same samples, one pass
+    r.render_pass(*scene, desc.render, film, 8);  // same samples, one pass
     images.push_back(film.mean_image());
   }
   for (size_t i = 1; i < images.size(); ++i)
@@ -186,7 +186,7 @@ TEST_CASE("determinism: identical images for 1, 2 and 3 threads and any pass spl
   // A different seed gives a different image.
   desc.render.seed = 1;
   Film other(desc.width, desc.height);
-  Renderer(2).render_pass(*compile_scene(desc), other, 8);
+  Renderer(2).render_pass(*compile_scene(desc), desc.render, other, 8);
   CHECK(std::memcmp(images[0].data(), other.mean_image().data(), images[0].size() * sizeof(float)) != 0);
 }
 
@@ -197,7 +197,7 @@ TEST_CASE("renderer: a cancelled pass stops early and leaves a consistent film")
   Film film(64, 64);
   Renderer r(2);
   std::atomic<bool> cancel{true};
-  const PassStats ps = r.render_pass(*scene, film, 100, &cancel);
+  const PassStats ps = r.render_pass(*scene, desc.render, film, 100, &cancel);
   CHECK(ps.cancelled);
   CHECK(ps.samples == 0);
   CHECK(film.total_count() == 0);
@@ -384,7 +384,7 @@ TEST_CASE("adaptive sampling: the converged image agrees with uniform sampling")
   Film adaptive(32, 32);
   Renderer r(0);
   for (uint64_t pass = 0; pass < 64; ++pass)
-    r.render_pass(*scene, adaptive, plan_adaptive_pass(adaptive, Renderer::kTileSize, 8, pass));
+    r.render_pass(*scene, desc.render, adaptive, plan_adaptive_pass(adaptive, Renderer::kTileSize, 8, pass));
   // The plan really is uneven once past the uniform start.
   const std::vector<int> plan = plan_adaptive_pass(adaptive, Renderer::kTileSize, 8, 1);
   CHECK(*std::max_element(plan.begin(), plan.end()) > *std::min_element(plan.begin(), plan.end()));
@@ -442,7 +442,7 @@ TEST_CASE("kernels: each scene runs the kernel of exactly its features, with the
   CHECK(scene->kernel_features() == kFeaturePolygons);
 }
 
-TEST_CASE("edits in place: materials, environment and render settings without recompiling geometry") {
+TEST_CASE("edits in place: materials and environment without recompiling geometry") {
   SceneDesc before = load_scene("cornell-spheres");
   before.width = 24;
   before.height = 16;
@@ -459,7 +459,6 @@ TEST_CASE("edits in place: materials, environment and render settings without re
   const Vec3 vertex = edited->polygons.v[0][0];
   REQUIRE(update_scene_appearance(*edited, before, after));
   CHECK(edited->polygons.v[0][0] == vertex);
-  CHECK(edited->render.max_bounces == 3);
   CHECK(edited->environment.present);
   // The same samples through the scene edited in place and through a scene compiled from `after`: bit for bit.
   const std::shared_ptr<const Scene> fresh = compile_scene(after);
@@ -467,7 +466,7 @@ TEST_CASE("edits in place: materials, environment and render settings without re
   int k = 0;
   for (const Scene* scene : {static_cast<const Scene*>(edited.get()), fresh.get()}) {
     Film film(after.width, after.height);
-    Renderer(2).render_pass(*scene, film, 4);
+    Renderer(2).render_pass(*scene, after.render, film, 4);
     images[k++] = film.mean_image();
   }
   CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
@@ -496,8 +495,8 @@ TEST_CASE("edits in place: a camera move keeps the geometry and renders like a f
   fresh_desc.render.seed = 11;
   const std::shared_ptr<const Scene> fresh = compile_scene(fresh_desc);
   Film a(32, 32), b(32, 32);
-  Renderer(2).render_pass(*edited, a, 256);
-  Renderer(2).render_pass(*fresh, b, 256);
+  Renderer(2).render_pass(*edited, after.render, a, 256);
+  Renderer(2).render_pass(*fresh, fresh_desc.render, b, 256);
   const BlockZ z = block_z_scores(a, b, 8);
   INFO("max |z| " << z.max_abs << ", mean z² " << z.mean_sq() << " over " << z.n);
   CHECK(z.n == 48);
@@ -510,4 +509,69 @@ TEST_CASE("edits in place: a camera move keeps the geometry and renders like a f
   const Camera kept = edited->camera;
   CHECK_FALSE(update_scene_appearance(*edited, after, far));
   CHECK(edited->camera.origin == kept.origin);
+}
+
+TEST_CASE("typed edits: a material, the environment and the camera applied in place render like a fresh compile") {
+  SceneDesc desc = load_scene("cornell-spheres");
+  desc.width = 24;
+  desc.height = 16;
+  const std::shared_ptr<Scene> edited = compile_scene(desc);
+  const Vec3 vertex = edited->polygons.v[0][0];
+  MaterialDesc gold = desc.materials[4];
+  gold.type = MaterialType::Conductor;
+  gold.metal = MetalPreset::Gold;
+  gold.roughness = 0.4f;
+  MaterialDesc dim = desc.materials[3];
+  dim.emission = Rgb(5.f);
+  EnvironmentDesc sky;
+  sky.type = EnvironmentType::Sky;
+  CameraDesc camera = desc.camera;
+  camera.position += DVec3(20.0, -10.0, 40.0);
+  camera.fov_deg = 50.0;
+  SceneDesc after = desc;
+  for (const SceneEdit& e : {SceneEdit{MaterialEdit{4, gold}}, SceneEdit{MaterialEdit{3, dim}}, SceneEdit{sky},
+                             SceneEdit{camera}}) {
+    REQUIRE(validate_edit(after, e).empty());
+    apply_edit(after, e);
+    REQUIRE(apply_edit(*edited, e));
+  }
+  CHECK(after.materials[4].type == MaterialType::Conductor);
+  CHECK(after.camera.fov_deg == 50.0);
+  CHECK(edited->polygons.v[0][0] == vertex);  // the geometry was not touched
+  CHECK(edited->environment.present);
+  CHECK(edited->environment.sun.kind == LightKind::Sun);
+  CHECK(edited->lights.size() == compile_scene(after)->lights.size());
+  // Bit for bit against a fresh compile, except for the camera: a moved eye has camera-relative geometry of
+  // its own, so compare the camera with the original eye position back.
+  SceneDesc fresh_desc = after;
+  fresh_desc.camera = desc.camera;
+  REQUIRE(apply_edit(*edited, SceneEdit{desc.camera}));
+  const std::shared_ptr<const Scene> fresh = compile_scene(fresh_desc);
+  std::vector<float> images[2];
+  int k = 0;
+  for (const Scene* scene : {static_cast<const Scene*>(edited.get()), fresh.get()}) {
+    Film film(desc.width, desc.height);
+    Renderer(2).render_pass(*scene, after.render, film, 4);
+    images[k++] = film.mean_image();
+  }
+  CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
+}
+
+TEST_CASE("typed edits: invalid ones are refused with the field and the reason") {
+  const SceneDesc desc = load_scene("cornell");
+  CHECK(validate_edit(desc, SceneEdit{MaterialEdit{desc.materials.size(), desc.materials[0]}}) ==
+        "materials[" + std::to_string(desc.materials.size()) + "]: no such material");
+  MaterialDesc bad = desc.materials[0];
+  bad.roughness = 2.f;
+  CHECK(validate_edit(desc, SceneEdit{MaterialEdit{0, bad}}) == "materials." + bad.name + ".roughness: must be in [0, 1]");
+  CameraDesc camera = desc.camera;
+  camera.fov_deg = 180.0;
+  CHECK(validate_edit(desc, SceneEdit{camera}) == "camera.fov_deg: must be in (0, 180) degrees");
+  EnvironmentDesc env;
+  env.type = EnvironmentType::Sky;
+  env.turbidity = 20.f;
+  CHECK(validate_edit(desc, SceneEdit{env}) == "environment.turbidity: must be in [1.7, 10]");
+  RenderSettings render;
+  render.max_bounces = -1;
+  CHECK(validate_render_settings(render) == "render.max_bounces: must be >= 0");
 }

@@ -103,7 +103,7 @@ Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions&
   const auto start = Clock::now();
   for (long long done = 0; done < spp;) {
     const int pass = static_cast<int>(std::min<long long>(64, spp - done));
-    renderer.render_pass(*scene, film, pass);
+    renderer.render_pass(*scene, desc.render, film, pass);
     done += pass;
     if (isatty(2)) std::fprintf(stderr, "\r  %lld / %lld spp, %.0f s", done, spp, seconds_since(start));
   }
@@ -129,7 +129,7 @@ Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive,
     while (!stop_reason(stop, spp, elapsed, 0.0)) {
       const int pass = next_pass_spp(seconds_per_spp, budget - elapsed, stop, spp, elapsed);
       const auto t0 = Clock::now();
-      const PassStats ps = run_pass(renderer, *scene, film, pass, adaptive, pass_index);
+      const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, adaptive, pass_index);
       const double dt = seconds_since(t0);
       elapsed += dt;
       seconds_per_spp = dt / static_cast<double>(pass);
@@ -260,10 +260,10 @@ int run_bench(const BenchOptions& o) {
     d.width = d.height = o.quick ? 64 : 256;
     const auto sc = compile_scene(d);
     Film film(d.width, d.height);
-    r.render_pass(*sc, film, 1);  // warm-up
+    r.render_pass(*sc, d.render, film, 1);  // warm-up
     const auto t0 = Clock::now();
     uint64_t samples = 0;
-    while (seconds_since(t0) < (o.quick ? 0.3 : 2.0)) samples += r.render_pass(*sc, film, 1).samples;
+    while (seconds_since(t0) < (o.quick ? 0.3 : 2.0)) samples += r.render_pass(*sc, d.render, film, 1).samples;
     return static_cast<double>(samples) / seconds_since(t0) * 1e-6;
   };
   const double one = throughput(1), many = throughput(renderer.threads());
@@ -275,7 +275,7 @@ int run_bench(const BenchOptions& o) {
     std::vector<double> ms;
     for (int i = 0; i < (o.quick ? 5 : 30); ++i) {
       const auto t0 = Clock::now();
-      renderer.render_pass(*sc, film, 1);
+      renderer.render_pass(*sc, d.render, film, 1);
       ms.push_back(seconds_since(t0) * 1e3);
     }
     return median(ms);

@@ -106,7 +106,7 @@ int run_render(const RenderOptions& o) {
   while (!stop_reason(stop, spp, elapsed(), film.estimated_relmse())) {
     const int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed());
     const auto pass_start = clock::now();
-    const PassStats ps = run_pass(renderer, *scene, film, pass, o.adaptive, pass_index);
+    const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, o.adaptive, pass_index);
     seconds_per_spp = std::chrono::duration<double>(clock::now() - pass_start).count() / pass;
     spp += static_cast<uint64_t>(pass);
     samples += ps.samples;

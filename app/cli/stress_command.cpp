@@ -418,7 +418,7 @@ void furnaces(Report& r, const StressOptions& o) {
         RayCount count;
         const Vec2 u = sampler.next_2d();
         const Ray ray = scene->camera.generate_ray(u.x * s.width, u.y * s.height);
-        estimate_radiance(*scene, Estimator::Cosine, ray, sampler, count);
+        estimate_radiance(*scene, s.render, ray, sampler, count);
         total += count.rays;
         longest = std::max<uint64_t>(longest, count.rays);
       }

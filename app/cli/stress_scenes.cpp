@@ -433,7 +433,7 @@ Film render(const SceneDesc& s, int spp, int threads) {
   const auto scene = compile_scene(s);
   Film film(s.width, s.height);
   Renderer renderer(threads);
-  renderer.render_pass(*scene, film, spp);
+  renderer.render_pass(*scene, s.render, film, spp);
   return film;
 }
 

@@ -42,24 +42,28 @@ void ViewerModel::set_status(std::string text, bool error) {
   status_error_ = error;
 }
 
-bool ViewerModel::commit(SceneDesc next) {
-  if (std::string err = validate_scene(next); !err.empty()) {
+// Every edit is typed: the model and the session each change their copy in place (no scene copy per edit, and
+// the session updates the compiled scene without rebuilding geometry).
+bool ViewerModel::commit(const SceneEdit& edit) {
+  if (std::string err = validate_edit(scene_, edit); !err.empty()) {
     set_status("not applied: " + err, true);
     return false;
   }
-  scene_ = std::move(next);
-  last_edit_generation_ = session_->set_scene(scene_);
+  apply_edit(scene_, edit);
+  note_edit(session_->edit(edit));
+  return true;
+}
+
+void ViewerModel::note_edit(uint64_t generation) {
+  last_edit_generation_ = generation;
   last_edit_time_ = std::chrono::steady_clock::now();
   latency_pending_ = true;
   if (status_error_) set_status("", false);
-  return true;
 }
 
 bool ViewerModel::set_material(size_t index, const MaterialDesc& material) {
   if (index >= scene_.materials.size()) return false;
-  SceneDesc next = scene_;
-  next.materials[index] = material;
-  if (!commit(std::move(next))) return false;
+  if (!commit(MaterialEdit{index, material})) return false;
   const float s = max_component(material.emission);
   if (s > 0.f) emission_[index] = {material.emission / s, s};
   else emission_[index].strength = 0.f;
@@ -68,23 +72,25 @@ bool ViewerModel::set_material(size_t index, const MaterialDesc& material) {
 
 bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {
   if (index >= scene_.materials.size()) return false;
-  SceneDesc next = scene_;
-  next.materials[index].emission = colour * strength;
-  if (!commit(std::move(next))) return false;
+  MaterialDesc m = scene_.materials[index];
+  m.emission = colour * strength;
+  if (!commit(MaterialEdit{index, m})) return false;
   emission_[index] = {colour, strength};
   return true;
 }
 
 bool ViewerModel::set_render(const RenderSettings& render) {
-  SceneDesc next = scene_;
-  next.render = render;
-  return commit(std::move(next));
+  if (std::string err = validate_render_settings(render); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  scene_.render = render;
+  note_edit(session_->set_render(render));
+  return true;
 }
 
 bool ViewerModel::set_environment(const EnvironmentDesc& environment) {
-  SceneDesc next = scene_;
-  next.environment = environment;
-  EnvironmentDesc& e = next.environment;
+  EnvironmentDesc e = environment;
   if (e.type == EnvironmentType::Map && (!e.image || e.file != scene_.environment.file)) {
     if (e.file.empty()) {
       set_status("environment map: enter a file name (.exr, .hdr or .pfm)", true);
@@ -98,14 +104,10 @@ bool ViewerModel::set_environment(const EnvironmentDesc& environment) {
     }
     e.image = std::make_shared<Image>(std::move(read.image));
   }
-  return commit(std::move(next));
+  return commit(e);
 }
 
-void ViewerModel::camera_changed() {
-  SceneDesc next = scene_;
-  next.camera = camera_.camera();
-  commit(std::move(next));
-}
+void ViewerModel::camera_changed() { commit(camera_.camera()); }
 
 void ViewerModel::apply_input(const ViewInput& in, double seconds) {
   const double per_height = 1.0 / std::max(in.viewport_height, 1.f);
@@ -179,8 +181,8 @@ bool ViewerModel::load(const std::string& spec) {
     set_status(e.what(), true);
     return false;
   }
-  adopt(loaded, scene_short_name(spec));
-  commit(loaded);
+  adopt(loaded, scene_short_name(spec));  // load_scene validated it
+  note_edit(session_->set_scene(scene_));
   set_status("loaded " + spec, false);
   return true;
 }

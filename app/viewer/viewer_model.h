@@ -94,7 +94,8 @@ class ViewerModel {
     float strength = 0.f;
   };
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
-  bool commit(SceneDesc next);                                    // validate, keep, send to the session
+  bool commit(const SceneEdit& edit);  // validate, apply to the model, send to the session
+  void note_edit(uint64_t generation);
   void camera_changed();
   void set_status(std::string text, bool error);
 

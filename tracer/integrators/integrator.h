@@ -12,11 +12,12 @@ struct RayCount {
 // Radiance arriving at the camera along `ray`, estimated with the scene's render settings and the given
 // estimator, drawing random numbers from `sampler` (IndependentSampler or SobolSampler). Never allocates.
 template <class Sampler>
-Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count);
+Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
+                      RayCount& count);
 
 // A radiance estimator compiled for one geometry set (KernelFeature in scene.h).
 template <class Sampler>
-using RadianceKernel = Rgb (*)(const Scene&, Estimator, const Ray&, Sampler&, RayCount&);
+using RadianceKernel = Rgb (*)(const Scene&, const RenderSettings&, const Ray&, Sampler&, RayCount&);
 
 // The kernel compiled for exactly the scene's geometry, or with `generic` the one compiled for all features
 // (same image, more work: for instruction-count comparisons). Resolve once per tile, call per sample.

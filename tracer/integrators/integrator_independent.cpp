@@ -4,6 +4,6 @@
 namespace pt {
 
 template RadianceKernel<IndependentSampler> select_kernel(const Scene&, bool);
-template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, IndependentSampler&, RayCount&);
+template Rgb estimate_radiance(const Scene&, const RenderSettings&, const Ray&, IndependentSampler&, RayCount&);
 
 }  // namespace pt

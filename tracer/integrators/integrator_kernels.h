@@ -56,13 +56,14 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
 // F: what the kernel is compiled for (KernelFeature): intersection code for primitive kinds outside F is compiled
 // out, and so is the BSDF dispatch when every material is Lambertian.
 template <class Sampler, uint32_t F>
-Rgb trace(const Scene& s, Estimator estimator, const Ray& camera_ray, Sampler& rng, RayCount& count) {
+Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count) {
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
+  const Estimator estimator = settings.estimator;
   const bool light_sampling = estimator == Estimator::Nee || estimator == Estimator::Mis;
   const bool mis = estimator == Estimator::Mis;
   Ray ray = camera_ray;
-  const int max_bounces = s.render.max_bounces;
-  const int rr_depth = s.render.russian_roulette_depth;
+  const int max_bounces = settings.max_bounces;
+  const int rr_depth = settings.russian_roulette_depth;
   Rgb L(0.f), beta(1.f);
   float eta_scale = 1.f;      // undoes the 1/η² of refraction when judging the path's worth for roulette
   bool count_emission = true; // camera ray or a specular bounce: no light sample covered this direction
@@ -190,8 +191,9 @@ RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic) {
 }
 
 template <class Sampler>
-Rgb estimate_radiance(const Scene& scene, Estimator estimator, const Ray& ray, Sampler& sampler, RayCount& count) {
-  return select_kernel<Sampler>(scene, false)(scene, estimator, ray, sampler, count);
+Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
+                      RayCount& count) {
+  return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count);
 }
 
 }  // namespace pt

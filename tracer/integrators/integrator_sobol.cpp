@@ -4,6 +4,6 @@
 namespace pt {
 
 template RadianceKernel<SobolSampler> select_kernel(const Scene&, bool);
-template Rgb estimate_radiance(const Scene&, Estimator, const Ray&, SobolSampler&, RayCount&);
+template Rgb estimate_radiance(const Scene&, const RenderSettings&, const Ray&, SobolSampler&, RayCount&);
 
 }  // namespace pt

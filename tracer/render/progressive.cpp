@@ -26,10 +26,11 @@ int next_pass_spp(double seconds_per_spp, double target_seconds, const StopCondi
   return static_cast<int>(std::max<uint64_t>(n, 1));
 }
 
-PassStats run_pass(Renderer& renderer, const Scene& scene, Film& film, int spp, bool adaptive, uint64_t& pass_index,
-                   const std::atomic<bool>* cancel) {
-  if (!adaptive) return renderer.render_pass(scene, film, spp, cancel);
-  return renderer.render_pass(scene, film, plan_adaptive_pass(film, Renderer::kTileSize, spp, pass_index++), cancel);
+PassStats run_pass(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film, int spp,
+                   bool adaptive, uint64_t& pass_index, const std::atomic<bool>* cancel) {
+  if (!adaptive) return renderer.render_pass(scene, settings, film, spp, cancel);
+  return renderer.render_pass(scene, settings, film, plan_adaptive_pass(film, Renderer::kTileSize, spp, pass_index++),
+                              cancel);
 }
 
 }  // namespace pt

@@ -32,7 +32,7 @@ int next_pass_spp(double seconds_per_spp, double target_seconds, const StopCondi
 
 // Renders one pass of `spp` samples per pixel: uniform, or adaptive (plan_adaptive_pass; `pass_index` counts the
 // adaptive passes, every 4th of which is uniform).
-PassStats run_pass(Renderer& renderer, const Scene& scene, Film& film, int spp, bool adaptive, uint64_t& pass_index,
-                   const std::atomic<bool>* cancel = nullptr);
+PassStats run_pass(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film, int spp,
+                   bool adaptive, uint64_t& pass_index, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace pt

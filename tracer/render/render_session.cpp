@@ -54,6 +54,7 @@ struct RenderSession::Worker {
   // scenes in place (update_scene_appearance): `appearance_from` is the description they show.
   bool appearance_dirty = false;
   SceneDesc appearance_from;
+  std::vector<SceneEdit> edits;  // typed edits taken since the compiled scenes were last brought up to date
   std::shared_ptr<Scene> full, preview;
   int preview_divisor = 1;  // of this accumulation; 1 = none
   bool need_preview = false;
@@ -104,6 +105,34 @@ uint64_t RenderSession::set_scene(const SceneDesc& scene) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     pending_scene_ = scene;
+    pending_edits_.clear();  // the new scene replaces whatever they changed
+    pending_render_.reset();
+    g = request_restart_locked();
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+  return g;
+}
+
+uint64_t RenderSession::edit(const SceneEdit& edit) {
+  uint64_t g;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_scene_) apply_edit(*pending_scene_, edit);
+    else pending_edits_.push_back(edit);
+    g = request_restart_locked();
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+  return g;
+}
+
+uint64_t RenderSession::set_render(const RenderSettings& render) {
+  uint64_t g;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (pending_scene_) pending_scene_->render = render;
+    else pending_render_ = render;
     g = request_restart_locked();
   }
   wake_.notify_all();
@@ -202,8 +231,8 @@ void RenderSession::run() {
     if (!begin_pass(w, preview, spp)) continue;
     const auto start = Clock::now();
     // Preview passes are never cancelled (see the header); full passes stop within a tile on any request.
-    const PassStats ps = preview ? w.renderer->render_pass(*w.preview, w.preview_film, 1, nullptr)
-                                 : w.renderer->render_pass(*w.full, w.film, spp, &cancel_);
+    const PassStats ps = preview ? w.renderer->render_pass(*w.preview, w.desc.render, w.preview_film, 1, nullptr)
+                                 : w.renderer->render_pass(*w.full, w.desc.render, w.film, spp, &cancel_);
     const double pass_seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (!ps.cancelled)
       w.full_seconds_per_spp = preview ? pass_seconds * w.preview_divisor * w.preview_divisor : pass_seconds / spp;
@@ -238,6 +267,20 @@ bool RenderSession::take_requests(Worker& w, bool& restart) {
     w.desc = std::move(*pending_scene_);
     pending_scene_.reset();
     w.scene_ok = true;
+    w.edits.clear();  // the new description includes them
+  }
+  for (SceneEdit& e : pending_edits_) {
+    if (std::string err = validate_edit(w.desc, e); !err.empty()) {
+      stats_.error = "edit not applied: " + err;  // the owner broke the contract: say so, render on
+      continue;
+    }
+    apply_edit(w.desc, e);
+    w.edits.push_back(std::move(e));
+  }
+  pending_edits_.clear();
+  if (pending_render_) {
+    w.desc.render = *pending_render_;
+    pending_render_.reset();
   }
   if (pending_restart_) {
     pending_restart_ = false;
@@ -258,14 +301,22 @@ bool RenderSession::prepare(Worker& w, bool restart) {
       std::lock_guard<std::mutex> lock(mutex_);
       stats_.threads = w.renderer->threads();
     }
+    // A scene not compiled yet, or due for a rebuild anyway, needs no update. A camera moved far from where the
+    // geometry was compiled: recompile instead.
     if (w.appearance_dirty && w.scene_ok) {
-      // A scene not compiled yet, or due for a rebuild anyway, needs no update.
-      // A camera moved far from where the geometry was compiled: recompile instead.
+      // A description with the same shapes (set_scene): update from the difference, which covers the typed edits
+      // taken since (they are in w.desc too).
       if (w.full && !w.full_dirty && !update_scene_appearance(*w.full, w.appearance_from, w.desc)) w.full_dirty = true;
       if (w.preview && !w.preview_dirty && !update_scene_appearance(*w.preview, w.appearance_from, w.desc))
         w.preview_dirty = true;
       w.appearance_dirty = false;
+      w.edits.clear();
     }
+    for (const SceneEdit& e : w.edits) {
+      if (w.full && !w.full_dirty && !apply_edit(*w.full, e)) w.full_dirty = true;
+      if (w.preview && !w.preview_dirty && !apply_edit(*w.preview, e)) w.preview_dirty = true;
+    }
+    w.edits.clear();
     if (restart && w.scene_ok) {
       w.film.reset(w.desc.width, w.desc.height);
       w.film_spp = 0;

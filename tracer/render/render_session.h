@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "render/progressive.h"
-#include "scene/scene_desc.h"
+#include "scene/scene.h"
 
 namespace pt {
 
@@ -82,6 +82,11 @@ class RenderSession {
   // once. They return the generation whose frames will show the edit. The scene should be valid
   // (validate_scene); an invalid one is reported in stats().error.
   uint64_t set_scene(const SceneDesc& scene);
+  // Typed edits (the viewer's): applied to the compiled scene in place, without copying or comparing its shapes.
+  // The edit must be valid for the current scene (validate_edit).
+  uint64_t edit(const SceneEdit& edit);
+  // Estimator, sampler, bounces, seed: nothing is recompiled.
+  uint64_t set_render(const RenderSettings& render);
   uint64_t restart();
   // Threads and stop conditions apply to the running accumulation without restarting it (the image does not
   // depend on the thread count). Raising a met stop condition resumes rendering.
@@ -120,6 +125,8 @@ class RenderSession {
 
   // Requests (guarded by mutex_).
   std::optional<SceneDesc> pending_scene_;
+  std::vector<SceneEdit> pending_edits_;  // after pending_scene_ (which absorbs them while it is pending)
+  std::optional<RenderSettings> pending_render_;
   bool pending_restart_ = false;
   bool settings_changed_ = false;
   SessionSettings settings_;

@@ -11,12 +11,11 @@ namespace {
 
 // One tile: every pixel gets `spp` more samples, numbered after those it already has.
 template <class Sampler>
-void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count,
-                 uint64_t& samples) {
+void render_tile(const Scene& scene, const RenderSettings& settings, Film& film, int x0, int y0, int x1, int y1,
+                 int spp, RayCount& count, uint64_t& samples) {
   // The kernel compiled for the scene's feature set, resolved once per tile.
-  const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, scene.render.generic_kernel);
-  const Estimator estimator = scene.render.estimator;
-  const uint64_t seed = scene.render.seed;
+  const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, settings.generic_kernel);
+  const uint64_t seed = settings.seed;
   const int w = film.width();
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
@@ -26,7 +25,7 @@ void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1,
         film.note_attempt(pixel);
         const Vec2 jitter = sampler.next_2d();
         const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
-        film.add_sample(pixel, radiance(scene, estimator, ray, sampler, count));
+        film.add_sample(pixel, radiance(scene, settings, ray, sampler, count));
         ++samples;
       }
     }
@@ -35,13 +34,14 @@ void render_tile(const Scene& scene, Film& film, int x0, int y0, int x1, int y1,
 
 }  // namespace
 
-PassStats Renderer::render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel) {
+PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
+                                const std::atomic<bool>* cancel) {
   const int tiles = ((film.width() + kTileSize - 1) / kTileSize) * ((film.height() + kTileSize - 1) / kTileSize);
-  return render_pass(scene, film, std::vector<int>(tiles, spp), cancel);
+  return render_pass(scene, settings, film, std::vector<int>(tiles, spp), cancel);
 }
 
-PassStats Renderer::render_pass(const Scene& scene, Film& film, const std::vector<int>& tile_spp,
-                                const std::atomic<bool>* cancel) {
+PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
+                                const std::vector<int>& tile_spp, const std::atomic<bool>* cancel) {
   const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   std::atomic<uint64_t> samples{0}, rays{0};
@@ -58,10 +58,10 @@ PassStats Renderer::render_pass(const Scene& scene, Film& film, const std::vecto
     uint64_t tile_samples = 0;
     const int spp = tile_spp[tile];
     if (spp <= 0) return;
-    if (scene.render.sampler == SamplerType::Sobol)
-      render_tile<SobolSampler>(scene, film, x0, y0, x1, y1, spp, count, tile_samples);
+    if (settings.sampler == SamplerType::Sobol)
+      render_tile<SobolSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples);
     else
-      render_tile<IndependentSampler>(scene, film, x0, y0, x1, y1, spp, count, tile_samples);
+      render_tile<IndependentSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples);
     samples.fetch_add(tile_samples, std::memory_order_relaxed);
     rays.fetch_add(count.rays, std::memory_order_relaxed);
   });

@@ -23,12 +23,15 @@ class Renderer {
   explicit Renderer(int threads = 0);  // 0 = all hardware threads
   int threads() const { return pool_.size(); }
 
-  // Adds spp samples to each pixel of `film` (which must match the scene's size). If `cancel` becomes true the
-  // pass stops at the next tile boundary (every pixel keeps a consistent mean; some have fewer samples).
-  PassStats render_pass(const Scene& scene, Film& film, int spp, const std::atomic<bool>* cancel = nullptr);
-  // The same with a sample count per tile (row-major tiles of kTileSize, as plan_adaptive_pass gives them).
-  PassStats render_pass(const Scene& scene, Film& film, const std::vector<int>& tile_spp,
+  // Adds spp samples to each pixel of `film` (which must match the scene's size), traced with `settings`
+  // (estimator, sampler, bounces, seed: not part of the compiled scene, so changing them rebuilds nothing). If
+  // `cancel` becomes true the pass stops at the next tile boundary (every pixel keeps a consistent mean; some
+  // have fewer samples).
+  PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
                         const std::atomic<bool>* cancel = nullptr);
+  // The same with a sample count per tile (row-major tiles of kTileSize, as plan_adaptive_pass gives them).
+  PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
+                        const std::vector<int>& tile_spp, const std::atomic<bool>* cancel = nullptr);
 
   static constexpr int kTileSize = 16;
 

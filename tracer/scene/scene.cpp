@@ -66,11 +66,7 @@ std::string validate_environment(const EnvironmentDesc& e) {
   return {};
 }
 
-}  // namespace
-
-std::string validate_scene(const SceneDesc& s) {
-  std::ostringstream e;
-  const CameraDesc& c = s.camera;
+std::string validate_camera(const CameraDesc& c) {
   if (!finite3(c.position)) return "camera.position: must be finite";
   if (!finite3(c.look_at)) return "camera.look_at: must be finite";
   if (!finite3(c.up)) return "camera.up: must be finite";
@@ -79,31 +75,46 @@ std::string validate_scene(const SceneDesc& s) {
   if (!(glm::length(c.up) > 0.0) || glm::length(glm::cross(f, glm::normalize(c.up))) < 1e-9)
     return "camera.up: must not be zero or parallel to the viewing direction";
   if (!(c.fov_deg > 0.0 && c.fov_deg < 180.0)) return "camera.fov_deg: must be in (0, 180) degrees";
+  return {};
+}
+
+std::string validate_material(const MaterialDesc& m) {
+  const std::string p = "materials." + m.name;
+  if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
+      glm::any(glm::greaterThan(m.albedo, Vec3(1.f))))
+    return p + ".albedo: components must be in [0, 1]";
+  if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, Vec3(0.f))))
+    return p + ".emission: components must be finite and >= 0";
+  if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
+    return p + ".ior: must be finite and > 0 (the index inside; outside is 1)";
+  if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface) && !(m.ior >= 1.f && m.ior <= 4.f))
+    return p + ".ior: must be in [1, 4] (the index inside; outside is 1)";
+  if (!(m.roughness >= 0.f && m.roughness <= 1.f)) return p + ".roughness: must be in [0, 1]";
+  if (!(m.g > -1.f && m.g < 1.f)) return p + ".g: must be in (-1, 1)";
+  if (m.complex_ior) {
+    if (!finite3(m.eta) || !glm::all(glm::greaterThan(m.eta, Vec3(0.f)))) return p + ".eta: components must be finite and > 0";
+    if (!finite3(m.k) || glm::any(glm::lessThan(m.k, Vec3(0.f)))) return p + ".k: components must be finite and >= 0";
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string validate_render_settings(const RenderSettings& r) {
+  if (r.max_bounces < 0) return "render.max_bounces: must be >= 0";
+  if (r.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  return {};
+}
+
+std::string validate_scene(const SceneDesc& s) {
+  if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (s.width < 1 || s.width > 16384) return "film.width: must be in [1, 16384]";
   if (s.height < 1 || s.height > 16384) return "film.height: must be in [1, 16384]";
-  if (s.render.max_bounces < 0) return "render.max_bounces: must be >= 0";
-  if (s.render.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
   if (s.materials.empty()) return "materials: the scene defines no material";
-  for (size_t i = 0; i < s.materials.size(); ++i) {
-    const MaterialDesc& m = s.materials[i];
-    const std::string p = "materials." + m.name;
-    if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
-        glm::any(glm::greaterThan(m.albedo, Vec3(1.f))))
-      return p + ".albedo: components must be in [0, 1]";
-    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, Vec3(0.f))))
-      return p + ".emission: components must be finite and >= 0";
-    if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
-      return p + ".ior: must be finite and > 0 (the index inside; outside is 1)";
-    if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface) && !(m.ior >= 1.f && m.ior <= 4.f))
-      return p + ".ior: must be in [1, 4] (the index inside; outside is 1)";
-    if (!(m.roughness >= 0.f && m.roughness <= 1.f)) return p + ".roughness: must be in [0, 1]";
-    if (!(m.g > -1.f && m.g < 1.f)) return p + ".g: must be in (-1, 1)";
-    if (m.complex_ior) {
-      if (!finite3(m.eta) || !glm::all(glm::greaterThan(m.eta, Vec3(0.f)))) return p + ".eta: components must be finite and > 0";
-      if (!finite3(m.k) || glm::any(glm::lessThan(m.k, Vec3(0.f)))) return p + ".k: components must be finite and >= 0";
-    }
-  }
+  for (const MaterialDesc& m : s.materials)
+    if (std::string err = validate_material(m); !err.empty()) return err;
   if (s.shapes.empty()) return "shapes: the scene has no shape";
   for (size_t i = 0; i < s.shapes.size(); ++i) {
     const ShapeDesc& sh = s.shapes[i];
@@ -200,7 +211,15 @@ Material compile_material(const MaterialDesc& d) {
 constexpr int kSkyTableWidth = 512, kSkyTableHeight = 256;
 
 void compile_environment(const EnvironmentDesc& e, Scene& s) {
+  s.environment = EnvironmentLight{};
   EnvironmentLight& env = s.environment;
+  if (e.type == EnvironmentType::Sky && e.sun) {
+    const SunDisk sun = preetham_sun(Vec3(glm::normalize(e.sun_direction)), e.turbidity);
+    env.sun.kind = LightKind::Sun;
+    env.sun.direction = Vec3(glm::normalize(e.sun_direction));
+    env.sun.emission = sun.radiance * e.scale;
+    env.sun.one_minus_cos_max = sun.one_minus_cos;
+  }
   switch (e.type) {
     case EnvironmentType::Constant:
       env.radiance = e.radiance;
@@ -252,7 +271,7 @@ bool same_environment(const EnvironmentDesc& a, const EnvironmentDesc& b) {
 
 // The light list (emitting primitives, then the environment and the sun) and its power-proportional selection
 // distribution, from the compiled materials, geometry and environment.
-void compile_lights(const EnvironmentDesc& env, Scene& s) {
+void compile_lights(Scene& s) {
   s.lights.clear();
   s.light_pmf.clear();
   s.light_cdf.clear();
@@ -306,18 +325,10 @@ void compile_lights(const EnvironmentDesc& env, Scene& s) {
                                                    : 4.0 * glm::pi<double>() * (s.environment.radiance.x + s.environment.radiance.y + s.environment.radiance.z);
     power.push_back(disk * integral);
   }
-  if (env.type == EnvironmentType::Sky && env.sun) {
-    const SunDisk sun = preetham_sun(Vec3(glm::normalize(env.sun_direction)), env.turbidity);
-    Light l;
-    l.kind = LightKind::Sun;
-    l.direction = Vec3(glm::normalize(env.sun_direction));
-    l.emission = sun.radiance * env.scale;
-    l.one_minus_cos_max = sun.one_minus_cos;
-    if (!is_black(l.emission)) {
-      s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
-      s.lights.push_back(l);
-      power.push_back(disk * 2.0 * glm::pi<double>() * l.one_minus_cos_max * (l.emission.x + l.emission.y + l.emission.z));
-    }
+  if (const Light& l = s.environment.sun; !is_black(l.emission)) {
+    s.infinite_lights.push_back(static_cast<uint32_t>(s.lights.size()));
+    s.lights.push_back(l);
+    power.push_back(disk * 2.0 * glm::pi<double>() * l.one_minus_cos_max * (l.emission.x + l.emission.y + l.emission.z));
   }
   s.features.environment = !s.infinite_lights.empty();
   double total = 0.0;
@@ -337,7 +348,6 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
   if (std::string err = validate_scene(desc); !err.empty()) throw std::invalid_argument(err);
   auto scene = std::make_shared<Scene>();
   Scene& s = *scene;
-  s.render = desc.render;
   s.width = desc.width;
   s.height = desc.height;
   s.world_origin = desc.camera.position;
@@ -377,7 +387,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
   s.bounding_radius = std::sqrt(r2);
   compile_materials(desc, s);
   compile_environment(desc.environment, s);
-  compile_lights(desc.environment, s);
+  compile_lights(s);
   return scene;
 }
 
@@ -410,27 +420,57 @@ bool same_geometry(const SceneDesc& a, const SceneDesc& b) {
   return a.width == b.width && a.height == b.height && same_shapes(a, b);
 }
 
+namespace {
+
+// Moves the eye in place; false (nothing changed) when it moved too far from where the geometry was compiled.
+bool move_camera(Scene& s, const CameraDesc& c) {
+  const DVec3 offset = c.position - s.world_origin;
+  if (glm::length(offset) > kCameraRebaseRadii * s.bounding_radius) return false;
+  s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, s.width,
+                          s.height);
+  s.camera.origin = Vec3(offset);
+  return true;
+}
+
+}  // namespace
+
 bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after) {
   if (std::string err = validate_scene(after); !err.empty()) throw std::invalid_argument(err);
   // The film size may differ (a reduced-resolution preview of the same scene): the compiled scene keeps its own.
   if (!same_shapes(before, after)) throw std::invalid_argument("update_scene_appearance: the geometry changed");
-  if (!same_camera(before.camera, after.camera)) {
-    const CameraDesc& c = after.camera;
-    const DVec3 offset = c.position - s.world_origin;
-    if (glm::length(offset) > kCameraRebaseRadii * s.bounding_radius) return false;
-    s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, s.width,
-                            s.height);
-    s.camera.origin = Vec3(offset);
-  }
-  s.render = after.render;
+  if (!same_camera(before.camera, after.camera) && !move_camera(s, after.camera)) return false;
   for (size_t i = 0; i < after.materials.size(); ++i)
     if (!same_material(before.materials[i], after.materials[i])) s.materials[i] = compile_material(after.materials[i]);
   note_material_features(s);
-  if (!same_environment(before.environment, after.environment)) {
-    s.environment = EnvironmentLight{};
-    compile_environment(after.environment, s);
+  if (!same_environment(before.environment, after.environment)) compile_environment(after.environment, s);
+  compile_lights(s);
+  return true;
+}
+
+std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit) {
+  if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
+    if (m->index >= desc.materials.size()) return "materials[" + std::to_string(m->index) + "]: no such material";
+    return validate_material(m->material);
   }
-  compile_lights(after.environment, s);
+  if (const auto* c = std::get_if<CameraDesc>(&edit)) return validate_camera(*c);
+  return validate_environment(std::get<EnvironmentDesc>(edit));
+}
+
+void apply_edit(SceneDesc& desc, const SceneEdit& edit) {
+  if (const auto* m = std::get_if<MaterialEdit>(&edit)) desc.materials.at(m->index) = m->material;
+  else if (const auto* c = std::get_if<CameraDesc>(&edit)) desc.camera = *c;
+  else desc.environment = std::get<EnvironmentDesc>(edit);
+}
+
+bool apply_edit(Scene& s, const SceneEdit& edit) {
+  if (const auto* c = std::get_if<CameraDesc>(&edit)) return move_camera(s, *c);
+  if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
+    s.materials.at(m->index) = compile_material(m->material);
+    note_material_features(s);
+  } else {
+    compile_environment(std::get<EnvironmentDesc>(edit), s);
+  }
+  compile_lights(s);  // emitters and the sun may have changed
   return true;
 }
 

@@ -13,6 +13,8 @@
 #pragma once
 #include <array>
 #include <memory>
+#include <string>
+#include <variant>
 #include <vector>
 
 #include "scene/camera.h"
@@ -84,6 +86,7 @@ struct EnvironmentLight {
   bool uses_map = false;   // a lat-long map (a file, or the tabulated sky); else the constant `radiance`
   Rgb radiance{0.f};
   std::shared_ptr<const EnvironmentMap> map;
+  Light sun;  // the sky's solar disk (kind Sun); black when there is none
 };
 
 // What the scene contains, recorded when it is compiled.
@@ -121,7 +124,6 @@ inline bool intersect_polygon(const PolygonSoA& p, uint32_t i, Vec3 o, const Ray
 class Scene {
  public:
   Camera camera;
-  RenderSettings render;
   EnvironmentLight environment;
   int width = 0, height = 0;
   DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
@@ -164,13 +166,36 @@ bool same_geometry(const SceneDesc& a, const SceneDesc& b);
 
 // Edits without recompiling geometry: `s` was compiled from `before` (possibly at another film size: a
 // preview); applies `after`, whose shapes must be before's, by recompiling only the materials that differ, the
-// environment if it differs, the light list (cheap: emitters may have changed) and the render settings, and by
-// moving the camera in place (the geometry stays camera-relative to where it was compiled; rays start at the
+// environment if it differs and the light list (cheap: emitters may have changed), and by moving the camera in
+// place (the geometry stays camera-relative to where it was compiled; rays start at the
 // new eye). A live material edit thus costs that material's tables (≤ 1 ms), a camera drag almost nothing.
 // Returns false, changing nothing, when the camera moved farther than the scene's bounding radius from where
 // the geometry was compiled: recompile then (compile_scene), so precision never depends on the path travelled.
 // Throws std::invalid_argument as compile_scene does.
 bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc& after);
+
+// Typed edits: what the viewer changes live, applied without copying or comparing the scene's shapes (which
+// may be millions). Render settings are not among them: they are not part of the compiled scene and go to the
+// renderer with each pass.
+struct MaterialEdit {
+  size_t index = 0;
+  MaterialDesc material;
+};
+using SceneEdit = std::variant<MaterialEdit, CameraDesc, EnvironmentDesc>;
+
+// "" when `edit` may be applied to `desc` (the index exists, the new values are valid), else "path: reason".
+// Checks the edited part only: its cost does not grow with the scene.
+std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit);
+// Applies a valid edit to a description.
+void apply_edit(SceneDesc& desc, const SceneEdit& edit);
+// Applies a valid edit to a compiled scene in place: the material's tables, the environment, the light list,
+// or the eye. Returns false, changing nothing, for a camera moved farther than the scene's bounding radius from
+// where the geometry was compiled: recompile then. Throws std::invalid_argument as compile_scene does (an
+// unreadable environment map).
+bool apply_edit(Scene& s, const SceneEdit& edit);
+
+// "" when the render settings are valid, else "render.field: reason".
+std::string validate_render_settings(const RenderSettings& render);
 
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
