@@ -1,5 +1,8 @@
 // The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
 #include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+#include <new>
 
 #include "cli/bench_command.h"
 #include "cli/compare_command.h"
@@ -26,10 +29,19 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;  // --help exits 0; a bad flag is bad input (2)
   }
-  if (app.got_subcommand("render")) return pt::run_render(render_options);
-  if (app.got_subcommand("bench")) return pt::run_bench(bench_options);
-  if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
-  if (app.got_subcommand("view")) return pt::run_view(view_options);
-  if (app.got_subcommand("stress")) return pt::run_stress(stress_options);
+  // Whatever escapes a command becomes a message and an exit status, never an abort.
+  try {
+    if (app.got_subcommand("render")) return pt::run_render(render_options);
+    if (app.got_subcommand("bench")) return pt::run_bench(bench_options);
+    if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
+    if (app.got_subcommand("view")) return pt::run_view(view_options);
+    if (app.got_subcommand("stress")) return pt::run_stress(stress_options);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "error: out of memory\n");
+    return 3;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
   return 2;
 }

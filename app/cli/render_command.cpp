@@ -2,8 +2,19 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <condition_variable>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "cli/interrupt.h"
+#include "cli/option_checks.h"
+#include "core/memory_budget.h"
+#include "io/safe_file.h"
 
 #include "render/film.h"
 #include "io/image_io.h"
@@ -20,29 +31,31 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
   r->add_option("--scene", o.scene,
                 "Scene: a built-in name (cornell, cornell-spheres, shadertoy, materials, sky) or a .json file path")
       ->capture_default_str();
-  r->add_option("--width", o.width, "Image width in pixels (overrides the scene's film.width)")->check(CLI::Range(1, 16384));
-  r->add_option("--height", o.height, "Image height in pixels (overrides film.height)")->check(CLI::Range(1, 16384));
+  r->add_option("--width", o.width, "Image width in pixels (overrides the scene's film.width)")->check(whole_in(1, 16384));
+  r->add_option("--height", o.height, "Image height in pixels (overrides film.height)")->check(whole_in(1, 16384));
   r->add_option("--spp", o.spp, "Stop after N samples per pixel (default 64 when no stop condition is given)")
-      ->check(CLI::Range(1LL, 1LL << 31));
-  r->add_option("--time", o.time_seconds, "Stop after this many seconds of rendering")->check(CLI::PositiveNumber);
+      ->check(whole_in(1, 1LL << 31));
+  r->add_option("--time", o.time_seconds,
+                "Stop after this many seconds of rendering (held to within 0.1 s, even mid-pass and mid-path)")
+      ->check(finite_in(1e-3, 1e7));
   r->add_option("--target-relmse", o.target_relmse,
                 "Stop when the film's own estimate of relMSE falls to E (checked after each pass, from 16 spp on)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_in(1e-12, 1e6));
   r->add_option("--bounces", o.bounces, "Max scattering events after the first hit (overrides render.max_bounces)")
-      ->check(CLI::Range(0, 1 << 30));
+      ->check(whole_in(0, 1 << 30));
   r->add_option("--estimator", o.estimator, enum_names_joined<Estimator>(" | ") + " (overrides render.estimator)")
       ->check(CLI::IsMember(enum_name_list<Estimator>()));
   r->add_option("--sampler", o.sampler, enum_names_joined<SamplerType>(" | ") + " (overrides render.sampler)")
       ->check(CLI::IsMember(enum_name_list<SamplerType>()));
   r->add_option("--rr-depth", o.rr_depth, "Russian roulette from this bounce on; -1 = off (overrides the scene)")
-      ->check(CLI::Range(-1, 1 << 30));
-  r->add_option("--seed", o.seed, "Random seed (overrides render.seed); same seed, same image");
-  r->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
-      ->check(CLI::Range(0, 1024))
+      ->check(whole_in(-1, 1 << 30));
+  r->add_option("--seed", o.seed, "Random seed (overrides render.seed); same seed, same image")->check(whole_u64());
+  r->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads (fewer if the system refuses)")
+      ->check(whole_in(0, 1024))
       ->capture_default_str();
   r->add_option("--png", o.png, "Write the tone-mapped 8-bit sRGB image here");
   r->add_option("--pfm", o.pfm, "Write the linear mean radiance (float PFM) here");
-  r->add_option("--exposure", o.exposure, "PNG exposure in EV stops")->capture_default_str();
+  r->add_option("--exposure", o.exposure, "PNG exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
   r->add_option("--tonemap", o.tonemap, "PNG tone map: clamp | reinhard | aces")
       ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
       ->capture_default_str();
@@ -54,8 +67,10 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
-      "Stop conditions combine: rendering stops at the first one met. Exit status: 0 ok, 1 cannot write output,\n"
-      "2 invalid scene or options.");
+      "Outputs are checked before rendering and written completely or not at all (an earlier file stays intact).\n"
+      "Stop conditions combine: rendering stops at the first one met. Ctrl-C (SIGINT) or SIGTERM stops early and\n"
+      "writes the image so far; a second one exits at once. Exit status: 0 ok, 1 an output could not be written\n"
+      "(or no sample was rendered), 2 invalid scene or options, 3 out of memory, 128+N killed by a second signal N.");
 }
 
 namespace {
@@ -64,6 +79,88 @@ std::string scene_stem(const std::string& spec) {
   const std::filesystem::path p(spec);
   return p.has_extension() || spec.find('/') != std::string::npos ? p.stem().string() : spec;
 }
+
+struct OutputFile {
+  const char* flag;
+  std::string path;
+};
+
+// The same file, whether it exists yet or not (links and relative paths resolved).
+bool same_file(const std::string& a, const std::string& b) {
+  if (file_id(a) == file_id(b)) return true;
+  std::error_code ea, eb;
+  const auto ca = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);
+  const auto cb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), eb);
+  return !ea && !eb && ca == cb;
+}
+
+// Outputs that cannot be written, that are the scene being rendered, or that name one file twice are refused
+// before any work is done.
+bool check_outputs(const std::vector<OutputFile>& outputs, const std::string& scene_spec) {
+  const FileId input = file_id(scene_spec);  // a built-in scene name is no file
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const OutputFile& out = outputs[i];
+    if (std::string err = check_output_path(out.path); !err.empty()) {
+      std::fprintf(stderr, "error: %s %s\n", out.flag, err.c_str());
+      return false;
+    }
+    if (input.exists && same_file(out.path, scene_spec)) {
+      std::fprintf(stderr, "error: %s %s: is the scene being rendered; refusing to overwrite it\n", out.flag,
+                   out.path.c_str());
+      return false;
+    }
+    for (size_t j = 0; j < i; ++j)
+      if (same_file(outputs[j].path, out.path)) {
+        std::fprintf(stderr, "error: %s and %s both name %s; give each output its own file\n", outputs[j].flag,
+                     out.flag, out.path.c_str());
+        return false;
+      }
+  }
+  return true;
+}
+
+// The film and the output images, estimated before anything is allocated.
+bool check_film_memory(int width, int height) {
+  constexpr uint64_t kOutputBytesPerPixel = 12 + 12 + 3 + 3;  // mean image, PFM bytes, PNG pixels and bytes
+  const uint64_t pixels = static_cast<uint64_t>(width) * static_cast<uint64_t>(height);
+  const uint64_t need = pixels * (Film::kBytesPerPixel + kOutputBytesPerPixel), budget = memory_budget_bytes();
+  if (need <= budget) return true;
+  std::fprintf(stderr,
+               "error: a %dx%d render needs about %s (%llu bytes per pixel); this machine allows %s (3/4 of its "
+               "memory, or of ulimit -v); render a smaller image\n",
+               width, height, format_bytes(need).c_str(),
+               static_cast<unsigned long long>(Film::kBytesPerPixel + kOutputBytesPerPixel), format_bytes(budget).c_str());
+  return false;
+}
+
+// Raises `flag` once `seconds` have passed, unless finish() came first.
+class Watchdog {
+ public:
+  Watchdog(std::atomic<bool>& flag, std::optional<double> seconds) {
+    if (!seconds) return;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                                  std::chrono::duration<double>(*seconds));
+    thread_ = std::thread([this, &flag, deadline] {
+      std::unique_lock<std::mutex> lock(mutex_);
+      if (!done_cv_.wait_until(lock, deadline, [this] { return done_; })) flag.store(true);
+    });
+  }
+  ~Watchdog() { finish(); }
+  void finish() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    done_cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable done_cv_;
+  bool done_ = false;
+  std::thread thread_;
+};
 
 }  // namespace
 
@@ -83,32 +180,50 @@ int run_render(const RenderOptions& o) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;
   }
-  const auto scene = compile_scene(desc);
 
+  // Every output is checked before the first sample: a long render must not be lost to a typo.
+  std::vector<OutputFile> outputs;
+  if (!o.png.empty()) outputs.push_back({"--png", o.png});
+  if (!o.pfm.empty()) outputs.push_back({"--pfm", o.pfm});
+  if (outputs.empty()) {
+    outputs.push_back({"--png", scene_stem(o.scene) + ".png"});
+    outputs.push_back({"--pfm", scene_stem(o.scene) + ".pfm"});
+  }
+  if (!check_outputs(outputs, o.scene)) return 2;
+  if (!check_film_memory(desc.width, desc.height)) return 2;
+
+  const auto scene = compile_scene(desc);
   StopConditions stop;
   if (o.spp) stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) stop.seconds = *o.time_seconds;
   if (o.target_relmse) stop.relmse = *o.target_relmse;
-  const bool no_stop = !stop.any();
-  if (no_stop) stop.spp = 64;
+  if (!stop.any()) stop.spp = 64;
 
   Film film(desc.width, desc.height);
   Renderer renderer(o.threads);
+  if (!renderer.thread_start_error().empty())
+    std::fprintf(stderr, "warning: %s; rendering with %d\n", renderer.thread_start_error().c_str(), renderer.threads());
   Progress progress(!o.quiet);
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
 
+  // One flag stops the pass in flight, within a sample: the first SIGINT/SIGTERM, or the time limit (a watchdog
+  // raises it at the deadline, so --time holds even when a single pass or path would run far longer).
+  InterruptScope interrupts;
+  std::atomic<bool>& stop_now = interrupts.stop_flag();
+  Watchdog watchdog(stop_now, stop.seconds > 0.0 ? std::optional<double>(stop.seconds) : std::nullopt);
+
   uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
   double seconds_per_spp = 0.0;
   // Passes of about half a second keep the progress line and the stop checks timely.
   constexpr double kPassSeconds = 0.5;
-  while (!stop_reason(stop, spp, elapsed(), film.estimated_relmse())) {
+  while (!stop_now.load() && !stop_reason(stop, spp, elapsed(), film.estimated_relmse())) {
     const int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed());
     const auto pass_start = clock::now();
-    const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, o.adaptive, pass_index);
-    seconds_per_spp = std::chrono::duration<double>(clock::now() - pass_start).count() / pass;
-    spp += static_cast<uint64_t>(pass);
+    const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, o.adaptive, pass_index, &stop_now);
+    if (!ps.cancelled) seconds_per_spp = std::chrono::duration<double>(clock::now() - pass_start).count() / pass;
+    spp = film.min_count();
     samples += ps.samples;
     rays += ps.rays;
     double fraction = -1.0;
@@ -116,8 +231,12 @@ int run_render(const RenderOptions& o) {
     if (stop.seconds > 0.0) fraction = std::max(fraction, elapsed() / stop.seconds);
     progress.update(std::min(fraction, 1.0), elapsed(), spp, static_cast<double>(samples) / elapsed());
   }
+  watchdog.finish();
   progress.finish();
   const double seconds = elapsed();
+  if (const int sig = interrupts.signal_received())
+    std::fprintf(stderr, "interrupted by %s: stopping, writing the image from the samples so far\n",
+                 sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal");
 
   std::printf("%s %dx%d %s/%s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
               "%llu non-finite samples rejected\n",
@@ -125,32 +244,35 @@ int run_render(const RenderOptions& o) {
               static_cast<unsigned long long>(spp), seconds, static_cast<double>(samples) / seconds * 1e-6,
               static_cast<double>(rays) / seconds * 1e-6, film.estimated_relmse(),
               static_cast<unsigned long long>(film.rejected()));
-
-  std::string png = o.png, pfm = o.pfm;
-  if (png.empty() && pfm.empty()) {
-    png = scene_stem(o.scene) + ".png";
-    pfm = scene_stem(o.scene) + ".pfm";
-  }
-  const Image img{desc.width, desc.height, film.mean_image()};
-  try {
-    if (!png.empty()) {
-      DisplaySettings display;
-      display.exposure_ev = o.exposure;
-      display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
-                         : o.tonemap == "aces"   ? ToneMap::AcesFitted
-                                                 : ToneMap::Clamp;
-      write_png(png, img, display);
-      std::printf("wrote %s\n", std::filesystem::absolute(png).c_str());
-    }
-    if (!pfm.empty()) {
-      write_pfm(pfm, img);
-      std::printf("wrote %s\n", std::filesystem::absolute(pfm).c_str());
-    }
-  } catch (const ImageError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+  if (film.rejected() > 0)
+    std::fprintf(stderr, "warning: %llu samples were not finite and were left out of the image\n",
+                 static_cast<unsigned long long>(film.rejected()));
+  if (film.total_count() == 0) {
+    std::fprintf(stderr, "error: no sample was rendered; nothing written\n");
     return 1;
   }
-  return 0;
+  if (spp == 0)
+    std::fprintf(stderr, "warning: some pixels have no sample yet (they are written black)\n");
+
+  const Image img{desc.width, desc.height, film.mean_image()};
+  DisplaySettings display;
+  display.exposure_ev = o.exposure;
+  display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
+                     : o.tonemap == "aces"   ? ToneMap::AcesFitted
+                                             : ToneMap::Clamp;
+  // Each output on its own: one that fails does not keep the others from being written.
+  int failed = 0;
+  for (const OutputFile& out : outputs) {
+    try {
+      if (out.flag == std::string("--png")) write_png(out.path, img, display);
+      else write_pfm(out.path, img);
+      std::printf("wrote %s\n", std::filesystem::absolute(out.path).c_str());
+    } catch (const ImageError& e) {
+      std::fprintf(stderr, "error: %s: %s\n", out.flag, e.what());
+      ++failed;
+    }
+  }
+  return failed ? 1 : 0;
 }
 
 }  // namespace pt

@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <stb_image_write.h>
 
 #include "io/image_io.h"
 
@@ -26,14 +25,7 @@ void write_png_rgba8(const std::string& path, int width, int height, const std::
   std::vector<uint8_t> rgb(3ull * width * height);
   for (size_t i = 0, n = static_cast<size_t>(width) * height; i < n; ++i)
     for (int c = 0; c < 3; ++c) rgb[3 * i + c] = rgba[4 * i + c];
-  const std::string tmp = path + ".tmp";
-  if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb.data(), width * 3)) throw ImageError(path + ": cannot write PNG");
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw ImageError(path + ": cannot write (" + ec.message() + ")");
-  }
+  write_png_rgb8(path, width, height, rgb);
 }
 
 std::string scene_short_name(const std::string& spec) {

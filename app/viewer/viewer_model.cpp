@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "io/image_io.h"
+#include "io/safe_file.h"
 #include "viewer/output_files.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -189,14 +190,7 @@ bool ViewerModel::load(const std::string& spec) {
 
 bool ViewerModel::save_scene(const std::string& path) {
   try {
-    const std::string json = scene_to_json(scene_);
-    const std::string tmp = path + ".tmp";
-    {
-      std::ofstream out(tmp, std::ios::binary);
-      out << json;
-      if (!out.flush()) throw std::runtime_error(path + ": cannot write");
-    }
-    std::filesystem::rename(tmp, path);
+    write_file_safely(path, scene_to_json(scene_));
   } catch (const std::exception& e) {
     set_status(std::string("scene not saved: ") + e.what(), true);
     return false;

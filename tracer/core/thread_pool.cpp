@@ -1,5 +1,7 @@
 #include "core/thread_pool.h"
 
+#include <system_error>
+
 namespace pt {
 
 int hardware_threads() {
@@ -8,7 +10,16 @@ int hardware_threads() {
 }
 
 ThreadPool::ThreadPool(int threads) {
-  for (int t = 1; t < std::max(1, threads); ++t) workers_.emplace_back([this, t] { worker_loop(t); });
+  for (int t = 1; t < std::max(1, threads); ++t) {
+    try {
+      workers_.emplace_back([this, t] { worker_loop(t); });
+    } catch (const std::system_error& e) {
+      // A process or memory limit: run with the threads there are (the caller, at least) and say why.
+      start_error_ = "only " + std::to_string(t) + " of " + std::to_string(threads) + " threads could be started (" +
+                     e.code().message() + ")";
+      break;
+    }
+  }
 }
 
 ThreadPool::~ThreadPool() {

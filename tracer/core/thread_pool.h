@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -19,6 +20,8 @@ class ThreadPool {
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return static_cast<int>(workers_.size()) + 1; }
+  // Why fewer threads than asked for run (the system refused to create more: a process limit), or "".
+  const std::string& start_error() const { return start_error_; }
 
   // Calls fn(task, thread) for task in [0, task_count) across all threads; returns when every call returned.
   // thread is in [0, size()). Not reentrant.
@@ -29,6 +32,7 @@ class ThreadPool {
   void run_tasks(int thread);
 
   std::vector<std::thread> workers_;
+  std::string start_error_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
   const std::function<void(int, int)>* job_ = nullptr;

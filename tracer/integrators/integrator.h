@@ -1,5 +1,7 @@
 // The estimators of docs/estimators.md: one path per call, returning the radiance estimate along a camera ray.
 #pragma once
+#include <atomic>
+
 #include "sampling/sampler.h"
 #include "scene/scene.h"
 
@@ -17,7 +19,11 @@ Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const 
 
 // A radiance estimator compiled for one geometry set (KernelFeature in scene.h).
 template <class Sampler>
-using RadianceKernel = Rgb (*)(const Scene&, const RenderSettings&, const Ray&, Sampler&, RayCount&);
+// `cancel` (may be null) is polled every kCancelPollBounces bounces, so that even a path that never ends (albedo
+// 1, no roulette, no bounce limit) returns once it is set; the caller must then drop the sample.
+using RadianceKernel = Rgb (*)(const Scene&, const RenderSettings&, const Ray&, Sampler&, RayCount&,
+                               const std::atomic<bool>* cancel);
+inline constexpr int kCancelPollBounces = 256;
 
 // The kernel compiled for exactly the scene's geometry, or with `generic` the one compiled for all features
 // (same image, more work: for instruction-count comparisons). Resolve once per tile, call per sample.

@@ -56,7 +56,8 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
 // F: what the kernel is compiled for (KernelFeature): intersection code for primitive kinds outside F is compiled
 // out, and so is the BSDF dispatch when every material is Lambertian.
 template <class Sampler, uint32_t F>
-Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count) {
+Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count,
+          const std::atomic<bool>* cancel) {
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   const Estimator estimator = settings.estimator;
   const bool light_sampling = estimator == Estimator::Nee || estimator == Estimator::Mis;
@@ -72,6 +73,8 @@ Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray,
   uint32_t skip = ~0u;
 
   for (int depth = 0;; ++depth) {
+    if (depth % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
+      break;
     Hit h;
     ++count.rays;
     if (!intersect_scene<F>(s, ray, kInfinity, skip, h)) {
@@ -193,7 +196,7 @@ RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic) {
 template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
                       RayCount& count) {
-  return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count);
+  return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count, nullptr);
 }
 
 }  // namespace pt

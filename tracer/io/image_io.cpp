@@ -1,5 +1,7 @@
 #include "io/image_io.h"
 
+#include "io/safe_file.h"
+
 #include <algorithm>
 #include <bit>
 #include <cctype>
@@ -16,6 +18,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStdIO.h>
 #include <half.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
@@ -29,13 +32,12 @@ void check_size(const Image& img, const std::string& path) {
     throw ImageError(path + ": image has inconsistent size");
 }
 
-// Write to a temporary file next to the target, then rename, so a reader never sees a half-written image.
-void commit_file(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw ImageError(path + ": cannot write (" + ec.message() + ")");
+// Images are encoded in memory, then written by write_file_safely (io/safe_file.h): complete or not at all.
+void commit_file(const std::string& path, std::string_view bytes) {
+  try {
+    write_file_safely(path, bytes);
+  } catch (const FileError& e) {
+    throw ImageError(e.what());
   }
 }
 
@@ -43,21 +45,15 @@ void commit_file(const std::string& tmp, const std::string& path) {
 
 void write_pfm(const std::string& path, const Image& img) {
   check_size(img, path);
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw ImageError(path + ": cannot open for writing");
-    out << "PF\n" << img.width << " " << img.height << "\n-1.0\n";
-    std::vector<float> row(3 * static_cast<size_t>(img.width));
-    for (int y = img.height - 1; y >= 0; --y) {
-      std::memcpy(row.data(), &img.rgb[3 * static_cast<size_t>(y) * img.width], row.size() * sizeof(float));
-      if constexpr (std::endian::native == std::endian::big)
-        for (float& f : row) f = std::bit_cast<float>(__builtin_bswap32(std::bit_cast<uint32_t>(f)));
-      out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
-    }
-    if (!out) throw ImageError(path + ": write failed");
+  std::string bytes = "PF\n" + std::to_string(img.width) + " " + std::to_string(img.height) + "\n-1.0\n";
+  std::vector<float> row(3 * static_cast<size_t>(img.width));
+  for (int y = img.height - 1; y >= 0; --y) {
+    std::memcpy(row.data(), &img.rgb[3 * static_cast<size_t>(y) * img.width], row.size() * sizeof(float));
+    if constexpr (std::endian::native == std::endian::big)
+      for (float& f : row) f = std::bit_cast<float>(__builtin_bswap32(std::bit_cast<uint32_t>(f)));
+    bytes.append(reinterpret_cast<const char*>(row.data()), row.size() * sizeof(float));
   }
-  commit_file(tmp, path);
+  commit_file(path, bytes);
 }
 
 Image read_pfm(const std::string& path) {
@@ -103,10 +99,19 @@ void write_png(const std::string& path, const Image& img, const DisplaySettings&
     const Rgb c = tone_map(Rgb(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]), display);
     for (int k = 0; k < 3; ++k) px[i + k] = to_srgb8(c[k]);
   }
-  const std::string tmp = path + ".tmp";
-  if (!stbi_write_png(tmp.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
-    throw ImageError(path + ": cannot write PNG");
-  commit_file(tmp, path);
+  write_png_rgb8(path, img.width, img.height, px);
+}
+
+void write_png_rgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& px) {
+  if (width <= 0 || height <= 0 || px.size() != 3ull * width * height)
+    throw ImageError(path + ": image has inconsistent size");
+  std::string bytes;
+  auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
+  };
+  if (!stbi_write_png_to_func(append, &bytes, width, height, 3, px.data(), width * 3))
+    throw ImageError(path + ": cannot encode PNG");
+  commit_file(path, bytes);
 }
 
 namespace {
@@ -230,7 +235,7 @@ Image read_radiance_hdr(const std::string& path) {
 
 void write_exr(const std::string& path, const Image& img, const ExrWriteOptions& options) {
   check_size(img, path);
-  const std::string tmp = path + ".tmp";
+  std::string encoded;
   try {
     Imf::Header header(img.width, img.height);
     header.compression() = Imf::ZIP_COMPRESSION;
@@ -259,15 +264,17 @@ void write_exr(const std::string& path, const Image& img, const ExrWriteOptions&
     const size_t xs = nc * bytes, ys = xs * static_cast<size_t>(img.width);
     Imf::FrameBuffer fb;
     for (int c = 0; c < nc; ++c) fb.insert(names[c], Imf::Slice(type, base + c * bytes, xs, ys));
-    Imf::OutputFile file(tmp.c_str(), header);
-    file.setFrameBuffer(fb);
-    file.writePixels(img.height);
+    Imf::StdOSStream stream;
+    {
+      Imf::OutputFile file(stream, header);
+      file.setFrameBuffer(fb);
+      file.writePixels(img.height);
+    }  // the file is complete once closed
+    encoded = stream.str();
   } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw ImageError(path + ": cannot write EXR (" + e.what() + ")");
+    throw ImageError(path + ": cannot encode EXR (" + e.what() + ")");
   }
-  commit_file(tmp, path);
+  commit_file(path, encoded);
 }
 
 HdrImageResult read_hdr_image(const std::string& path) noexcept {

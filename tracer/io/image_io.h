@@ -2,6 +2,7 @@
 // Images in memory are row-major RGB float, top row first.
 #pragma once
 #include <stdexcept>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,14 +23,18 @@ struct ImageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// PFM ("PF", 3 channels, little-endian: scale −1, rows stored bottom to top). Written atomically (temp + rename).
+// Writers encode in memory, then write through write_file_safely (io/safe_file.h): the file is complete, or on
+// any failure (ImageError naming the reason) the earlier file is left as it was.
+// PFM ("PF", 3 channels, little-endian: scale −1, rows stored bottom to top).
 void write_pfm(const std::string& path, const Image& img);
 Image read_pfm(const std::string& path);  // accepts either endianness and 1- or 3-channel files
 // 8-bit sRGB PNG through the display transform.
 void write_png(const std::string& path, const Image& img, const DisplaySettings& display = {});
+// 8-bit RGB pixels as they are (3 bytes per pixel, top row first).
+void write_png_rgb8(const std::string& path, int width, int height, const std::vector<uint8_t>& rgb);
 
 // OpenEXR scan-line file with R, G, B (and, if `alpha`, A = 1) channels, stored as 16-bit half (`half_float`)
-// or 32-bit float, ZIP-compressed, data window = display window = the image. Written atomically.
+// or 32-bit float, ZIP-compressed, data window = display window = the image.
 struct ExrWriteOptions {
   bool half_float = false;
   bool alpha = false;

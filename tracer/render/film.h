@@ -17,6 +17,9 @@ namespace pt {
 
 class Film {
  public:
+  // Memory per pixel (counts, mean and second moment): what a film of w×h costs, to check before allocating.
+  static constexpr size_t kBytesPerPixel = 2 * sizeof(uint32_t) + 6 * sizeof(double);
+
   Film() = default;
   Film(int width, int height) { reset(width, height); }
   Film(Film&& o) noexcept { *this = std::move(o); }

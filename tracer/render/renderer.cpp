@@ -9,10 +9,13 @@ Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads
 
 namespace {
 
-// One tile: every pixel gets `spp` more samples, numbered after those it already has.
+// One tile: every pixel gets `spp` more samples, numbered after those it already has. Returns false when
+// cancelled: a set `cancel` stops the tile at once and the sample in flight is dropped (it may have been cut
+// short), so every pixel keeps an unbiased mean of the samples it has, and the same sample indices are traced
+// again later.
 template <class Sampler>
-void render_tile(const Scene& scene, const RenderSettings& settings, Film& film, int x0, int y0, int x1, int y1,
-                 int spp, RayCount& count, uint64_t& samples) {
+bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film, int x0, int y0, int x1, int y1,
+                 int spp, RayCount& count, uint64_t& samples, const std::atomic<bool>* cancel) {
   // The kernel compiled for the scene's feature set, resolved once per tile.
   const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, settings.generic_kernel);
   const uint64_t seed = settings.seed;
@@ -22,14 +25,17 @@ void render_tile(const Scene& scene, const RenderSettings& settings, Film& film,
       const size_t pixel = static_cast<size_t>(y) * w + x;
       for (int s = 0; s < spp; ++s) {
         Sampler sampler(pixel, film.next_sample_index(pixel), seed);
-        film.note_attempt(pixel);
         const Vec2 jitter = sampler.next_2d();
         const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
-        film.add_sample(pixel, radiance(scene, settings, ray, sampler, count));
+        const Rgb L = radiance(scene, settings, ray, sampler, count, cancel);
+        if (cancel && cancel->load(std::memory_order_relaxed)) return false;
+        film.note_attempt(pixel);
+        film.add_sample(pixel, L);
         ++samples;
       }
     }
   }
+  return true;
 }
 
 }  // namespace
@@ -58,10 +64,11 @@ PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settin
     uint64_t tile_samples = 0;
     const int spp = tile_spp[tile];
     if (spp <= 0) return;
-    if (settings.sampler == SamplerType::Sobol)
-      render_tile<SobolSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples);
-    else
-      render_tile<IndependentSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples);
+    const bool complete =
+        settings.sampler == SamplerType::Sobol
+            ? render_tile<SobolSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples, cancel)
+            : render_tile<IndependentSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples, cancel);
+    if (!complete) cancelled.store(true, std::memory_order_relaxed);
     samples.fetch_add(tile_samples, std::memory_order_relaxed);
     rays.fetch_add(count.rays, std::memory_order_relaxed);
   });

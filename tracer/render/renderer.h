@@ -22,11 +22,12 @@ class Renderer {
  public:
   explicit Renderer(int threads = 0);  // 0 = all hardware threads
   int threads() const { return pool_.size(); }
+  const std::string& thread_start_error() const { return pool_.start_error(); }
 
   // Adds spp samples to each pixel of `film` (which must match the scene's size), traced with `settings`
   // (estimator, sampler, bounces, seed: not part of the compiled scene, so changing them rebuilds nothing). If
-  // `cancel` becomes true the pass stops at the next tile boundary (every pixel keeps a consistent mean; some
-  // have fewer samples).
+  // `cancel` becomes true the pass stops within a sample, whatever the path length (every pixel keeps a
+  // consistent mean of whole samples; some have fewer), and the result says `cancelled`.
   PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
                         const std::atomic<bool>* cancel = nullptr);
   // The same with a sample count per tile (row-major tiles of kTileSize, as plan_adaptive_pass gives them).

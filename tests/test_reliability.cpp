@@ -1,0 +1,264 @@
+// Reliability (docs/reliability.md): files are written completely or not at all, special files and links are
+// respected, outputs are checked before rendering, signals and deadlines stop a render within a sample and keep
+// its image, and bad option values are refused with the flag, the valid range and exit status 2.
+#include <doctest/doctest.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+
+#include "io/image_io.h"
+#include "io/safe_file.h"
+#include "run_command.h"
+
+using namespace pt;
+namespace fs = std::filesystem;
+using pt::test::Run;
+using pt::test::slurp;
+
+namespace {
+
+// A fresh directory per test case, removed afterwards.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& name) {
+    path = fs::temp_directory_path() / ("pt_reliability_" + name + "_" + std::to_string(getpid()));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+  // Names in the directory (to see that no temporary file was left behind).
+  std::vector<std::string> names() const {
+    std::vector<std::string> n;
+    for (const auto& e : fs::directory_iterator(path)) n.push_back(e.path().filename().string());
+    std::sort(n.begin(), n.end());
+    return n;
+  }
+};
+
+void put(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+Image small_image() { return Image{4, 2, std::vector<float>(24, 0.5f)}; }
+
+Run run(const std::string& args) { return pt::test::run_pathtracer("", args); }
+
+// Runs `script` with sh, the pathtracer executable as $PT; returns the exit status and the output files' text.
+Run run_script(const std::string& script) {
+  static int counter = 0;
+  const std::string stem = "rel_" + std::to_string(getpid()) + "_" + std::to_string(counter++);
+  const std::string cmd = "PT=\"" + std::string(PATHTRACER_EXE) + "\" sh -c '" + script + "' > " + stem + ".out 2> " +
+                          stem + ".err";
+  const int raw = std::system(cmd.c_str());
+  Run r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(stem + ".out"), slurp(stem + ".err")};
+  fs::remove(stem + ".out");
+  fs::remove(stem + ".err");
+  return r;
+}
+
+// A closed box, every wall white with albedo 1, one wall emitting: with no bounce limit and no roulette a path
+// never ends (and the radiance diverges), the worst case for a time limit.
+std::string closed_white_room_json() {
+  return R"({
+  "camera": {"position": [0, 0, -0.5], "look_at": [0, 0, 1], "up": [0, 1, 0], "fov_deg": 60},
+  "film": {"width": 32, "height": 32},
+  "render": {"max_bounces": 1073741824, "russian_roulette_depth": -1, "estimator": "cosine"},
+  "materials": {"white": {"type": "diffuse", "albedo": [1, 1, 1]},
+                "lamp": {"type": "diffuse", "albedo": [1, 1, 1], "emission": [1, 1, 1]}},
+  "shapes": [
+    {"type": "quad", "vertices": [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1]], "material": "white"},
+    {"type": "quad", "vertices": [[-1, -1, 1], [-1, 1, 1], [1, 1, 1], [1, -1, 1]], "material": "white"},
+    {"type": "quad", "vertices": [[-1, -1, -1], [-1, 1, -1], [-1, 1, 1], [-1, -1, 1]], "material": "white"},
+    {"type": "quad", "vertices": [[1, -1, -1], [1, -1, 1], [1, 1, 1], [1, 1, -1]], "material": "white"},
+    {"type": "quad", "vertices": [[-1, -1, -1], [-1, -1, 1], [1, -1, 1], [1, -1, -1]], "material": "white"},
+    {"type": "quad", "vertices": [[-1, 1, -1], [1, 1, -1], [1, 1, 1], [-1, 1, 1]], "material": "lamp"}
+  ]
+})";
+}
+
+}  // namespace
+
+TEST_CASE("safe writes: a failure mid-write (full disk) leaves the earlier file intact and no temporary file") {
+  TempDir dir("full");
+  const std::string out = dir / "out.pfm";
+  put(out, "the earlier render");
+  put(dir / "out.pfm.tmp", "somebody else's file");  // a name an old writer would have used: must survive
+  testing::fail_writes_after(10, ENOSPC);
+  try {
+    write_pfm(out, small_image());
+    FAIL("the write should have failed");
+  } catch (const ImageError& e) {
+    CHECK(std::string(e.what()) == out + ": cannot write (No space left on device)");
+  }
+  CHECK(slurp(out) == "the earlier render");
+  CHECK(slurp(dir / "out.pfm.tmp") == "somebody else's file");
+  CHECK(dir.names() == std::vector<std::string>{"out.pfm", "out.pfm.tmp"});
+  // The fault was for one call only: the next write goes through, complete.
+  write_pfm(out, small_image());
+  CHECK(read_pfm(out).rgb == small_image().rgb);
+  CHECK(dir.names() == std::vector<std::string>{"out.pfm", "out.pfm.tmp"});
+}
+
+TEST_CASE("safe writes: links, permissions and special files are respected") {
+  TempDir dir("special");
+  SUBCASE("a symbolic link is followed, and stays a link") {
+    put(dir / "target.pfm", "old");
+    fs::create_symlink("target.pfm", dir / "link.pfm");
+    write_pfm(dir / "link.pfm", small_image());
+    CHECK(fs::is_symlink(dir / "link.pfm"));
+    CHECK(read_pfm(dir / "target.pfm").rgb == small_image().rgb);
+  }
+  SUBCASE("a hard-linked file is written in place: every name sees the new image") {
+    put(dir / "a.pfm", "old");
+    fs::create_hard_link(dir / "a.pfm", dir / "b.pfm");
+    write_pfm(dir / "a.pfm", small_image());
+    CHECK(fs::hard_link_count(dir / "a.pfm") == 2);
+    CHECK(read_pfm(dir / "b.pfm").rgb == small_image().rgb);
+  }
+  SUBCASE("the mode of a replaced file is kept") {
+    put(dir / "m.pfm", "old");
+    ::chmod((dir / "m.pfm").c_str(), 0640);
+    write_pfm(dir / "m.pfm", small_image());
+    struct stat st {};
+    REQUIRE(::stat((dir / "m.pfm").c_str(), &st) == 0);
+    CHECK((st.st_mode & 07777) == 0640);
+  }
+  SUBCASE("a device stays a device (/dev/zero discards writes); /dev/full reports the full disk") {
+    write_pfm("/dev/zero", small_image());
+    CHECK(fs::is_character_file("/dev/zero"));
+    CHECK_THROWS_WITH_AS(write_pfm("/dev/full", small_image()), "/dev/full: cannot write (No space left on device)",
+                         ImageError);
+    CHECK(fs::is_character_file("/dev/full"));
+  }
+  SUBCASE("a FIFO without a reader fails at once instead of blocking; a directory is refused") {
+    REQUIRE(::mkfifo((dir / "fifo").c_str(), 0600) == 0);
+    CHECK_THROWS_WITH_AS(write_pfm(dir / "fifo", small_image()),
+                         (dir / "fifo" + ": cannot write (no process is reading the FIFO)").c_str(), ImageError);
+    CHECK(fs::is_fifo(dir / "fifo"));
+    fs::create_directory(dir / "sub");
+    CHECK_THROWS_WITH_AS(write_pfm(dir / "sub", small_image()), (dir / "sub" + ": cannot write (Is a directory)").c_str(),
+                         ImageError);
+  }
+}
+
+TEST_CASE("safe reads: only regular files, with a size cap") {
+  TempDir dir("read");
+  CHECK_THROWS_WITH_AS(read_file_limited("/dev/zero", 1000),
+                       "/dev/zero: not a regular file (a device, FIFO or socket; use - to read standard input)", FileError);
+  REQUIRE(::mkfifo((dir / "fifo").c_str(), 0600) == 0);
+  CHECK_THROWS_AS(read_file_limited(dir / "fifo", 1000), FileError);  // refused before opening: no hang
+  put(dir / "big", std::string(2000, 'x'));
+  CHECK_THROWS_WITH_AS(read_file_limited(dir / "big", 1000),
+                       (dir / "big" + ": file too large (2000 bytes; the limit is 1000)").c_str(), FileError);
+  CHECK(read_file_limited(dir / "big", 2000).size() == 2000);
+  CHECK_THROWS_WITH_AS(read_file_limited(dir / "missing", 10),
+                       (dir / "missing" + ": cannot open (No such file or directory)").c_str(), FileError);
+}
+
+TEST_CASE("cli: bad option values are refused with the flag and the valid range (exit 2)") {
+  struct Case {
+    const char* args;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"--time nan", "--time: must be a finite number in [0.001, 1e+07], not 'nan'"},
+      {"--time 1e-300", "--time: must be a finite number in [0.001, 1e+07], not '1e-300'"},
+      {"--target-relmse nan", "--target-relmse: must be a finite number in [1e-12, 1e+06], not 'nan'"},
+      {"--exposure nan", "--exposure: must be a finite number in [-64, 64], not 'nan'"},
+      {"--seed 18446744073709551616", "--seed: must be a whole number in [0, 18446744073709551615]"},
+      {"--width 32.0", "--width: must be a whole number in [1, 16384], not '32.0'"},
+      {"--threads 2000", "--threads: must be a whole number in [0, 1024], not '2000'"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.args);
+    const Run r = run(std::string("render -q --spp 1 --width 8 --height 8 --png /dev/null ") + c.args);
+    CHECK(r.status == 2);
+    CHECK(r.err.find(c.message) != std::string::npos);
+  }
+}
+
+TEST_CASE("cli: outputs are checked before rendering: the input scene, duplicates and bad paths are refused") {
+  TempDir dir("outputs");
+  const std::string scene = dir / "scene.json";
+  fs::copy_file(std::string(PT_SCENES_DIR) + "/cornell.json", scene);
+  const std::string original = slurp(scene);
+  Run r = run("render -q --scene " + scene + " --spp 1 --width 8 --height 8 --pfm " + scene);
+  CHECK(r.status == 2);
+  CHECK(r.err.find("is the scene being rendered") != std::string::npos);
+  CHECK(slurp(scene) == original);
+  r = run("render -q --spp 1 --width 8 --height 8 --png " + (dir / "x") + " --pfm " + (dir / "x"));
+  CHECK(r.status == 2);
+  CHECK(r.err.find("--png and --pfm both name") != std::string::npos);
+  // A missing directory is found at once (before a 1e6-spp render, which would take minutes).
+  put(dir / "good.pfm", "earlier");
+  const auto t0 = std::chrono::steady_clock::now();
+  r = run("render -q --spp 1000000 --png " + (dir / "no/such/dir/x.png") + " --pfm " + (dir / "good.pfm"));
+  CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 5.0);
+  CHECK(r.status == 2);
+  CHECK(r.err.find("--png " + (dir / "no/such/dir/x.png") + ": directory " + (dir / "no/such/dir") +
+                   " is not usable (No such file or directory)") != std::string::npos);
+  CHECK(slurp(dir / "good.pfm") == "earlier");
+}
+
+TEST_CASE("cli: a write that fails at the end (file size limit) is reported; the other output is written") {
+  TempDir dir("fsize");
+  put(dir / "old.pfm", "the earlier render");
+  // ulimit -f 8: files of at most 4 KiB. The 32×32 PFM (12 KiB) fails with EFBIG; the PNG (< 4 KiB) is written.
+  const Run r = run_script("ulimit -f 8; exec \"$PT\" render -q --spp 2 --width 32 --height 32 --png " +
+                           (dir / "new.png") + " --pfm " + (dir / "old.pfm"));
+  CHECK(r.status == 1);
+  CHECK(r.err.find("error: --pfm: " + (dir / "old.pfm") + ": cannot write (File too large)") != std::string::npos);
+  CHECK(slurp(dir / "old.pfm") == "the earlier render");
+  CHECK(fs::file_size(dir / "new.png") > 0);
+  CHECK(dir.names() == std::vector<std::string>{"new.png", "old.pfm"});  // no temporary file left
+}
+
+TEST_CASE("cli: SIGINT stops a render and writes the image so far; a second signal exits at once") {
+  TempDir dir("signal");
+  Run r = run_script("\"$PT\" render --spp 100000000 --width 64 --height 64 --pfm " + (dir / "a.pfm") +
+                     " & pid=$!; sleep 1.5; kill -INT $pid; wait $pid");
+  CHECK(r.status == 0);
+  CHECK(r.err.find("interrupted by SIGINT: stopping, writing the image from the samples so far") != std::string::npos);
+  REQUIRE(fs::exists(dir / "a.pfm"));
+  CHECK(read_pfm(dir / "a.pfm").width == 64);
+  // After the first signal a render busy writing (here blocked on a FIFO whose reader never reads: 192 KiB do
+  // not fit its 64 KiB buffer) is left alone; the second signal ends it at once.
+  r = run_script("cd " + dir.path.string() + " && mkfifo f; sleep 20 < f & reader=$!; \"$PT\" render -q --spp 1 "
+                 "--width 128 --height 128 --pfm f & pid=$!; sleep 1.5; kill -TERM $pid; sleep 0.5; "
+                 "kill -TERM $pid; wait $pid; st=$?; kill $reader; exit $st");
+  CHECK(r.status == 128 + 15);
+  CHECK(r.err.find("interrupted again: exiting without writing") != std::string::npos);
+}
+
+TEST_CASE("cli: --time holds within 0.1 s even where a single path never ends") {
+  TempDir dir("deadline");
+  put(dir / "room.json", closed_white_room_json());
+  const auto t0 = std::chrono::steady_clock::now();
+  const Run r = run("render --scene " + (dir / "room.json") + " --time 1 --pfm " + (dir / "room.pfm"));
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  INFO(r.out << r.err);
+  // The summary line reports the render time: "... N spp in S s, ...".
+  std::smatch m;
+  const std::string out = r.out;
+  REQUIRE(std::regex_search(out, m, std::regex(R"( in ([0-9.]+) s,)")));
+  CHECK(std::stod(m[1]) >= 1.0);
+  CHECK(std::stod(m[1]) < 1.1);
+  CHECK(wall < 3.0);  // start-up included; without the in-pass deadline this never returns
+  // No path of this room ever ends, so no whole sample exists: said plainly, nothing written, status 1.
+  CHECK(r.status == 1);
+  CHECK(r.err.find("error: no sample was rendered; nothing written") != std::string::npos);
+  CHECK(!fs::exists(dir / "room.pfm"));
+}
