@@ -226,7 +226,7 @@ std::string read_file_limited(const std::string& path, size_t max_bytes) {
   if (path != "-") {
     struct stat st {};
     if (stat(path.c_str(), &st) != 0) fail(path, "cannot open", errno);
-    if (S_ISDIR(st.st_mode)) fail(path, "cannot read", EISDIR);
+    if (S_ISDIR(st.st_mode)) fail(path, "cannot open", EISDIR);
     if (!S_ISREG(st.st_mode))
       throw FileError(path + ": not a regular file (a device, FIFO or socket; use - to read standard input)");
     if (static_cast<unsigned long long>(st.st_size) > max_bytes) throw too_large(std::to_string(st.st_size));

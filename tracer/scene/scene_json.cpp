@@ -6,18 +6,22 @@
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <set>
+#include <algorithm>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 #include "scene/scene.h"
 #include "io/image_io.h"
+#include "io/safe_file.h"
 
 namespace pt {
 namespace {
@@ -33,9 +37,33 @@ struct PathError {
 
 [[noreturn]] void fail(const std::string& path, const std::string& reason) { throw PathError{path, reason}; }
 
-std::string member(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+// Text from the file as it appears in a message: control characters escaped (nothing reaches the terminal raw)
+// and cut to 80 bytes.
+std::string shown(const std::string& s) {
+  constexpr size_t kShown = 80;
+  std::string out;
+  for (size_t i = 0; i < s.size() && i < kShown; ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (s.size() > kShown) out += "... (" + std::to_string(s.size()) + " bytes)";
+  return out;
+}
+std::string shown_quoted(const std::string& s) { return "\"" + shown(s) + "\""; }
+
+std::string member(const std::string& path, const std::string& key) {
+  return path.empty() ? shown(key) : path + "." + shown(key);
+}
 std::string element(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
 std::string quoted(const std::string& s) { return Json(s).dump(-1, ' ', false, Json::error_handler_t::replace); }
+
+
 std::string got(const Json& v) { return std::string("got ") + v.type_name(); }
 
 std::string join_names(std::initializer_list<const char*> names) {
@@ -45,30 +73,46 @@ std::string join_names(std::initializer_list<const char*> names) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Syntax level: nlohmann's parser, plus duplicate-key detection and the JSON path of the value being read (the
-// parser reports a number overflow such as 1e999 without a position, so the path is what names it).
+// Syntax level: nlohmann's (iterative) SAX parser building the tree here, with duplicate-key detection, the JSON
+// path of the value being read (the parser reports a number overflow such as 1e999 without a position, so the
+// path is what names it), and limits on nesting and string length (docs/reliability.md). Building the tree
+// ourselves keeps loading linear: nlohmann's callback parser rescans a container's elements after each one, and
+// ordered_json's keyed insert is a linear search; keys are unique here by construction (checked with a hash
+// set), so members are appended.
 
-class PathTracker {
+class SceneSax final : public nlohmann::json_sax<Json> {
  public:
-  bool on_event(nlohmann::json::parse_event_t event, Json& parsed) {
-    using E = nlohmann::json::parse_event_t;
-    switch (event) {
-      case E::object_start: frames_.push_back({false, 0, {}, {}}); break;
-      case E::array_start: frames_.push_back({true, 0, {}, {}}); break;
-      case E::key: {
-        Frame& f = frames_.back();
-        f.key = parsed.get<std::string>();
-        if (!f.keys.insert(f.key).second) fail(path(), "duplicate key");
-        break;
-      }
-      case E::object_end:
-      case E::array_end:
-        frames_.pop_back();
-        element_done();
-        break;
-      case E::value: element_done(); break;
+  explicit SceneSax(Json& root) : root_(root) {}
+
+  bool null() override { return add(Json(nullptr)); }
+  bool boolean(bool v) override { return add(Json(v)); }
+  bool number_integer(number_integer_t v) override { return add(Json(v)); }
+  bool number_unsigned(number_unsigned_t v) override { return add(Json(v)); }
+  bool number_float(number_float_t v, const string_t&) override { return add(Json(v)); }
+  bool string(string_t& v) override {
+    check_length(v, "string");
+    return add(Json(std::move(v)));
+  }
+  bool binary(binary_t&) override { fail(path(), "binary values are not JSON"); }
+  bool start_object(std::size_t) override { return open(Json::object(), false); }
+  bool key(string_t& k) override {
+    check_length(k, "key");
+    Frame& f = frames_.back();
+    if (!f.keys.insert(k).second) {
+      f.key = std::move(k);
+      fail(path(), "duplicate key");
     }
+    f.key = std::move(k);
     return true;
+  }
+  bool end_object() override { return close(); }
+  bool start_array(std::size_t) override { return open(Json::array(), true); }
+  bool end_array() override { return close(); }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) override {
+    // Rethrown as its concrete type for parse_scene's handlers.
+    if (const auto* pe = dynamic_cast<const nlohmann::json::parse_error*>(&e)) throw *pe;
+    if (const auto* oe = dynamic_cast<const nlohmann::json::out_of_range*>(&e)) throw *oe;
+    fail(path(), e.what());
   }
 
   // Path of the value currently being read.
@@ -80,14 +124,57 @@ class PathTracker {
 
  private:
   struct Frame {
+    Json* value;
     bool array;
-    size_t index;
+    size_t index = 0;
     std::string key;
-    std::set<std::string> keys;
+    std::unordered_set<std::string> keys;
   };
+
+  void check_length(const std::string& s, const char* what) const {
+    if (s.size() > kMaxSceneStringBytes)
+      fail(path(), std::string(what) + " of " + std::to_string(s.size()) + " bytes (the limit is " +
+                       std::to_string(kMaxSceneStringBytes) + ")");
+  }
+
+  // Places v where the parser is (the root, the next array element, or the member of the last key) and
+  // returns where it went.
+  Json* place(Json&& v) {
+    if (frames_.empty()) {
+      root_ = std::move(v);
+      return &root_;
+    }
+    Frame& f = frames_.back();
+    if (f.array) {  // f.index advances once the element is complete (element_done)
+      f.value->get_ref<Json::array_t&>().push_back(std::move(v));
+      return &f.value->get_ref<Json::array_t&>().back();
+    }
+    auto& members = static_cast<std::vector<std::pair<const std::string, Json>>&>(f.value->get_ref<Json::object_t&>());
+    members.emplace_back(f.key, std::move(v));
+    return &members.back().second;
+  }
   void element_done() {
     if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
   }
+  bool add(Json&& v) {
+    place(std::move(v));
+    element_done();
+    return true;
+  }
+  bool open(Json&& container, bool array) {
+    if (frames_.size() >= kMaxSceneNesting)
+      fail(path(), "nested deeper than " + std::to_string(kMaxSceneNesting) + " levels");
+    Json* v = place(std::move(container));
+    frames_.push_back({v, array, 0, {}, {}});
+    return true;
+  }
+  bool close() {
+    frames_.pop_back();
+    element_done();
+    return true;
+  }
+
+  Json& root_;
   std::vector<Frame> frames_;
 };
 
@@ -232,7 +319,7 @@ E read_enum(const Json& v, const std::string& path, const char* noun) {
   const std::string& s = read_string(v, path);
   E value;
   if (parse_enum(s, value)) return value;
-  fail(path, "unknown " + std::string(noun) + " " + quoted(s) + " (expected one of: " + enum_names_joined<E>() + ")");
+  fail(path, "unknown " + std::string(noun) + " " + shown_quoted(s) + " (expected one of: " + enum_names_joined<E>() + ")");
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -388,7 +475,7 @@ ShapeDesc read_shape(const Json& j, const std::string& path,
   const std::string mpath = member(path, "material");
   const std::string& mname = read_string(required_key(j, path, "material"), mpath);
   const auto it = material_index.find(mname);
-  if (it == material_index.end()) fail(mpath, "unknown material " + quoted(mname));
+  if (it == material_index.end()) fail(mpath, "unknown material " + shown_quoted(mname));
   s.material = it->second;
   return s;
 }
@@ -581,16 +668,18 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
   const auto where = [&](const PathError& e) {
     return source_name + ": " + (e.path.empty() ? "" : e.path + ": ") + e.reason;
   };
-  PathTracker tracker;
+  if (const size_t nul = json_text.find('\0'); nul != std::string::npos) {
+    const size_t line = 1 + static_cast<size_t>(std::count(json_text.begin(), json_text.begin() + nul, '\n'));
+    throw SceneError(source_name + ": line " + std::to_string(line) + ": a NUL byte (this is not a JSON text file)");
+  }
   Json root;
+  SceneSax sax(root);
   try {
-    root = Json::parse(json_text, [&tracker](int, nlohmann::json::parse_event_t event, Json& parsed) {
-      return tracker.on_event(event, parsed);
-    });
+    Json::sax_parse(json_text, &sax);
   } catch (const nlohmann::json::parse_error& e) {
     throw SceneError(source_name + ": " + syntax_message(e, json_text));
   } catch (const nlohmann::json::out_of_range&) {  // a number literal that overflows a double, e.g. 1e999
-    throw SceneError(where({tracker.path(), "must be finite (number too large for a double)"}));
+    throw SceneError(where({sax.path(), "must be finite (number too large for a double)"}));
   } catch (const PathError& e) {
     throw SceneError(where(e));
   }
@@ -605,15 +694,13 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
 }
 
 SceneDesc load_scene_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw SceneError(path + ": cannot open (is a directory)");
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw SceneError(path + ": cannot open (" + (errno ? std::strerror(errno) : "unknown error") + ")");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw SceneError(path + ": cannot read (" + (errno ? std::strerror(errno) : "I/O error") + ")");
-  return parse_scene(text.str(), path, std::filesystem::path(path).parent_path().string());
+  std::string text;
+  try {
+    text = read_file_limited(path, kMaxSceneFileBytes);
+  } catch (const FileError& e) {
+    throw SceneError(e.what());
+  }
+  return parse_scene(text, path, path == "-" ? std::string() : std::filesystem::path(path).parent_path().string());
 }
 
 std::string scene_to_json(const SceneDesc& scene) {

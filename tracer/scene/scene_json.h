@@ -1,6 +1,7 @@
 // Scene files: JSON <-> SceneDesc, and the built-in scenes compiled into the binary.
 // The format is documented in docs/scene-format.md.
 #pragma once
+#include <cstddef>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,13 @@ namespace pt {
 struct SceneError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+
+// Limits on scene input (docs/reliability.md): a larger file, deeper nesting or longer string is refused with
+// the path and the figure, before it can exhaust memory or the stack. Counts of shapes and materials are bounded
+// by the file size (a shape takes at least ~60 bytes of JSON).
+inline constexpr size_t kMaxSceneFileBytes = size_t{1} << 30;  // 1 GiB
+inline constexpr size_t kMaxSceneNesting = 64;
+inline constexpr size_t kMaxSceneStringBytes = 4096;
 
 // Parses and fully validates (structure, then validate_scene) a scene. `source_name` only prefixes error messages;
 // files the scene refers to (an environment map) are found relative to `base_dir` ("" = the working directory)
