@@ -100,55 +100,44 @@ uint64_t RenderSession::request_restart_locked() {
   return generation;
 }
 
-uint64_t RenderSession::set_scene(const SceneDesc& scene) {
+// Every edit request: apply `change` to the pending requests under the lock, restart, wake the render thread.
+template <class Change>
+uint64_t RenderSession::request(Change&& change) {
   uint64_t g;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    change();
+    g = request_restart_locked();
+  }
+  wake_.notify_all();
+  changed_.notify_all();
+  return g;
+}
+
+uint64_t RenderSession::set_scene(const SceneDesc& scene) {
+  return request([&] {
     pending_scene_ = scene;
     pending_edits_.clear();  // the new scene replaces whatever they changed
     pending_render_.reset();
-    g = request_restart_locked();
-  }
-  wake_.notify_all();
-  changed_.notify_all();
-  return g;
+  });
 }
 
 uint64_t RenderSession::edit(const SceneEdit& edit) {
-  uint64_t g;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
+  return request([&] {
     if (pending_scene_) apply_edit(*pending_scene_, edit);
     else pending_edits_.push_back(edit);
-    g = request_restart_locked();
-  }
-  wake_.notify_all();
-  changed_.notify_all();
-  return g;
+  });
 }
 
 uint64_t RenderSession::set_render(const RenderSettings& render) {
-  uint64_t g;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
+  return request([&] {
     if (pending_scene_) pending_scene_->render = render;
     else pending_render_ = render;
-    g = request_restart_locked();
-  }
-  wake_.notify_all();
-  changed_.notify_all();
-  return g;
+  });
 }
 
 uint64_t RenderSession::restart() {
-  uint64_t g;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    g = request_restart_locked();
-  }
-  wake_.notify_all();
-  changed_.notify_all();
-  return g;
+  return request([] {});
 }
 
 void RenderSession::set_settings(const SessionSettings& settings) {

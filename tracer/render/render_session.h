@@ -112,6 +112,8 @@ class RenderSession {
   bool prepare(Worker& w, bool restart);
   bool begin_pass(Worker& w, bool preview, int& spp);
   uint64_t request_restart_locked();
+  template <class Change>
+  uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
                       uint64_t rays);
