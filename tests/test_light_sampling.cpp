@@ -19,6 +19,7 @@
 #include "chi2.h"
 #include "core/rng.h"
 #include "lights/spherical_rectangle.h"
+#include "sampling/quadrature.h"
 
 using namespace pt;
 using pt::test::chi2_test;
@@ -304,37 +305,11 @@ namespace {
 
 using pt::test::Polygon;
 
-// Gauss–Legendre nodes and weights on [0, 1] (Newton iteration on P_n; Golub–Welsch not needed for n = 10).
-struct GaussRule {
-  std::vector<double> x, w;
-};
-GaussRule gauss_legendre(int n) {
-  GaussRule g;
-  for (int i = 0; i < n; ++i) {
-    double t = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5)), dp = 0;
-    for (int it = 0; it < 100; ++it) {
-      double p0 = 1, p1 = t;
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2 * k - 1) * t * p1 - (k - 1) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      dp = n * (t * p1 - p0) / (t * t - 1);
-      const double step = p1 / dp;
-      t -= step;
-      if (std::abs(step) < 1e-16) break;
-    }
-    g.x.push_back(0.5 * (1 - t));
-    g.w.push_back(1.0 / ((1 - t * t) * dp * dp));  // 2/((1−t²)P'²) halved for [0, 1]
-  }
-  return g;
-}
-
 // Brute-force E = ∫ L·max(cos θx, 0)·|cos θl|/r² dA over the parallelogram s + a·ex + b·ey, (a, b) ∈ [0,1]²:
 // panels × panels composite 10-point Gauss–Legendre. The max() makes it valid for any placement; splitting the
 // panels at an a or b where the horizon crosses keeps it accurate then too.
 double quadrature_irradiance(DVec3 s, DVec3 ex, DVec3 ey, DVec3 x, DVec3 n, double radiance, int panels) {
-  static const GaussRule g = gauss_legendre(10);
+  static const GaussLegendreRule g = gauss_legendre(10);
   const DVec3 nl_area = glm::cross(ex, ey);  // area element times the light's normal
   double sum = 0;
   for (int pa = 0; pa < panels; ++pa)

@@ -7,6 +7,7 @@
 #include "materials/fresnel.h"
 #include "materials/microfacet.h"
 #include "materials/subsurface.h"
+#include "sampling/quadrature.h"
 
 namespace pt {
 
@@ -42,33 +43,10 @@ const std::array<LatticePoint, kLatticeN>& lattice() {
   return points;
 }
 
-// Gauss–Legendre nodes and weights on [0, 1] (Newton iteration on P_n, Numerical Recipes §4.6), computed once.
+// The Gauss–Legendre rule of the subsurface albedo table (sampling/quadrature.h), computed once.
 constexpr int kGaussN = 24;
-struct GaussLegendre {
-  std::array<double, kGaussN> x, w;
-};
-const GaussLegendre& gauss_legendre() {
-  static const GaussLegendre rule = [] {
-    GaussLegendre r{};
-    for (int i = 0; i < kGaussN; ++i) {
-      double x = std::cos(kPiD * (i + 0.75) / (kGaussN + 0.5)), dp = 1.0;
-      for (int iter = 0; iter < 100; ++iter) {
-        double p0 = 1.0, p1 = x;
-        for (int k = 2; k <= kGaussN; ++k) {
-          const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-          p0 = p1;
-          p1 = p2;
-        }
-        dp = kGaussN * (x * p1 - p0) / (x * x - 1.0);
-        const double dx = p1 / dp;
-        x -= dx;
-        if (std::abs(dx) < 1e-15) break;
-      }
-      r.x[i] = 0.5 * (1.0 - x);
-      r.w[i] = 1.0 / ((1.0 - x * x) * dp * dp);  // 2/((1 − x²) P_n'²) halved for [0, 1]
-    }
-    return r;
-  }();
+const GaussLegendreRule& gauss_rule() {
+  static const GaussLegendreRule rule = gauss_legendre(kGaussN);
   return rule;
 }
 
@@ -141,7 +119,7 @@ float ggx_directional_albedo(float cos_o, float alpha, float eta, int n) {
 }
 
 float subsurface_single_albedo(float cos_o, float g, float eta) {
-  const GaussLegendre& gl = gauss_legendre();
+  const GaussLegendreRule& gl = gauss_rule();
   const float mu_o = std::clamp(cos_o, 0.f, 1.f);
   const float inv_eta2 = 1.f / (eta * eta);
   const float sin_o = safe_sqrt(1.f - mu_o * mu_o);
