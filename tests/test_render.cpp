@@ -442,6 +442,23 @@ TEST_CASE("kernels: each scene runs the kernel of exactly its features, with the
   CHECK(scene->kernel_features() == kFeaturePolygons);
 }
 
+namespace {
+
+// The same 4 samples per pixel through two compiled scenes give the same image, bit for bit.
+bool same_image(const Scene& a, const Scene& b, const RenderSettings& settings) {
+  std::vector<float> images[2];
+  int k = 0;
+  for (const Scene* scene : {&a, &b}) {
+    Film film(scene->width, scene->height);
+    Renderer(2).render_pass(*scene, settings, film, 4);
+    images[k++] = film.mean_image();
+  }
+  return images[0].size() == images[1].size() &&
+         std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0;
+}
+
+}  // namespace
+
 TEST_CASE("edits in place: materials and environment without recompiling geometry") {
   SceneDesc before = load_scene("cornell-spheres");
   before.width = 24;
@@ -462,14 +479,7 @@ TEST_CASE("edits in place: materials and environment without recompiling geometr
   CHECK(edited->environment.present);
   // The same samples through the scene edited in place and through a scene compiled from `after`: bit for bit.
   const std::shared_ptr<const Scene> fresh = compile_scene(after);
-  std::vector<float> images[2];
-  int k = 0;
-  for (const Scene* scene : {static_cast<const Scene*>(edited.get()), fresh.get()}) {
-    Film film(after.width, after.height);
-    Renderer(2).render_pass(*scene, after.render, film, 4);
-    images[k++] = film.mean_image();
-  }
-  CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
+  CHECK(same_image(*edited, *fresh, after.render));
   // A geometry edit is refused (the caller recompiles instead).
   SceneDesc moved = after;
   moved.shapes[0].vertices[0].x += 1.0;
@@ -547,14 +557,7 @@ TEST_CASE("typed edits: a material, the environment and the camera applied in pl
   fresh_desc.camera = desc.camera;
   REQUIRE(apply_edit(*edited, SceneEdit{desc.camera}));
   const std::shared_ptr<const Scene> fresh = compile_scene(fresh_desc);
-  std::vector<float> images[2];
-  int k = 0;
-  for (const Scene* scene : {static_cast<const Scene*>(edited.get()), fresh.get()}) {
-    Film film(desc.width, desc.height);
-    Renderer(2).render_pass(*scene, after.render, film, 4);
-    images[k++] = film.mean_image();
-  }
-  CHECK(std::memcmp(images[0].data(), images[1].data(), images[0].size() * sizeof(float)) == 0);
+  CHECK(same_image(*edited, *fresh, after.render));
 }
 
 TEST_CASE("typed edits: invalid ones are refused with the field and the reason") {
