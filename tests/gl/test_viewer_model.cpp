@@ -8,6 +8,9 @@
 #include <thread>
 
 #include "io/image_io.h"
+#include "render/film.h"
+#include "render/renderer.h"
+#include "scene/scene.h"
 #include "../frame_helpers.h"
 #include "scene/scene_json.h"
 #include "viewer/viewer_model.h"
@@ -182,10 +185,28 @@ TEST_CASE("viewer: a saved scene (edited material and camera) renders with `path
   const Image img = read_pfm(pfm);
   REQUIRE(img.width == shown.width);
   REQUIRE(img.height == shown.height);
-  size_t mismatches = 0;
-  for (size_t i = 0; i < static_cast<size_t>(img.width) * img.height; ++i)
-    for (int c = 0; c < 3; ++c) mismatches += img.rgb[3 * i + c] != shown.rgba[4 * i + c];
-  CHECK(mismatches == 0);  // bit for bit
+  // The saved file reproduces the model's scene exactly: the CLI's image is, bit for bit, that of the model's
+  // description compiled afresh.
+  const SceneDesc& desc = model.scene();
+  Film direct(desc.width, desc.height);
+  Renderer(2).render_pass(*compile_scene(desc), desc.render, direct, 6);
+  CHECK(direct.mean_image() == img.rgb);
+  // The frame shown is that image too, up to float rounding: when the session moved the camera in place (it does
+  // when the full-resolution scene was compiled before the drag, a matter of timing) the geometry is relative to
+  // the old eye, so values differ in their last bits and a rare path turns elsewhere. Pixels that differ by more
+  // than 0.1 % must be rare; a wrong camera or material changes nearly all of them.
+  size_t differing = 0;
+  const size_t pixels = static_cast<size_t>(img.width) * img.height;
+  for (size_t i = 0; i < pixels; ++i) {
+    bool close = true;
+    for (int c = 0; c < 3; ++c) {
+      const float a = img.rgb[3 * i + c], b = shown.rgba[4 * i + c];
+      close = close && std::abs(a - b) <= 1e-3f * std::max(std::abs(a), 1e-3f);
+    }
+    differing += !close;
+  }
+  INFO(differing << " of " << pixels << " pixels differ by more than 0.1 %");
+  CHECK(differing <= pixels / 20);
   std::filesystem::remove(json);
   std::filesystem::remove(pfm);
 }
