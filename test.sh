@@ -2,7 +2,8 @@
 # Builds everything and runs the whole test suite (doctest cases through ctest, all cores).
 # With CI=true (as in CI) or with --sanitize, then also builds the tracer and its tests with AddressSanitizer and
 # UndefinedBehaviorSanitizer (build-asan/) and runs the fast suites under them: scene files, intersection,
-# sampling, film, materials, furnace, determinism, CLI error paths.
+# sampling, film, materials, furnace, determinism, CLI error paths; and runs each libFuzzer target (scene
+# loader, image readers) for 30 s under ASan/UBSan (tools/fuzz.sh; a finding fails the run).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 "$here/tools/bootstrap.sh"
@@ -17,4 +18,6 @@ if [ "${CI:-}" = "true" ] || [ "${1:-}" = "--sanitize" ]; then
   ctest -j"$(nproc)" --output-on-failure --timeout 900 \
     -R 'scene_json|intersection|watertight|sphere|film:|fresnel|energy|refraction|sampling|rng|cli: errors|PFM round|metrics|furnace|determinism|bsdf|environment|spherical rectangle|analytic irradiance|safe writes|safe reads|cli: bad option|cli: outputs|cli: a write|typed edits|hostile scene input' \
     -E 'default scene|just below 1|albedo-1 closed room|cornell, 1 bounce|agreement:|constant map renders'
+  echo "== fuzzing (libFuzzer, ASan + UBSan), 30 s per target =="
+  "$here/tools/fuzz.sh" 30
 fi

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (tests/fuzz) with clang-14, AddressSanitizer and UndefinedBehaviorSanitizer into
+# build-fuzz/, and runs each for SECONDS (default 30). The working corpus stays in build-fuzz/corpus/ between runs
+# (seeded from scenes/ and tests/fuzz/seeds/); a crash, sanitizer report, leak, timeout or out-of-memory input
+# is saved under build-fuzz/findings/ and makes the script exit 1. See docs/reliability.md.
+#   tools/fuzz.sh [SECONDS] [TARGET...]      e.g. tools/fuzz.sh 1800 fuzz_scene
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-30}"
+shift || true
+targets=("$@")
+((${#targets[@]})) || targets=(fuzz_scene fuzz_images)
+
+missing=()
+for p in clang-14 libclang-rt-14-dev; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "Installing missing packages: ${missing[*]}" >&2
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+cmake -S . -B build-fuzz -DPT_FUZZ=ON -DPT_BUILD_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
+cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}"
+
+status=0
+for t in "${targets[@]}"; do
+  corpus="build-fuzz/corpus/$t"
+  findings="build-fuzz/findings/$t"
+  mkdir -p "$corpus" "$findings"
+  case "$t" in
+    fuzz_scene)  seeds=(scenes); extra=(-dict=tests/fuzz/scene.dict -max_len=16384) ;;
+    fuzz_images) seeds=(tests/fuzz/seeds/images); extra=(-max_len=4096) ;;
+    *) echo "unknown fuzz target $t" >&2; exit 2 ;;
+  esac
+  echo "== $t: ${seconds} s =="
+  # -timeout: one input taking longer than 10 s is a hang; -rss_limit_mb: memory beyond 2.5 GiB is a finding.
+  if ! "build-fuzz/tests/fuzz/$t" "$corpus" "${seeds[@]}" "${extra[@]}" -max_total_time="$seconds" \
+       -timeout=10 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" 2>"build-fuzz/$t.log"; then
+    status=1
+    echo "$t: FINDING (build-fuzz/$t.log, build-fuzz/findings/$t/):" >&2
+    grep -E 'ERROR|SUMMARY|fuzz_(scene|images):|Test unit written' "build-fuzz/$t.log" | head -20 >&2
+  fi
+  grep -E '^stat::(number_of_executed_units|peak_rss_mb)|cov: ' "build-fuzz/$t.log" | tail -3
+done
+exit $status
