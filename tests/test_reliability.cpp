@@ -17,13 +17,18 @@
 
 #include "io/image_io.h"
 #include "io/safe_file.h"
+#include "cli/stress_scenes.h"
+#include "scene/scene.h"
 #include "scene/scene_json.h"
 #include "run_command.h"
+#include "test_helpers.h"
 
 using namespace pt;
 namespace fs = std::filesystem;
 using pt::test::Run;
 using pt::test::slurp;
+using pt::stress::builtin_at;
+using pt::stress::transformed;
 
 namespace {
 
@@ -322,4 +327,54 @@ TEST_CASE("scene loading is linear: 200,000 materials and 200,000 shapes load in
   CHECK(desc.shapes.size() == n);
   CHECK(desc.shapes[n - 1].material == n - 1);
   CHECK(seconds < 10.0);
+}
+
+TEST_CASE("representable ranges: the image holds across scales up to the limits; beyond them the value is named") {
+  // The same paths (same seed) through the Cornell box scaled by 1e-9 and by 5e8 (farthest point 7e11 from the
+  // camera) give the image at scale 1 to float rounding. Before the limits, scale 1e10 rendered a darker image
+  // and 1e11 a black one with exit 0 (overflow in the watertight test); now such scenes are refused.
+  const SceneDesc base = builtin_at("cornell", 12, 12);
+  const Film ref = test::render_film(base, 16, 1);
+  for (double scale : {1e-9, 5e8}) {
+    const SceneDesc s = transformed(base, scale, DVec3(0.0));
+    REQUIRE(validate_scene(s) == "");
+    const Film f = test::render_film(s, 16, 1);
+    double worst = 0.0;
+    for (size_t i = 0; i < f.pixel_count(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        const double a = ref.mean_channel(i, c), b = f.mean_channel(i, c);
+        worst = std::max(worst, std::abs(a - b) / std::max(std::abs(a), 1e-3));
+      }
+    INFO("scale " << scale << ": worst relative pixel difference " << worst);
+    CHECK(f.rejected() == 0);
+    CHECK(worst < 1e-3);
+  }
+  auto refusal = [](const SceneDesc& s) { return validate_scene(s); };
+  CHECK(refusal(transformed(base, 1e10, DVec3(0.0))).find("from the camera, beyond the 1e+12") != std::string::npos);
+  CHECK(refusal(transformed(base, 1e-14, DVec3(0.0))).find("shapes: the whole scene lies within 1.41e-11") == 0);
+  // Far from the origin is fine when the camera is there too (geometry is camera-relative)...
+  CHECK(refusal(transformed(base, 1.0, DVec3(1e200, 0, 0))) == "");
+  // ...but a triangle at 1e200 seen from near the origin is refused for its distance, not called "degenerate".
+  SceneDesc far = base;
+  for (DVec3& v : far.shapes[0].vertices) v *= 1e200;
+  CHECK(std::regex_search(refusal(far), std::regex(R"(^shapes\[0\]\.vertices\[0\]: [0-9.]+e\+202 from the camera)")));
+  SceneDesc huge_sphere = builtin_at("cornell-spheres", 8, 8);
+  for (ShapeDesc& sh : huge_sphere.shapes)
+    if (sh.type == ShapeType::Sphere) sh.radius = 1e15;
+  CHECK(refusal(huge_sphere).find(".radius: the sphere reaches 1e+15 from the camera") != std::string::npos);
+  SceneDesc bright = base;
+  bright.environment.radiance = Rgb(3.4e38f, 0.f, 0.f);
+  CHECK(refusal(bright) == "environment.radiance: component 3.4e+38 is above the largest radiance the tracer "
+                           "represents, 1e+30");
+  bright.environment.radiance = Rgb(kMaxRadiance);
+  CHECK(refusal(bright) == "");
+  // The scene file reader says the same, with the file and the key the file used.
+  std::string text(builtin_scene_json("cornell").value());
+  text.replace(text.find("\"background\": [0, 0, 0]"), 22, "\"background\": [1e31, 0, 0]");
+  try {
+    parse_scene(text, "bright.json");
+    FAIL("a background of 1e31 was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).rfind("bright.json: background: component 1e+31 is above", 0) == 0);
+  }
 }

@@ -50,10 +50,37 @@ bool is_planar_convex_quad(const ShapeDesc& s) {
   return true;
 }
 
+// "1e+12"-style text of a limit or an offending value, for messages.
+std::string short_number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::string radiance_problem(Rgb c) {
+  if (!finite3(c) || glm::any(glm::lessThan(c, Vec3(0.f)))) return "components must be finite and >= 0";
+  if (max_component(c) > kMaxRadiance)
+    return "component " + short_number(max_component(c)) + " is above the largest radiance the tracer represents, " +
+           short_number(kMaxRadiance);
+  return {};
+}
+
+namespace {
+
 std::string validate_environment(const EnvironmentDesc& e) {
-  if (!finite3(e.radiance) || glm::any(glm::lessThan(e.radiance, Vec3(0.f))))
-    return "environment.radiance: components must be finite and >= 0";
-  if (!(std::isfinite(e.scale) && e.scale >= 0.f)) return "environment.scale: must be finite and >= 0";
+  if (std::string why = radiance_problem(e.radiance); !why.empty()) return "environment.radiance: " + why;
+  if (!(std::isfinite(e.scale) && e.scale >= 0.f && e.scale <= kMaxEnvironmentScale))
+    return "environment.scale: must be in [0, " + short_number(kMaxEnvironmentScale) + "]";
+  if (e.type == EnvironmentType::Map && e.image) {
+    float brightest = 0.f;
+    for (float v : e.image->rgb) brightest = std::max(brightest, v);
+    if (static_cast<double>(brightest) * e.scale > kMaxRadiance)
+      return "environment.scale: the map's brightest texel (" + short_number(brightest) + ") times scale " +
+             short_number(e.scale) + " is above the largest radiance the tracer represents, " +
+             short_number(kMaxRadiance);
+  }
   if (e.type == EnvironmentType::Sky) {
     if (!finite3(e.sun_direction) || !(glm::length(e.sun_direction) > 0.0))
       return "environment.sun_direction: must be a finite, non-zero vector";
@@ -83,8 +110,7 @@ std::string validate_material(const MaterialDesc& m) {
   if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
       glm::any(glm::greaterThan(m.albedo, Vec3(1.f))))
     return p + ".albedo: components must be in [0, 1]";
-  if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, Vec3(0.f))))
-    return p + ".emission: components must be finite and >= 0";
+  if (std::string why = radiance_problem(m.emission); !why.empty()) return p + ".emission: " + why;
   if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
     return p + ".ior: must be finite and > 0 (the index inside; outside is 1)";
   if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface) && !(m.ior >= 1.f && m.ior <= 4.f))
@@ -116,6 +142,10 @@ std::string validate_scene(const SceneDesc& s) {
   for (const MaterialDesc& m : s.materials)
     if (std::string err = validate_material(m); !err.empty()) return err;
   if (s.shapes.empty()) return "shapes: the scene has no shape";
+  const DVec3 eye = s.camera.position;
+  const std::string too_far = " from the camera, beyond the " + short_number(kMaxCameraDistance) +
+                              " the tracer represents (move the camera closer or scale the scene down)";
+  double farthest = 0.0;  // of any point of any shape from the camera
   for (size_t i = 0; i < s.shapes.size(); ++i) {
     const ShapeDesc& sh = s.shapes[i];
     const std::string p = "shapes[" + std::to_string(i) + "]";
@@ -124,11 +154,19 @@ std::string validate_scene(const SceneDesc& s) {
     if (sh.type == ShapeType::Sphere) {
       if (!finite3(sh.center)) return p + ".center: must be finite";
       if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return p + ".radius: must be finite and > 0";
+      const double d = glm::length(sh.center - eye) + sh.radius;
+      if (!(d <= kMaxCameraDistance)) return p + ".radius: the sphere reaches " + short_number(d) + too_far;
+      farthest = std::max(farthest, d);
       continue;
     }
     const int n = sh.type == ShapeType::Triangle ? 3 : 4;
-    for (int k = 0; k < n; ++k)
-      if (!finite3(sh.vertices[k])) return p + ".vertices[" + std::to_string(k) + "]: must be finite";
+    for (int k = 0; k < n; ++k) {
+      const std::string vk = p + ".vertices[" + std::to_string(k) + "]";
+      if (!finite3(sh.vertices[k])) return vk + ": must be finite";
+      const double d = glm::length(sh.vertices[k] - eye);
+      if (!(d <= kMaxCameraDistance)) return vk + ": " + short_number(d) + too_far;
+      farthest = std::max(farthest, d);
+    }
     const auto& v = sh.vertices;
     if (degenerate_triangle(v[0], v[1], v[2]) || (n == 4 && degenerate_triangle(v[0], v[2], v[3])))
       return p + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
@@ -138,6 +176,9 @@ std::string validate_scene(const SceneDesc& s) {
       if (glm::dot(n1, n2) <= 0.0) return p + ".vertices: quad is folded or not convex (vertex order?)";
     }
   }
+  if (farthest < kMinSceneExtent)
+    return "shapes: the whole scene lies within " + short_number(farthest) + " of the camera, below the " +
+           short_number(kMinSceneExtent) + " the tracer represents (scale the scene up)";
   return {};
 }
 

@@ -194,6 +194,21 @@ void apply_edit(SceneDesc& desc, const SceneEdit& edit);
 // unreadable environment map).
 bool apply_edit(Scene& s, const SceneEdit& edit);
 
+// The ranges the tracer represents (docs/reliability.md, "Representable ranges"). Geometry is compiled to float
+// relative to the camera, and the watertight ray-triangle test forms products of three camera-relative
+// coordinates, which overflow float near 7e12 and leave its normal range below 2e-13; these bounds keep a
+// factor of ~100 from both ends. Measured: the Cornell box scaled by 10^k renders the same image for
+// k = -15 ... 9 and goes black at k >= 11 (farthest point 1.4e14 from the camera).
+inline constexpr double kMaxCameraDistance = 1e12;  // no point of any shape farther from the camera
+inline constexpr double kMinSceneExtent = 1e-10;    // the farthest point of the scene at least this far
+// Radiance of emitters, the background and environment maps (after `scale`): leaves float headroom for the
+// products of a path's throughput, so no sample overflows to infinity.
+inline constexpr float kMaxRadiance = 1e30f;
+inline constexpr float kMaxEnvironmentScale = 1e20f;
+
+// "" when every component of a radiance is finite and in [0, kMaxRadiance], else the reason.
+std::string radiance_problem(Rgb c);
+
 // "" when the render settings are valid, else "render.field: reason".
 std::string validate_render_settings(const RenderSettings& render);
 

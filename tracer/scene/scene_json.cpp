@@ -409,10 +409,10 @@ MaterialDesc read_material(const std::string& name, const Json& j, const std::st
   return m;
 }
 
-// A radiance: finite and >= 0 in every channel (checked here so the message names the key the file used).
+// A radiance: finite and in [0, kMaxRadiance] in every channel (checked here so the message names the key the file used).
 Rgb read_radiance(const Json& v, const std::string& path) {
   const Rgb c = read_rgb(v, path);
-  if (glm::any(glm::lessThan(c, Rgb(0.f)))) fail(path, "components must be finite and >= 0");
+  if (const std::string why = radiance_problem(c); !why.empty()) fail(path, why);
   return c;
 }
 
