@@ -10,6 +10,11 @@ pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
 add_library(pt_stb INTERFACE)
 target_link_libraries(pt_stb INTERFACE PkgConfig::STB)
 
+# RapidJSON (rapidjson-dev, headers only): the scene files' reader (iterative, ~2.5x nlohmann's SAX speed).
+find_path(PT_RAPIDJSON_INCLUDE_DIR rapidjson/reader.h REQUIRED)
+add_library(pt_rapidjson INTERFACE)
+target_include_directories(pt_rapidjson SYSTEM INTERFACE ${PT_RAPIDJSON_INCLUDE_DIR})
+
 # GLM as a plain header target, whatever name the package exports.
 add_library(pt_glm INTERFACE)
 if(TARGET glm::glm)

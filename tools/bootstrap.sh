@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   build-essential cmake pkg-config          # toolchain
   libglm-dev nlohmann-json3-dev libstb-dev  # maths, scene files, PNG
+  rapidjson-dev                             # the fast scene-file reader
   libcli11-dev doctest-dev                  # command line, tests
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
   libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)

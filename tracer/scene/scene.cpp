@@ -148,32 +148,33 @@ std::string validate_scene(const SceneDesc& s) {
   double farthest = 0.0;  // of any point of any shape from the camera
   for (size_t i = 0; i < s.shapes.size(); ++i) {
     const ShapeDesc& sh = s.shapes[i];
-    const std::string p = "shapes[" + std::to_string(i) + "]";
+    // The path is built only for a message: scenes have millions of shapes.
+    const auto path = [i] { return "shapes[" + std::to_string(i) + "]"; };
     if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
-      return p + ".material: no such material";
+      return path() + ".material: no such material";
     if (sh.type == ShapeType::Sphere) {
-      if (!finite3(sh.center)) return p + ".center: must be finite";
-      if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return p + ".radius: must be finite and > 0";
+      if (!finite3(sh.center)) return path() + ".center: must be finite";
+      if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return path() + ".radius: must be finite and > 0";
       const double d = glm::length(sh.center - eye) + sh.radius;
-      if (!(d <= kMaxCameraDistance)) return p + ".radius: the sphere reaches " + short_number(d) + too_far;
+      if (!(d <= kMaxCameraDistance)) return path() + ".radius: the sphere reaches " + short_number(d) + too_far;
       farthest = std::max(farthest, d);
       continue;
     }
     const int n = sh.type == ShapeType::Triangle ? 3 : 4;
     for (int k = 0; k < n; ++k) {
-      const std::string vk = p + ".vertices[" + std::to_string(k) + "]";
-      if (!finite3(sh.vertices[k])) return vk + ": must be finite";
+      const auto vk = [&] { return path() + ".vertices[" + std::to_string(k) + "]"; };
+      if (!finite3(sh.vertices[k])) return vk() + ": must be finite";
       const double d = glm::length(sh.vertices[k] - eye);
-      if (!(d <= kMaxCameraDistance)) return vk + ": " + short_number(d) + too_far;
+      if (!(d <= kMaxCameraDistance)) return vk() + ": " + short_number(d) + too_far;
       farthest = std::max(farthest, d);
     }
     const auto& v = sh.vertices;
     if (degenerate_triangle(v[0], v[1], v[2]) || (n == 4 && degenerate_triangle(v[0], v[2], v[3])))
-      return p + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
+      return path() + ".vertices: degenerate polygon (zero area or repeated/collinear vertices)";
     if (n == 4 && !is_planar_convex_quad(sh)) {
       // Two triangles: their front normals must agree, or the quad folds over itself.
       const DVec3 n1 = glm::cross(v[1] - v[0], v[2] - v[0]), n2 = glm::cross(v[2] - v[0], v[3] - v[0]);
-      if (glm::dot(n1, n2) <= 0.0) return p + ".vertices: quad is folded or not convex (vertex order?)";
+      if (glm::dot(n1, n2) <= 0.0) return path() + ".vertices: quad is folded or not convex (vertex order?)";
     }
   }
   if (farthest < kMinSceneExtent)

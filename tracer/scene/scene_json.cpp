@@ -1,6 +1,12 @@
 #include "scene/scene_json.h"
 
 #include <nlohmann/json.hpp>
+// RapidJSON skips whitespace 16 bytes at a time where the compiler may use SSE4.2.
+#if defined(__SSE4_2__)
+#define RAPIDJSON_SSE42
+#endif
+#include <rapidjson/error/en.h>
+#include <rapidjson/reader.h>
 
 #include <cerrno>
 #include <charconv>
@@ -9,6 +15,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <optional>
+#include <string_view>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -73,47 +82,81 @@ std::string join_names(std::initializer_list<const char*> names) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Syntax level: nlohmann's (iterative) SAX parser building the tree here, with duplicate-key detection, the JSON
-// path of the value being read (the parser reports a number overflow such as 1e999 without a position, so the
-// path is what names it), and limits on nesting and string length (docs/reliability.md). Building the tree
-// ourselves keeps loading linear: nlohmann's callback parser rescans a container's elements after each one, and
-// ordered_json's keyed insert is a linear search; keys are unique here by construction (checked with a hash
-// set), so members are appended.
+// Syntax level: RapidJSON's iterative reader (no recursion: nesting cannot overflow the stack; numbers as text,
+// converted here with std::from_chars, which is exact) driving a handler that builds the nlohmann tree the typed
+// readers below walk, with duplicate-key detection, the JSON path of the value being read, and limits on nesting
+// and string length (docs/reliability.md). Building the tree ourselves keeps loading linear: nlohmann's
+// callback parser rescans a container's elements after each one, and ordered_json's keyed insert is a linear
+// search; keys are checked unique here, so members are appended. The elements of the top-level "shapes" array
+// -- nearly all of a large scene -- are not kept: each is handed to a callback as soon as it is complete and then
+// dropped, so the tree never holds more than one shape (10^6 shapes load in about a second).
 
-class SceneSax final : public nlohmann::json_sax<Json> {
- public:
-  explicit SceneSax(Json& root) : root_(root) {}
-
-  bool null() override { return add(Json(nullptr)); }
-  bool boolean(bool v) override { return add(Json(v)); }
-  bool number_integer(number_integer_t v) override { return add(Json(v)); }
-  bool number_unsigned(number_unsigned_t v) override { return add(Json(v)); }
-  bool number_float(number_float_t v, const string_t&) override { return add(Json(v)); }
-  bool string(string_t& v) override {
-    check_length(v, "string");
-    return add(Json(std::move(v)));
-  }
-  bool binary(binary_t&) override { fail(path(), "binary values are not JSON"); }
-  bool start_object(std::size_t) override { return open(Json::object(), false); }
-  bool key(string_t& k) override {
-    check_length(k, "key");
-    Frame& f = frames_.back();
-    if (!f.keys.insert(k).second) {
-      f.key = std::move(k);
-      fail(path(), "duplicate key");
+// RapidJSON reports a syntax error as a code and a byte offset; the message says where (1-based line and
+// column of the byte it stopped at) and what.
+std::string syntax_message(rapidjson::ParseErrorCode code, size_t offset, const std::string& text) {
+  size_t line = 1, column = 1;
+  for (size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
     }
-    f.key = std::move(k);
-    return true;
   }
-  bool end_object() override { return close(); }
-  bool start_array(std::size_t) override { return open(Json::array(), true); }
-  bool end_array() override { return close(); }
-  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) override {
-    // Rethrown as its concrete type for parse_scene's handlers.
-    if (const auto* pe = dynamic_cast<const nlohmann::json::parse_error*>(&e)) throw *pe;
-    if (const auto* oe = dynamic_cast<const nlohmann::json::out_of_range*>(&e)) throw *oe;
-    fail(path(), e.what());
+  std::string reason;
+  if (offset >= text.size() && code != rapidjson::kParseErrorDocumentRootNotSingular) {
+    reason = "unexpected end of input";
+  } else if (code == rapidjson::kParseErrorStringInvalidEncoding) {
+    reason = "invalid UTF-8 in a string";
+  } else {
+    reason = rapidjson::GetParseError_En(code);  // e.g. "Missing a comma or '}' after an object member."
+    if (!reason.empty()) reason[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(reason[0])));
+    if (!reason.empty() && reason.back() == '.') reason.pop_back();
   }
+  return "line " + std::to_string(line) + ", column " + std::to_string(column) + ": syntax error: " + reason;
+}
+
+class SceneSax : public rapidjson::BaseReaderHandler<rapidjson::UTF8<>, SceneSax> {
+ public:
+  // Receive the elements of the top-level "shapes" array, in order, once each is complete: a shape in the plain
+  // form (an object with the keys of its type, numbers finite) as read by the fast path below, anything else
+  // as its JSON tree, for the typed reader (read_shape) to read or to refuse with the reason.
+  using ParsedShapeSink = std::function<void(const ShapeDesc& shape, std::string_view material, size_t index)>;
+  using ShapeTreeSink = std::function<void(const Json& element, size_t index)>;
+
+  SceneSax(Json& root, ParsedShapeSink parsed_sink, ShapeTreeSink tree_sink)
+      : root_(root), parsed_sink_(std::move(parsed_sink)), tree_sink_(std::move(tree_sink)) {}
+
+  // Handler interface (each returns false after storing the problem in error(), which stops the reader).
+  bool Null() { return guarded([&] { scalar(Json(nullptr)); }); }
+  bool Bool(bool b) { return guarded([&] { scalar(Json(b)); }); }
+  bool RawNumber(const char* text, rapidjson::SizeType length, bool) {
+    return guarded([&] { scalar(number(std::string_view(text, length))); });
+  }
+  bool String(const char* text, rapidjson::SizeType length, bool) {
+    return guarded([&] {
+      check_length(length, "string");
+      if (recording_) {
+        record(Event::String, std::string_view(text, length));
+        element_done();
+      } else {
+        add(Json(std::string(text, length)));
+      }
+    });
+  }
+  bool StartObject() { return guarded([&] { start(false); }); }
+  bool Key(const char* text, rapidjson::SizeType length, bool) {
+    return guarded([&] {
+      check_length(length, "key");
+      if (recording_) record(Event::Key, std::string_view(text, length));
+      key(std::string_view(text, length));
+    });
+  }
+  bool EndObject(rapidjson::SizeType) { return guarded([&] { end(); }); }
+  bool StartArray() { return guarded([&] { start(true); }); }
+  bool EndArray(rapidjson::SizeType) { return guarded([&] { end(); }); }
+
+  const std::optional<PathError>& error() const { return error_; }
 
   // Path of the value currently being read.
   std::string path() const {
@@ -124,21 +167,212 @@ class SceneSax final : public nlohmann::json_sax<Json> {
 
  private:
   struct Frame {
-    Json* value;
+    Json* value;  // null while recording a shape
     bool array;
+    bool shapes = false;  // the top-level "shapes" array
     size_t index = 0;
     std::string key;
-    std::unordered_set<std::string> keys;
+    std::unordered_set<std::string> keys;  // of a large object (small ones compare their members directly)
+
+    // Whether `key` is new in this object. Objects are small (a shape has 3 keys) except the material table.
+    bool unique_key() {
+      constexpr size_t kLinear = 16;
+      const auto& members = value->get_ref<const Json::object_t&>();
+      if (members.size() < kLinear) {
+        for (const auto& m : members)
+          if (m.first == key) return false;
+        return true;
+      }
+      if (keys.empty())
+        for (const auto& m : members) keys.insert(m.first);
+      return keys.insert(key).second;
+    }
   };
 
-  void check_length(const std::string& s, const char* what) const {
-    if (s.size() > kMaxSceneStringBytes)
-      fail(path(), std::string(what) + " of " + std::to_string(s.size()) + " bytes (the limit is " +
+  // A shape object is recorded as a flat list of events (no allocation once the buffers have grown), read by
+  // read_plain_shape, and replayed into a JSON tree only when it is not in the plain form: building and freeing
+  // nlohmann trees for 10^6 shapes took 2 of the 3 seconds of loading them.
+  struct Event {
+    enum Kind : uint8_t { Null, Bool, Number, String, Key, StartObject, EndObject, StartArray, EndArray } kind;
+    bool boolean = false;
+    Json number;         // for Number: an integer or a double, as number() read it
+    size_t text = 0, length = 0;  // for String and Key: a slice of text_
+  };
+
+  template <class F>
+  bool guarded(F&& f) {
+    try {
+      f();
+      return true;
+    } catch (PathError& e) {
+      error_ = std::move(e);
+      return false;
+    }
+  }
+
+  void check_length(size_t length, const char* what) const {
+    if (length > kMaxSceneStringBytes)
+      fail(path(), std::string(what) + " of " + std::to_string(length) + " bytes (the limit is " +
                        std::to_string(kMaxSceneStringBytes) + ")");
   }
 
-  // Places v where the parser is (the root, the next array element, or the member of the last key) and
-  // returns where it went.
+  // A JSON number's text (RapidJSON has checked its grammar): integers stay integers (signed when negative, as
+  // nlohmann reads them) unless they overflow 64 bits; the rest are doubles, exactly rounded.
+  Json number(std::string_view t) const {
+    const char* b = t.data();
+    const char* e = b + t.size();
+    if (t.find_first_of(".eE") == std::string_view::npos) {
+      if (t.front() == '-') {
+        int64_t i = 0;
+        if (std::from_chars(b, e, i).ec == std::errc()) return Json(i);
+      } else {
+        uint64_t u = 0;
+        if (std::from_chars(b, e, u).ec == std::errc()) return Json(u);
+      }
+    }
+    double d = 0.0;
+    const auto r = std::from_chars(b, e, d);
+    if (r.ec == std::errc::result_out_of_range) {
+      // Overflow is an error; underflow (1e-400) reads as the nearest double (0 or a subnormal), as strtod does.
+      d = std::strtod(std::string(t).c_str(), nullptr);
+      if (!std::isfinite(d)) fail(path(), "must be finite (number too large for a double)");
+    } else if (r.ec != std::errc() || r.ptr != e) {
+      fail(path(), "malformed number " + shown(std::string(t)));
+    }
+    return Json(d);
+  }
+
+  void record(Event::Kind kind, std::string_view text = {}) {
+    Event& e = events_.emplace_back();
+    e.kind = kind;
+    if (!text.empty()) {
+      e.text = text_.size();
+      e.length = text.size();
+      text_.append(text);
+    }
+  }
+  std::string_view text_of(const Event& e) const { return std::string_view(text_).substr(e.text, e.length); }
+
+  void scalar(Json&& v) {
+    if (!recording_) return add(std::move(v));
+    if (v.is_boolean()) {
+      record(Event::Bool);
+      events_.back().boolean = v.get<bool>();
+    } else {
+      record(v.is_null() ? Event::Null : Event::Number);
+      events_.back().number = std::move(v);
+    }
+    element_done();
+  }
+  void key(std::string_view k) {
+    Frame& f = frames_.back();
+    f.key.assign(k);
+    if (f.value && !f.unique_key()) fail(path(), "duplicate key");
+  }
+  void start(bool array) {
+    if (frames_.size() >= kMaxSceneNesting)
+      fail(path(), "nested deeper than " + std::to_string(kMaxSceneNesting) + " levels");
+    if (!recording_ && !replaying_ && !array && !frames_.empty() && frames_.back().shapes) {  // a shape begins
+      recording_ = true;
+      events_.clear();
+      text_.clear();
+    }
+    if (recording_) {
+      record(array ? Event::StartArray : Event::StartObject);
+      frames_.push_back({nullptr, array, false, 0, {}, {}});
+      return;
+    }
+    const bool shapes = array && frames_.size() == 1 && !frames_[0].array && frames_[0].key == "shapes";
+    Json* v = place(array ? Json::array() : Json::object());
+    frames_.push_back({v, array, shapes, 0, {}, {}});
+  }
+  void end() {
+    if (!recording_) return close();
+    record(frames_.back().array ? Event::EndArray : Event::EndObject);
+    frames_.pop_back();
+    if (!frames_.back().shapes) return element_done();
+    recording_ = false;  // the shape is complete
+    ShapeDesc shape;
+    std::string_view material;
+    if (read_plain_shape(shape, material)) {
+      parsed_sink_(shape, material, frames_.back().index);
+      ++frames_.back().index;
+      return;
+    }
+    replay();  // builds the element's tree; its completion hands it to tree_sink_
+  }
+
+  // Reads the recorded shape when it is in the plain form: {"type": ..., "vertices": [[x, y, z], ...],
+  // "material": ...} or {"type": "sphere", "center": [x, y, z], "radius": r, "material": ...}, keys in any order,
+  // each once, numbers finite. Anything else returns false, and read_shape reads the tree (with the same result
+  // for what it accepts, and the reason for what it refuses).
+  bool read_plain_shape(ShapeDesc& s, std::string_view& material) const {
+    size_t i = 1;  // events_[0] is StartObject
+    const auto num = [&](double& out) {
+      if (events_[i].kind != Event::Number) return false;
+      out = events_[i++].number.get<double>();
+      return std::isfinite(out);
+    };
+    const auto triple = [&](DVec3& out) {
+      if (events_[i].kind != Event::StartArray) return false;
+      ++i;
+      if (!num(out.x) || !num(out.y) || !num(out.z) || events_[i].kind != Event::EndArray) return false;
+      ++i;
+      return true;
+    };
+    bool type = false, vertices = false, center = false, radius = false, named = false;
+    size_t n = 0;
+    while (events_[i].kind == Event::Key) {
+      const std::string_view k = text_of(events_[i++]);
+      if (k == "type" && !type) {
+        if (events_[i].kind != Event::String || !parse_enum(text_of(events_[i++]), s.type)) return false;
+        type = true;
+      } else if (k == "material" && !named) {
+        if (events_[i].kind != Event::String) return false;
+        material = text_of(events_[i++]);
+        named = true;
+      } else if (k == "vertices" && !vertices) {
+        if (events_[i++].kind != Event::StartArray) return false;
+        for (; events_[i].kind == Event::StartArray; ++n)
+          if (n == 4 || !triple(s.vertices[n])) return false;
+        if (events_[i++].kind != Event::EndArray) return false;
+        vertices = true;
+      } else if (k == "center" && !center) {
+        if (!triple(s.center)) return false;
+        center = true;
+      } else if (k == "radius" && !radius) {
+        if (!num(s.radius)) return false;
+        radius = true;
+      } else {
+        return false;
+      }
+    }
+    if (events_[i].kind != Event::EndObject || i + 1 != events_.size() || !type || !named) return false;
+    if (s.type == ShapeType::Sphere) return center && radius && !vertices;
+    return vertices && !center && !radius && n == (s.type == ShapeType::Triangle ? 3u : 4u);
+  }
+
+  // Builds the recorded shape's tree through the normal handler path.
+  void replay() {
+    replaying_ = true;
+    for (const Event& e : events_) {
+      switch (e.kind) {
+        case Event::Null: add(Json(nullptr)); break;
+        case Event::Bool: add(Json(e.boolean)); break;
+        case Event::Number: add(Json(e.number)); break;
+        case Event::String: add(Json(std::string(text_of(e)))); break;
+        case Event::Key: key(text_of(e)); break;
+        case Event::StartObject: start(false); break;
+        case Event::StartArray: start(true); break;
+        case Event::EndObject:
+        case Event::EndArray: close(); break;
+      }
+    }
+    replaying_ = false;
+  }
+
+  // Places v where the reader is (the root, the next array element, or the member of the last key) and returns
+  // where it went.
   Json* place(Json&& v) {
     if (frames_.empty()) {
       root_ = std::move(v);
@@ -146,60 +380,42 @@ class SceneSax final : public nlohmann::json_sax<Json> {
     }
     Frame& f = frames_.back();
     if (f.array) {  // f.index advances once the element is complete (element_done)
-      f.value->get_ref<Json::array_t&>().push_back(std::move(v));
-      return &f.value->get_ref<Json::array_t&>().back();
+      auto& elements = f.value->get_ref<Json::array_t&>();
+      elements.push_back(std::move(v));
+      return &elements.back();
     }
     auto& members = static_cast<std::vector<std::pair<const std::string, Json>>&>(f.value->get_ref<Json::object_t&>());
     members.emplace_back(f.key, std::move(v));
     return &members.back().second;
   }
   void element_done() {
-    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+    if (frames_.empty() || !frames_.back().array) return;
+    Frame& f = frames_.back();
+    if (f.shapes) {
+      auto& elements = f.value->get_ref<Json::array_t&>();
+      tree_sink_(elements.back(), f.index);
+      elements.pop_back();
+    }
+    ++f.index;
   }
-  bool add(Json&& v) {
+  void add(Json&& v) {
     place(std::move(v));
     element_done();
-    return true;
   }
-  bool open(Json&& container, bool array) {
-    if (frames_.size() >= kMaxSceneNesting)
-      fail(path(), "nested deeper than " + std::to_string(kMaxSceneNesting) + " levels");
-    Json* v = place(std::move(container));
-    frames_.push_back({v, array, 0, {}, {}});
-    return true;
-  }
-  bool close() {
+  void close() {
     frames_.pop_back();
     element_done();
-    return true;
   }
 
   Json& root_;
+  ParsedShapeSink parsed_sink_;
+  ShapeTreeSink tree_sink_;
   std::vector<Frame> frames_;
+  bool recording_ = false, replaying_ = false;
+  std::vector<Event> events_;
+  std::string text_;
+  std::optional<PathError> error_;
 };
-
-// "line L, column C: reason" from nlohmann's "[json.exception.parse_error.101] parse error at line L, column C: ...".
-std::string syntax_message(const nlohmann::json::parse_error& e, const std::string& text) {
-  const std::string w = e.what();
-  const size_t at = w.find(" at line ");
-  if (at != std::string::npos) {
-    const size_t colon = w.find(": ", at);
-    if (colon != std::string::npos) return w.substr(at + 4, colon - (at + 4)) + ": " + w.substr(colon + 2);
-  }
-  // Fallback: position from the byte offset (1-based index of the last character read).
-  size_t line = 1, column = 0;
-  for (size_t i = 0; i < e.byte && i < text.size(); ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      column = 0;
-    } else {
-      ++column;
-    }
-  }
-  std::string reason = w;
-  if (const size_t p = w.find("] "); p != std::string::npos) reason = w.substr(p + 2);
-  return "line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + reason;
-}
 
 // ---------------------------------------------------------------------------------------------------------------
 // Typed readers. Each takes the JSON value and its path and either returns the value or fails with the path.
@@ -302,7 +518,21 @@ const Json& expect_triple(const Json& v, const std::string& path) {
   return v;
 }
 
+// True, with the value in `out`, for an array of three finite numbers (the common case, checked without building
+// the paths that only an error message needs).
+bool plain_dvec3(const Json& v, DVec3& out) {
+  if (!v.is_array() || v.size() != 3) return false;
+  for (int k = 0; k < 3; ++k) {
+    if (!v[k].is_number()) return false;
+    out[k] = v[k].get<double>();
+    if (!std::isfinite(out[k])) return false;
+  }
+  return true;
+}
+
 DVec3 read_dvec3(const Json& v, const std::string& path) {
+  DVec3 out;
+  if (plain_dvec3(v, out)) return out;
   expect_triple(v, path);
   return {read_double(v[0], element(path, 0)), read_double(v[1], element(path, 1)),
           read_double(v[2], element(path, 2))};
@@ -451,36 +681,81 @@ EnvironmentDesc read_environment(const Json& j, const std::string& path, const s
   return e;
 }
 
-ShapeDesc read_shape(const Json& j, const std::string& path,
-                     const std::unordered_map<std::string, int>& material_index) {
+// One element of "shapes"; its material is returned by name in `material_name` (materials may come later in
+// the file). Paths for messages are built only on an error: a large scene is millions of shapes.
+ShapeDesc read_shape(const Json& j, size_t index, const std::string*& material_name) {
+  const std::string path = element("shapes", index);
+  const auto at = [&](const char* key) { return member(path, key); };
   expect_object(j, path);
   check_known_keys(j, path, {"type", "vertices", "center", "radius", "material"});
   ShapeDesc s;
-  s.type = read_enum<ShapeType>(required_key(j, path, "type"), member(path, "type"), "shape type");
-  const std::string type_name = to_string(s.type);
+  const Json& type = required_key(j, path, "type");
+  if (!(type.is_string() && parse_enum(type.get_ref<const std::string&>(), s.type)))
+    s.type = read_enum<ShapeType>(type, at("type"), "shape type");
   if (s.type == ShapeType::Sphere) {
     check_applicable_keys(j, path, {"type", "center", "radius", "material"}, "a sphere");
-    s.center = read_dvec3(required_key(j, path, "center"), member(path, "center"));
-    s.radius = read_double(required_key(j, path, "radius"), member(path, "radius"));
+    const Json& center = required_key(j, path, "center");
+    if (!plain_dvec3(center, s.center)) s.center = read_dvec3(center, at("center"));
+    s.radius = read_double(required_key(j, path, "radius"), at("radius"));
   } else {
+    const std::string type_name = to_string(s.type);
     check_applicable_keys(j, path, {"type", "vertices", "material"}, "a " + type_name);
     const size_t n = s.type == ShapeType::Triangle ? 3 : 4;
-    const std::string vpath = member(path, "vertices");
     const Json& v = required_key(j, path, "vertices");
-    if (!v.is_array()) fail(vpath, "expected an array of " + std::to_string(n) + " points, " + got(v));
+    if (!v.is_array()) fail(at("vertices"), "expected an array of " + std::to_string(n) + " points, " + got(v));
     if (v.size() != n)
-      fail(vpath, "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
-    for (size_t k = 0; k < n; ++k) s.vertices[k] = read_dvec3(v[k], element(vpath, k));
+      fail(at("vertices"),
+           "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
+    for (size_t k = 0; k < n; ++k)
+      if (!plain_dvec3(v[k], s.vertices[k])) s.vertices[k] = read_dvec3(v[k], element(at("vertices"), k));
   }
-  const std::string mpath = member(path, "material");
-  const std::string& mname = read_string(required_key(j, path, "material"), mpath);
-  const auto it = material_index.find(mname);
-  if (it == material_index.end()) fail(mpath, "unknown material " + shown_quoted(mname));
-  s.material = it->second;
+  const Json& material = required_key(j, path, "material");
+  material_name = &(material.is_string() ? material.get_ref<const std::string&>() : read_string(material, at("material")));
   return s;
 }
 
-SceneDesc read_scene(const Json& root, const std::string& base_dir) {
+// The shapes as the reader streams them. Each shape's `material` holds a provisional id per distinct name (in
+// order of first use) until resolve() maps the ids to the material table.
+struct StreamedShapes {
+  // Names are looked up as string_views (no string built per shape).
+  struct NameHash {
+    using is_transparent = void;
+    size_t operator()(std::string_view s) const { return std::hash<std::string_view>()(s); }
+  };
+  std::vector<ShapeDesc> shapes;
+  std::unordered_map<std::string, int, NameHash, std::equal_to<>> ids;
+  std::vector<const std::string*> names;  // by id (keys of `ids`, whose addresses are stable)
+  std::vector<size_t> first_use;          // by id: the first shape that names it, for the error message
+
+  void add(ShapeDesc s, std::string_view material, size_t index) {
+    auto it = ids.find(material);
+    if (it == ids.end()) {
+      it = ids.emplace(std::string(material), static_cast<int>(names.size())).first;
+      names.push_back(&it->first);
+      first_use.push_back(index);
+    }
+    s.material = it->second;
+    shapes.push_back(s);
+  }
+  void add(const Json& j, size_t index) {
+    const std::string* name = nullptr;
+    const ShapeDesc s = read_shape(j, index, name);
+    add(s, *name, index);
+  }
+
+  void resolve(const std::unordered_map<std::string, int>& material_index) {
+    std::vector<int> index_of(names.size());
+    for (size_t id = 0; id < names.size(); ++id) {
+      const auto it = material_index.find(*names[id]);
+      if (it == material_index.end())
+        fail(member(element("shapes", first_use[id]), "material"), "unknown material " + shown_quoted(*names[id]));
+      index_of[id] = it->second;
+    }
+    for (ShapeDesc& s : shapes) s.material = index_of[s.material];
+  }
+};
+
+SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShapes& streamed) {
   if (!root.is_object()) fail("", "the top level must be an object, " + got(root));
   check_known_keys(root, "", {"camera", "film", "render", "background", "environment", "materials", "shapes"});
   SceneDesc s;
@@ -501,10 +776,11 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir) {
     s.materials.push_back(read_material(item.key(), item.value(), "materials." + item.key()));
   }
 
-  const Json& shapes = required_key(root, "", "shapes");
+  const Json& shapes = required_key(root, "", "shapes");  // its elements were streamed (SceneSax)
   if (!shapes.is_array()) fail("shapes", "expected an array, " + got(shapes));
-  if (shapes.empty()) fail("shapes", "must contain at least one shape");
-  for (size_t i = 0; i < shapes.size(); ++i) s.shapes.push_back(read_shape(shapes[i], element("shapes", i), material_index));
+  if (streamed.shapes.empty()) fail("shapes", "must contain at least one shape");
+  streamed.resolve(material_index);
+  s.shapes = std::move(streamed.shapes);
   return s;
 }
 
@@ -673,19 +949,22 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
     throw SceneError(source_name + ": line " + std::to_string(line) + ": a NUL byte (this is not a JSON text file)");
   }
   Json root;
-  SceneSax sax(root);
-  try {
-    Json::sax_parse(json_text, &sax);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw SceneError(source_name + ": " + syntax_message(e, json_text));
-  } catch (const nlohmann::json::out_of_range&) {  // a number literal that overflows a double, e.g. 1e999
+  StreamedShapes streamed;
+  SceneSax sax(
+      root, [&](const ShapeDesc& shape, std::string_view material, size_t index) { streamed.add(shape, material, index); },
+      [&](const Json& element, size_t index) { streamed.add(element, index); });
+  rapidjson::Reader reader;
+  rapidjson::StringStream in(json_text.c_str());  // NUL-terminated, with no NUL inside (checked above)
+  constexpr unsigned kFlags =
+      rapidjson::kParseIterativeFlag | rapidjson::kParseNumbersAsStringsFlag | rapidjson::kParseValidateEncodingFlag;
+  const rapidjson::ParseResult result = reader.Parse<kFlags>(in, sax);
+  if (sax.error()) throw SceneError(where(*sax.error()));
+  if (result.Code() == rapidjson::kParseErrorNumberTooBig)  // e.g. 1e999: named by its path, like other values
     throw SceneError(where({sax.path(), "must be finite (number too large for a double)"}));
-  } catch (const PathError& e) {
-    throw SceneError(where(e));
-  }
+  if (result.IsError()) throw SceneError(source_name + ": " + syntax_message(result.Code(), result.Offset(), json_text));
   SceneDesc desc;
   try {
-    desc = read_scene(root, base_dir);
+    desc = read_scene(root, base_dir, streamed);
   } catch (const PathError& e) {
     throw SceneError(where(e));
   }
