@@ -1,4 +1,5 @@
 #include "cli/stress_command.h"
+#include "cli/stress_soak.h"
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -24,6 +25,11 @@ void add_stress_command(CLI::App& app, StressOptions& o) {
   s->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
+  s->add_option("--soak", o.soak_seconds,
+                "Instead of the matrix: drive a render session with random scenes, edits and restarts for this many "
+                "seconds, checking every frame and the memory (docs/reliability.md)")
+      ->check(CLI::Range(1.0, 1e6));
+  s->add_option("--soak-seed", o.soak_seed, "Seed of the soak's random actions")->capture_default_str();
   s->footer(
       "Verdicts: PASS / FAIL for required checks; 'holds' / 'breaks' for probes beyond the required range (they never\n"
       "fail the run); XFAIL / XPASS for checks of a known, reported tracer bug that failed / passed anyway (they never\n"
@@ -589,6 +595,7 @@ std::string csv_field(const std::string& s) {
 }  // namespace
 
 int run_stress(const StressOptions& o) {
+  if (o.soak_seconds > 0.0) return run_soak({o.soak_seconds, o.soak_seed, o.threads});
   std::ofstream csv;
   if (!o.csv.empty()) {
     csv.open(o.csv);

@@ -2,6 +2,7 @@
 // scales, huge and tiny spheres, light-tight enclosures, furnaces, NaN-inviting scenes, film accumulation) and
 // prints one row per check: scenario, parameter, measured value, expected value, verdict.
 #pragma once
+#include <cstdint>
 #include <string>
 
 namespace CLI {
@@ -15,6 +16,8 @@ struct StressOptions {
   std::string csv;     // also write the table here
   std::string only;    // run only scenarios whose name contains this
   int threads = 0;
+  double soak_seconds = 0.0;  // > 0: run the soak (cli/stress_soak.h) instead of the matrix
+  uint64_t soak_seed = 1;
 };
 
 void add_stress_command(CLI::App& app, StressOptions& options);
