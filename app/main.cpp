@@ -1,5 +1,6 @@
 // The `pathtracer` executable: subcommands share one parser so `pathtracer --help` lists them all.
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <new>
@@ -29,6 +30,9 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;  // --help exits 0; a bad flag is bad input (2)
   }
+  // A write past the file-size limit (ulimit -f) fails with EFBIG and is reported like any other failed write,
+  // instead of SIGXFSZ killing the process: for every command's outputs.
+  std::signal(SIGXFSZ, SIG_IGN);
   // Whatever escapes a command becomes a message and an exit status, never an abort.
   try {
     if (app.got_subcommand("render")) return pt::run_render(render_options);

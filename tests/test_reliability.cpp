@@ -232,6 +232,37 @@ TEST_CASE("cli: a write that fails at the end (file size limit) is reported; the
   CHECK(dir.names() == std::vector<std::string>{"new.png", "old.pfm"});  // no temporary file left
 }
 
+TEST_CASE("cli: outputs of stress are checked before the run and written safely") {
+  // The CSV path was opened with ofstream: a bad directory was found only by the open, and a failed write could
+  // leave a truncated file. Now it is checked before any scenario runs and written through write_file_safely.
+  TempDir dir("stress-csv");
+  const auto t0 = std::chrono::steady_clock::now();
+  const Run bad = run("stress --quick --csv " + (dir / "no/such/dir/x.csv"));
+  CHECK(bad.status == 2);
+  CHECK(bad.err.find("error: --csv: " + (dir / "no/such/dir/x.csv") + ": directory " + (dir / "no/such/dir") +
+                     " is not usable") != std::string::npos);
+  CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 2.0);  // before the run
+  put(dir / "old.csv", "earlier");
+  const Run full = run_script("ulimit -f 1; exec \"$PT\" stress --quick --only \"furnace: emitting\" --csv " +
+                              (dir / "old.csv"));
+  CHECK(full.status == 2);
+  CHECK(full.err.find("cannot write (File too large)") != std::string::npos);
+  CHECK(slurp(dir / "old.csv") == "earlier");
+  CHECK(dir.names() == std::vector<std::string>{"old.csv"});
+}
+
+TEST_CASE("cli: a film larger than the memory budget is refused before rendering, with the figures") {
+  // A 16384² render aborted in the allocator (bad_alloc after minutes of setup); under a 4 GB address-space
+  // limit it is now refused at once with the estimate and the limit, and nothing is written.
+  TempDir dir("film-memory");
+  const Run r = run_script("ulimit -v 4000000; exec \"$PT\" render -q --width 16384 --height 16384 --spp 1 --pfm " +
+                           (dir / "big.pfm"));
+  CHECK(r.status == 2);
+  CHECK(r.err.find("error: a 16384x16384 render needs about 21.5 GiB (86 bytes per pixel); this machine allows 2.9 GiB") !=
+        std::string::npos);
+  CHECK(dir.names().empty());
+}
+
 TEST_CASE("cli: SIGINT stops a render and writes the image so far; a second signal exits at once") {
   TempDir dir("signal");
   Run r = run_script("\"$PT\" render --spp 100000000 --width 64 --height 64 --pfm " + (dir / "a.pfm") +

@@ -14,11 +14,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <unistd.h>
 
 #include "render/progressive.h"
 #include "render/film.h"
 #include "io/image_io.h"
+#include "io/safe_file.h"
 #include "render/metrics.h"
 #include "render/renderer.h"
 #include "scene/scene_json.h"
@@ -164,9 +166,20 @@ std::string fmt_time(double t) {
   return buf;
 }
 
+// Reports go through write_file_safely (complete or not at all, the earlier file kept on failure).
+bool write_report(const fs::path& path, const std::string& text) {
+  try {
+    write_file_safely(path.string(), text);
+    return true;
+  } catch (const FileError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return false;
+  }
+}
+
 bool write_plot(const fs::path& dir, const std::string& scene, const std::vector<Series>& series, const std::string& ref_label) {
   const fs::path script = dir / ("convergence-" + scene + ".gp");
-  std::ofstream gp(script);
+  std::ostringstream gp;
   gp << "# gnuplot script written by pathtracer bench; data in convergence.csv\n"
      << "set terminal pngcairo size 900,600 font ',11'\n"
      << "set output '" << (dir / ("convergence-" + scene + ".png")).string() << "'\n"
@@ -187,7 +200,7 @@ bool write_plot(const fs::path& dir, const std::string& scene, const std::vector
   if (anchor && !anchor->points.empty())
     gp << anchor->points[0].relmse * anchor->points[0].seconds << "/x with lines dashtype 2 lc 'gray' title '1/t slope'";
   gp << "\n";
-  gp.close();
+  if (!write_report(script, gp.str())) return false;
   const std::string cmd = "gnuplot '" + script.string() + "' 2>/dev/null";
   return std::system("command -v gnuplot >/dev/null 2>&1") == 0 && std::system(cmd.c_str()) == 0;
 }
@@ -237,16 +250,13 @@ int run_bench(const BenchOptions& o) {
 
   const fs::path dir(o.out_dir);
   {
-    std::ofstream csv(dir / "convergence.csv");
+    std::ostringstream csv;
     csv << "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s\n";
     for (const Series& s : all)
       for (const Checkpoint& c : s.points)
         csv << s.scene << ',' << s.estimator << ',' << s.sampler << ',' << s.threads << ',' << c.seconds << ','
             << c.spp << ',' << c.relmse << ',' << c.rmse << ',' << s.mrays_per_s << '\n';
-    if (!csv) {
-      std::fprintf(stderr, "error: cannot write %s\n", (dir / "convergence.csv").c_str());
-      return 1;
-    }
+    if (!write_report(dir / "convergence.csv", csv.str())) return 1;
   }
   bool plotted = true;
   for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, all, ref_labels[name]);
@@ -296,7 +306,7 @@ int run_bench(const BenchOptions& o) {
     rays_md += row;
   }
 
-  std::ofstream md(dir / "summary.md");
+  std::ostringstream md;
   md << "# Run time against error\n\n"
      << "Threads: " << renderer.threads() << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
      << "Efficiency = 1/(relMSE × seconds) at the largest budget (higher is better).\n\n";
@@ -320,13 +330,8 @@ int run_bench(const BenchOptions& o) {
                 o.quick ? 64 : 256, one, renderer.threads(), many, many / one, renderer.threads(), full_ms, quarter_ms);
   md << tail << rays_md;
   if (!plotted) md << "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
-  md.close();
-  if (!md) {
-    std::fprintf(stderr, "error: cannot write %s\n", (dir / "summary.md").c_str());
-    return 1;
-  }
-  std::ifstream in(dir / "summary.md");
-  std::printf("%s", std::string(std::istreambuf_iterator<char>(in), {}).c_str());
+  if (!write_report(dir / "summary.md", md.str())) return 1;
+  std::printf("%s", md.str().c_str());
   std::printf("\nwrote %s/{convergence.csv,summary.md,convergence-*.png}\n", fs::absolute(dir).c_str());
   return 0;
 }

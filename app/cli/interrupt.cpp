@@ -14,7 +14,7 @@ std::atomic<bool> g_stop{false};
 std::atomic<int> g_signal{0};
 static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free);
 
-struct sigaction g_old_int, g_old_term, g_old_xfsz;
+struct sigaction g_old_int, g_old_term;
 
 void on_signal(int sig) {
   if (g_signal.exchange(sig) != 0) {
@@ -36,16 +36,11 @@ InterruptScope::InterruptScope() {
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, &g_old_int);
   sigaction(SIGTERM, &sa, &g_old_term);
-  struct sigaction ignore {};
-  ignore.sa_handler = SIG_IGN;
-  sigemptyset(&ignore.sa_mask);
-  sigaction(SIGXFSZ, &ignore, &g_old_xfsz);
 }
 
 InterruptScope::~InterruptScope() {
   sigaction(SIGINT, &g_old_int, nullptr);
   sigaction(SIGTERM, &g_old_term, nullptr);
-  sigaction(SIGXFSZ, &g_old_xfsz, nullptr);
 }
 
 std::atomic<bool>& InterruptScope::stop_flag() { return g_stop; }

@@ -1,7 +1,6 @@
 // Ctrl-C and `kill` during long work (docs/reliability.md): the first SIGINT or SIGTERM sets a stop flag that
 // the render polls (it then stops within a sample and writes what it has); a second one exits at once with
-// status 128 + signal. SIGXFSZ is ignored, so a write past the file-size limit fails with an error (EFBIG) that
-// is reported, instead of killing the process.
+// status 128 + signal. (SIGXFSZ is ignored for the whole process by main().)
 #pragma once
 #include <atomic>
 

@@ -1,9 +1,11 @@
 #include "cli/stress_command.h"
 #include "cli/stress_soak.h"
+#include "io/safe_file.h"
 
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <cstdarg>
 #include <cstdio>
 #include <fstream>
@@ -596,11 +598,9 @@ std::string csv_field(const std::string& s) {
 
 int run_stress(const StressOptions& o) {
   if (o.soak_seconds > 0.0) return run_soak({o.soak_seconds, o.soak_seed, o.threads});
-  std::ofstream csv;
-  if (!o.csv.empty()) {
-    csv.open(o.csv);
-    if (!csv) {
-      std::fprintf(stderr, "error: cannot write %s\n", o.csv.c_str());
+  if (!o.csv.empty()) {  // checked before the run, written at the end through write_file_safely
+    if (const std::string why = check_output_path(o.csv); !why.empty()) {
+      std::fprintf(stderr, "error: --csv: %s\n", why.c_str());
       return 2;
     }
   }
@@ -618,15 +618,17 @@ int run_stress(const StressOptions& o) {
   accumulation(r, o);
   summary(r, limits, light_tight_paths);
 
-  if (csv.is_open()) {
+  if (!o.csv.empty()) {
+    std::ostringstream csv;
     csv << "scenario,parameter,measured,expected,verdict,seconds,note\n";
     for (const Row& row : r.rows())
       csv << csv_field(row.scenario) << ',' << csv_field(row.parameter) << ',' << csv_field(row.measured) << ','
           << csv_field(row.expected) << ',' << verdict_name(row.verdict) << ',' << fmt("%.3f", row.seconds) << ','
           << csv_field(row.note) << '\n';
-    csv.close();
-    if (!csv) {
-      std::fprintf(stderr, "error: cannot write %s\n", o.csv.c_str());
+    try {
+      write_file_safely(o.csv, csv.str());
+    } catch (const FileError& e) {
+      std::fprintf(stderr, "error: --csv: %s\n", e.what());
       return 2;
     }
     std::printf("wrote %s\n", o.csv.c_str());
