@@ -309,6 +309,12 @@ TEST_CASE("hostile scene input: nesting, long strings, NUL bytes, special files 
     }
     return std::string("no error");
   };
+  // Found by fuzz_scene: text ending inside a UTF-8 sequence made the reader step past the end of the buffer
+  // (a heap over-read that ASan reports; the CI's sanitizer stage runs this case).
+  for (const char* tail : {"\xf0", "\xe2\x82", "\xc3"}) {
+    const std::string text = std::string("{\n  \"camera\": {\"posi5, ") + tail;
+    CHECK(error_of(text) == "t.json: line 2, column 22: syntax error: invalid UTF-8 in a string");
+  }
   // 200,000 nested arrays: refused at the limit, no stack overflow.
   const std::string deep = "{\"camera\": " + std::string(200000, '[') + std::string(200000, ']') + "}";
   const std::string deep_error = error_of(deep);
@@ -393,7 +399,8 @@ TEST_CASE("representable ranges: the image holds across scales up to the limits;
   // ...but a triangle at 1e200 seen from near the origin is refused for its distance, not called "degenerate".
   SceneDesc far = base;
   for (DVec3& v : far.shapes[0].vertices) v *= 1e200;
-  CHECK(std::regex_search(refusal(far), std::regex(R"(^shapes\[0\]\.vertices\[0\]: [0-9.]+e\+202 from the camera)")));
+  CHECK(refusal(far).rfind("shapes[0].vertices[0]: ", 0) == 0);
+  CHECK(refusal(far).find("e+202 from the camera, beyond the 1e+12") != std::string::npos);
   SceneDesc huge_sphere = builtin_at("cornell-spheres", 8, 8);
   for (ShapeDesc& sh : huge_sphere.shapes)
     if (sh.type == ShapeType::Sphere) sh.radius = 1e15;
