@@ -179,6 +179,16 @@ int run_soak(const SoakOptions& o) {
               o.seconds, static_cast<unsigned long long>(o.seed), max_threads, warmup);
   std::printf("%8s %9s %7s %7s %8s %9s %8s\n", "seconds", "actions", "scenes", "edits", "frames", "RSS MiB",
               "problems");
+  // A typed edit as the viewer sends it: validated first, applied to the model, then to the session.
+  const auto send = [&](const SceneEdit& e, bool valid) {
+    if (!valid || !validate_edit(desc, e).empty()) {
+      ++refused;
+      return;
+    }
+    apply_edit(desc, e);
+    session.edit(e);
+    ++edits;
+  };
   while (elapsed() < o.seconds) {
     // One action, as a user would do it, then a pause of 0-40 ms while the session renders.
     switch (pick(rng, 10)) {
@@ -191,14 +201,7 @@ int run_soak(const SoakOptions& o) {
       case 2: {
         MaterialEdit m{static_cast<size_t>(pick(rng, static_cast<int>(desc.materials.size()))), {}};
         m.material = random_material(rng, desc.materials[m.index].name);
-        const SceneEdit e = m;
-        if (!validate_edit(desc, e).empty()) {
-          ++refused;
-          break;
-        }
-        apply_edit(desc, e);
-        session.edit(e);
-        ++edits;
+        send(m, true);
         break;
       }
       case 3:
@@ -212,27 +215,14 @@ int run_soak(const SoakOptions& o) {
           c.position += desc.camera.look_at;
           c.look_at += desc.camera.look_at;
         }
-        const SceneEdit e = c;
-        if (!validate_edit(desc, e).empty() || !validate_scene([&] { SceneDesc t = desc; t.camera = c; return t; }()).empty()) {
-          ++refused;
-          break;
-        }
-        apply_edit(desc, e);
-        session.edit(e);
-        ++edits;
+        SceneDesc moved = desc;  // the shapes must stay within the representable distance of the new eye
+        moved.camera = c;
+        send(c, validate_scene(moved).empty());
         break;
       }
-      case 5: {
-        const SceneEdit e = random_environment(rng);
-        if (!validate_edit(desc, e).empty()) {
-          ++refused;
-          break;
-        }
-        apply_edit(desc, e);
-        session.edit(e);
-        ++edits;
+      case 5:
+        send(random_environment(rng), true);
         break;
-      }
       case 6:
         desc.render = random_render(rng);
         session.set_render(desc.render);
