@@ -7,22 +7,16 @@
 #include <rapidjson/memorystream.h>
 #include <rapidjson/reader.h>
 
-#include <cerrno>
 #include <charconv>
 #include <climits>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string_view>
-#include <fstream>
 #include <initializer_list>
-#include <limits>
-#include <set>
 #include <algorithm>
-#include <sstream>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
@@ -70,8 +64,6 @@ std::string member(const std::string& path, const std::string& key) {
 }
 std::string element(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
 std::string quoted(const std::string& s) { return Json(s).dump(-1, ' ', false, Json::error_handler_t::replace); }
-
-
 std::string got(const Json& v) { return std::string("got ") + v.type_name(); }
 
 std::string join_names(std::initializer_list<const char*> names) {
@@ -87,8 +79,8 @@ std::string join_names(std::initializer_list<const char*> names) {
 // and string length (docs/reliability.md). Building the tree ourselves keeps loading linear: nlohmann's
 // callback parser rescans a container's elements after each one, and ordered_json's keyed insert is a linear
 // search; keys are checked unique here, so members are appended. The elements of the top-level "shapes" array
-// -- nearly all of a large scene -- are not kept: each is handed to a callback as soon as it is complete and then
-// dropped, so the tree never holds more than one shape (10^6 shapes load in about a second).
+// -- nearly all of a large scene -- never stay in the tree: each is handed on as soon as it is complete (see
+// SceneSax::end), so 10^6 shapes load in under 2 s (docs/reliability.md).
 
 // RapidJSON reports a syntax error as a code and a byte offset; the message says where (1-based line and
 // column of the byte it stopped at) and what.
@@ -517,21 +509,7 @@ const Json& expect_triple(const Json& v, const std::string& path) {
   return v;
 }
 
-// True, with the value in `out`, for an array of three finite numbers (the common case, checked without building
-// the paths that only an error message needs).
-bool plain_dvec3(const Json& v, DVec3& out) {
-  if (!v.is_array() || v.size() != 3) return false;
-  for (int k = 0; k < 3; ++k) {
-    if (!v[k].is_number()) return false;
-    out[k] = v[k].get<double>();
-    if (!std::isfinite(out[k])) return false;
-  }
-  return true;
-}
-
 DVec3 read_dvec3(const Json& v, const std::string& path) {
-  DVec3 out;
-  if (plain_dvec3(v, out)) return out;
   expect_triple(v, path);
   return {read_double(v[0], element(path, 0)), read_double(v[1], element(path, 1)),
           read_double(v[2], element(path, 2))};
@@ -681,35 +659,30 @@ EnvironmentDesc read_environment(const Json& j, const std::string& path, const s
 }
 
 // One element of "shapes"; its material is returned by name in `material_name` (materials may come later in
-// the file). Paths for messages are built only on an error: a large scene is millions of shapes.
+// the file). Shapes in the plain form never come here (SceneSax reads them directly): this reader gives the
+// reasons for the rest.
 ShapeDesc read_shape(const Json& j, size_t index, const std::string*& material_name) {
   const std::string path = element("shapes", index);
-  const auto at = [&](const char* key) { return member(path, key); };
   expect_object(j, path);
   check_known_keys(j, path, {"type", "vertices", "center", "radius", "material"});
   ShapeDesc s;
-  const Json& type = required_key(j, path, "type");
-  if (!(type.is_string() && parse_enum(type.get_ref<const std::string&>(), s.type)))
-    s.type = read_enum<ShapeType>(type, at("type"), "shape type");
+  s.type = read_enum<ShapeType>(required_key(j, path, "type"), member(path, "type"), "shape type");
+  const std::string type_name = to_string(s.type);
   if (s.type == ShapeType::Sphere) {
     check_applicable_keys(j, path, {"type", "center", "radius", "material"}, "a sphere");
-    const Json& center = required_key(j, path, "center");
-    if (!plain_dvec3(center, s.center)) s.center = read_dvec3(center, at("center"));
-    s.radius = read_double(required_key(j, path, "radius"), at("radius"));
+    s.center = read_dvec3(required_key(j, path, "center"), member(path, "center"));
+    s.radius = read_double(required_key(j, path, "radius"), member(path, "radius"));
   } else {
-    const std::string type_name = to_string(s.type);
     check_applicable_keys(j, path, {"type", "vertices", "material"}, "a " + type_name);
     const size_t n = s.type == ShapeType::Triangle ? 3 : 4;
+    const std::string vpath = member(path, "vertices");
     const Json& v = required_key(j, path, "vertices");
-    if (!v.is_array()) fail(at("vertices"), "expected an array of " + std::to_string(n) + " points, " + got(v));
+    if (!v.is_array()) fail(vpath, "expected an array of " + std::to_string(n) + " points, " + got(v));
     if (v.size() != n)
-      fail(at("vertices"),
-           "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
-    for (size_t k = 0; k < n; ++k)
-      if (!plain_dvec3(v[k], s.vertices[k])) s.vertices[k] = read_dvec3(v[k], element(at("vertices"), k));
+      fail(vpath, "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
+    for (size_t k = 0; k < n; ++k) s.vertices[k] = read_dvec3(v[k], element(vpath, k));
   }
-  const Json& material = required_key(j, path, "material");
-  material_name = &(material.is_string() ? material.get_ref<const std::string&>() : read_string(material, at("material")));
+  material_name = &read_string(required_key(j, path, "material"), member(path, "material"));
   return s;
 }
 
