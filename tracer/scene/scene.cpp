@@ -287,7 +287,6 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
   env.present = env.map->power_weight() > 0.0;
 }
 
-// Materials and the material features of the scene.
 // The scene features that follow from its compiled materials.
 void note_material_features(Scene& s) {
   s.features.lambertian_only = std::all_of(s.materials.begin(), s.materials.end(), is_lambertian);
