@@ -240,7 +240,7 @@ void check_estimator(Estimator est, int spp, int b, double mean_tol, double max_
 }  // namespace
 
 TEST_CASE("analytic irradiance: cornell, 1 bounce, mis equals Lambert's formula on the upper back wall per pixel "
-          "and in the mean (0.1 %); the ceiling is exactly 0") {
+          "and in the mean (0.1 %), the ceiling is exactly 0") {
   check_estimator(Estimator::Mis, 2048, 1, 1e-3, 2e-4, 20261123, true);
 }
 

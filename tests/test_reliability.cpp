@@ -179,7 +179,8 @@ TEST_CASE("cli: bad option values are refused with the flag and the valid range 
     const char* args;
     const char* message;
   };
-  const Case cases[] = {
+  const std::string render = "render -q --spp 1 --width 8 --height 8 --png /dev/null ";
+  const Case render_cases[] = {
       {"--time nan", "--time: must be a finite number in [0.001, 1e+07], not 'nan'"},
       {"--time 1e-300", "--time: must be a finite number in [0.001, 1e+07], not '1e-300'"},
       {"--target-relmse nan", "--target-relmse: must be a finite number in [1e-12, 1e+06], not 'nan'"},
@@ -188,9 +189,31 @@ TEST_CASE("cli: bad option values are refused with the flag and the valid range 
       {"--width 32.0", "--width: must be a whole number in [1, 16384], not '32.0'"},
       {"--threads 2000", "--threads: must be a whole number in [0, 1024], not '2000'"},
   };
-  for (const Case& c : cases) {
+  for (const Case& c : render_cases) {
     INFO(c.args);
-    const Run r = run(std::string("render -q --spp 1 --width 8 --height 8 --png /dev/null ") + c.args);
+    const Run r = run(render + c.args);
+    CHECK(r.status == 2);
+    CHECK(r.err.find(c.message) != std::string::npos);
+  }
+  // The other commands: options are checked before anything starts (the viewer needs no display to refuse).
+  const Case other_cases[] = {
+      {"view --time nan", "--time: must be a finite number in [0.001, 1e+07], not 'nan'"},
+      {"view --exposure inf", "--exposure: must be a finite number in [-64, 64], not 'inf'"},
+      {"view --seconds -1", "--seconds: must be a finite number in [0, 1e+07], not '-1'"},
+      {"view --spp 4.5", "--spp: must be a whole number in [1, 2147483648], not '4.5'"},
+      {"view --frames 1e3", "--frames: must be a whole number in [0, 1099511627776], not '1e3'"},
+      {"view --max-fps nan", "--max-fps: must be a finite number in [0, 10000], not 'nan'"},
+      {"bench --max-seconds nan", "--max-seconds: must be a finite number in [0.001, 1e+06], not 'nan'"},
+      {"bench --threads 4096", "--threads: must be a whole number in [0, 1024], not '4096'"},
+      {"bench --reference-spp 8", "--reference-spp: must be a whole number in [16, 1073741824], not '8'"},
+      {"compare a.pfm b.pfm --downsample 2.0", "--downsample: must be a whole number in [1, 64], not '2.0'"},
+      {"stress --soak inf", "--soak: must be a finite number in [1, 1e+06], not 'inf'"},
+      {"stress --soak-seed -1", "--soak-seed: must be a whole number in [0, 18446744073709551615], not '-1'"},
+      {"stress --threads 1e9", "--threads: must be a whole number in [0, 1024], not '1e9'"},
+  };
+  for (const Case& c : other_cases) {
+    INFO(c.args);
+    const Run r = run_script("env -u DISPLAY -u WAYLAND_DISPLAY \"$PT\" " + std::string(c.args));
     CHECK(r.status == 2);
     CHECK(r.err.find(c.message) != std::string::npos);
   }
@@ -219,7 +242,7 @@ TEST_CASE("cli: outputs are checked before rendering: the input scene, duplicate
   CHECK(slurp(dir / "good.pfm") == "earlier");
 }
 
-TEST_CASE("cli: a write that fails at the end (file size limit) is reported; the other output is written") {
+TEST_CASE("cli: a write that fails at the end (file size limit) is reported, the other output is written") {
   TempDir dir("fsize");
   put(dir / "old.pfm", "the earlier render");
   // ulimit -f 8: files of at most 4 KiB. The 32×32 PFM (12 KiB) fails with EFBIG; the PNG (< 4 KiB) is written.
@@ -263,7 +286,29 @@ TEST_CASE("cli: a film larger than the memory budget is refused before rendering
   CHECK(dir.names().empty());
 }
 
-TEST_CASE("cli: SIGINT stops a render and writes the image so far; a second signal exits at once") {
+TEST_CASE("cli: compare checks PFM headers against the file size and the memory budget before allocating") {
+  // A bogus header asked for 51 GB and aborted in the allocator.
+  TempDir dir("compare-header");
+  put(dir / "bogus.pfm", std::string("PF\n60000 60000\n-1\n") + std::string(64, '\0'));
+  put(dir / "ok.pfm", std::string("PF\n1 1\n-1\n") + std::string(12, '\0'));
+  Run r = run("compare " + (dir / "bogus.pfm") + " " + (dir / "ok.pfm"));
+  CHECK(r.status == 2);
+  CHECK(r.err.find("error: " + (dir / "bogus.pfm") + ": truncated PFM data") != std::string::npos);
+  // A consistent header whose image the machine cannot hold: a sparse 16384² grey PFM (1 GiB of data, 4 GiB
+  // once read and expanded to RGB) under a 2 GB address-space limit is refused with the figures.
+  {
+    std::ofstream big(dir / "big.pfm", std::ios::binary);
+    big << "Pf\n16384 16384\n-1\n";
+  }
+  fs::resize_file(dir / "big.pfm", fs::file_size(dir / "big.pfm") + 16384ull * 16384 * 4);
+  r = run_script("ulimit -v 2000000; exec \"$PT\" compare " + (dir / "big.pfm") + " " + (dir / "ok.pfm"));
+  INFO(r.err);
+  CHECK(r.status == 2);
+  CHECK(r.err.find("error: " + (dir / "big.pfm") + ": reading this 16384x16384 image needs about 4.0 GiB; this "
+                   "machine allows 1.4 GiB") != std::string::npos);
+}
+
+TEST_CASE("cli: SIGINT stops a render and writes the image so far, a second signal exits at once") {
   TempDir dir("signal");
   Run r = run_script("\"$PT\" render --spp 100000000 --width 64 --height 64 --pfm " + (dir / "a.pfm") +
                      " & pid=$!; sleep 1.5; kill -INT $pid; wait $pid");
@@ -371,7 +416,7 @@ TEST_CASE("scene loading is linear: 100,000 materials and 1,000,000 shapes load 
   CHECK(seconds < 30.0);
 }
 
-TEST_CASE("representable ranges: the image holds across scales up to the limits; beyond them the value is named") {
+TEST_CASE("representable ranges: the image holds across scales up to the limits, beyond them the value is named") {
   // The same paths (same seed) through the Cornell box scaled by 1e-9 and by 5e8 (farthest point 7e11 from the
   // camera) give the image at scale 1 to float rounding. Before the limits, scale 1e10 rendered a darker image
   // and 1e11 a black one with exit 0 (overflow in the watertight test); now such scenes are refused.
@@ -394,8 +439,9 @@ TEST_CASE("representable ranges: the image holds across scales up to the limits;
   auto refusal = [](const SceneDesc& s) { return validate_scene(s); };
   CHECK(refusal(transformed(base, 1e10, DVec3(0.0))).find("from the camera, beyond the 1e+12") != std::string::npos);
   CHECK(refusal(transformed(base, 1e-14, DVec3(0.0))).find("shapes: the whole scene lies within 1.41e-11") == 0);
-  // Far from the origin is fine when the camera is there too (geometry is camera-relative)...
-  CHECK(refusal(transformed(base, 1.0, DVec3(1e200, 0, 0))) == "");
+  // Far from the origin is fine when the camera is there too (geometry is camera-relative; at 1e9 doubles still
+  // resolve the box to 1e-7)...
+  CHECK(refusal(transformed(base, 1.0, DVec3(1e9, -1e9, 1e9))) == "");
   // ...but a triangle at 1e200 seen from near the origin is refused for its distance, not called "degenerate".
   SceneDesc far = base;
   for (DVec3& v : far.shapes[0].vertices) v *= 1e200;
@@ -413,7 +459,8 @@ TEST_CASE("representable ranges: the image holds across scales up to the limits;
   CHECK(refusal(bright) == "");
   // The scene file reader says the same, with the file and the key the file used.
   std::string text(builtin_scene_json("cornell").value());
-  text.replace(text.find("\"background\": [0, 0, 0]"), 22, "\"background\": [1e31, 0, 0]");
+  const std::string black = "\"background\": [0, 0, 0]";
+  text.replace(text.find(black), black.size(), "\"background\": [1e31, 0, 0]");
   try {
     parse_scene(text, "bright.json");
     FAIL("a background of 1e31 was accepted");

@@ -487,7 +487,7 @@ TEST_CASE("edits in place: materials and environment without recompiling geometr
   CHECK_THROWS_AS(update_scene_appearance(*edited, after, moved), std::invalid_argument);
 }
 
-TEST_CASE("edits in place: a camera move keeps the geometry and renders like a fresh compile; a far move refuses") {
+TEST_CASE("edits in place: a camera move keeps the geometry and renders like a fresh compile, a far move refuses") {
   SceneDesc before = load_scene("cornell");
   before.width = before.height = 32;
   before.render.sampler = SamplerType::Independent;

@@ -132,7 +132,7 @@ TEST_CASE("session: an edit restarts accumulation at once and the new image show
   for (int c = 0; c < 3; ++c) CHECK(a[c] > b[c] * 1.1);
 }
 
-TEST_CASE("session: typed edits and render settings apply in place; the image is that of the edited scene") {
+TEST_CASE("session: typed edits and render settings apply in place, the image is that of the edited scene") {
   SceneDesc desc = small_cornell();
   RenderSession session(desc, settings_with(6));
   REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));

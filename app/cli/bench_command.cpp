@@ -4,6 +4,7 @@
 // summary.md (time to relMSE 1e-2 and 1e-3, efficiency, throughput, thread scaling, interactive pass times).
 #include "cli/bench_command.h"
 
+#include "cli/option_checks.h"
 #include "cli/ray_throughput.h"
 
 #include <CLI/CLI.hpp>
@@ -48,11 +49,11 @@ void add_bench_command(CLI::App& app, BenchOptions& o) {
       ->check(CLI::IsMember({"independent", "sobol", "independent+adaptive", "sobol+adaptive"}))
       ->capture_default_str();
   b->add_option("--max-seconds", o.max_seconds, "Largest wall-clock budget (budgets double from 0.25 s)")
-      ->check(CLI::PositiveNumber)
+      ->check(finite_in(1e-3, 1e6))
       ->capture_default_str();
-  b->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")->capture_default_str();
+  b->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")->check(whole_in(0, 1024))->capture_default_str();
   b->add_option("--reference-spp", o.reference_spp, "Samples per pixel of a rendered (cached) reference")
-      ->check(CLI::Range(16LL, 1LL << 30))
+      ->check(whole_in(16, 1LL << 30))
       ->capture_default_str();
 }
 

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "cli/option_checks.h"
 #include "render/metrics.h"
 
 namespace pt {
@@ -13,7 +14,7 @@ void add_compare_command(CLI::App& app, CompareOptions& o) {
   c->add_option("reference", o.reference, "Reference image (PFM), same size, or larger by --downsample")->required();
   c->add_option("--downsample", o.downsample,
                 "Block-average the reference by this integer factor first (for references stored at higher resolution)")
-      ->check(CLI::Range(1, 64))
+      ->check(whole_in(1, 64))
       ->capture_default_str();
 }
 

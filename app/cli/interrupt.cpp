@@ -47,4 +47,8 @@ std::atomic<bool>& InterruptScope::stop_flag() { return g_stop; }
 
 int InterruptScope::signal_received() const { return g_signal.load(); }
 
+const char* InterruptScope::signal_name(int sig) {
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
+}
+
 }  // namespace pt

@@ -236,7 +236,7 @@ int run_render(const RenderOptions& o) {
   const double seconds = elapsed();
   if (const int sig = interrupts.signal_received())
     std::fprintf(stderr, "interrupted by %s: stopping, writing the image from the samples so far\n",
-                 sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal");
+                 InterruptScope::signal_name(sig));
 
   std::printf("%s %dx%d %s/%s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
               "%llu non-finite samples rejected\n",

@@ -1,4 +1,5 @@
 #include "cli/stress_command.h"
+#include "cli/option_checks.h"
 #include "cli/stress_soak.h"
 #include "io/safe_file.h"
 
@@ -25,13 +26,13 @@ void add_stress_command(CLI::App& app, StressOptions& o) {
   s->add_option("--csv", o.csv, "Also write the table as CSV to this file");
   s->add_option("--only", o.only, "Run only scenarios whose name contains this text (e.g. light-tight, furnace)");
   s->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
-      ->check(CLI::Range(0, 1024))
+      ->check(whole_in(0, 1024))
       ->capture_default_str();
   s->add_option("--soak", o.soak_seconds,
                 "Instead of the matrix: drive a render session with random scenes, edits and restarts for this many "
                 "seconds, checking every frame and the memory (docs/reliability.md)")
-      ->check(CLI::Range(1.0, 1e6));
-  s->add_option("--soak-seed", o.soak_seed, "Seed of the soak's random actions")->capture_default_str();
+      ->check(finite_in(1, 1e6));
+  s->add_option("--soak-seed", o.soak_seed, "Seed of the soak's random actions")->check(whole_u64())->capture_default_str();
   s->footer(
       "Verdicts: PASS / FAIL for required checks; 'holds' / 'breaks' for probes beyond the required range (they never\n"
       "fail the run); XFAIL / XPASS for checks of a known, reported tracer bug that failed / passed anyway (they never\n"

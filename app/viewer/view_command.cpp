@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/option_checks.h"
 #include "cli/scene_arg.h"
 #include "viewer/viewer_window.h"
 
@@ -12,13 +13,13 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("scene", o.scene, "Scene: a built-in name (cornell, cornell-spheres, shadertoy) or a .json file path")
       ->capture_default_str();
   v->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
-      ->check(CLI::Range(0, 1024))
+      ->check(whole_in(0, 1024))
       ->capture_default_str();
-  v->add_option("--spp", o.spp, "Stop accumulating at N samples per pixel")->check(CLI::Range(1LL, 1LL << 31));
-  v->add_option("--time", o.time_seconds, "Stop accumulating after this many seconds")->check(CLI::PositiveNumber);
+  v->add_option("--spp", o.spp, "Stop accumulating at N samples per pixel")->check(whole_in(1, 1LL << 31));
+  v->add_option("--time", o.time_seconds, "Stop accumulating after this many seconds")->check(finite_in(1e-3, 1e7));
   v->add_option("--target-relmse", o.target_relmse, "Stop when the film's estimated relMSE falls to E (from 16 spp on)")
-      ->check(CLI::PositiveNumber);
-  v->add_option("--exposure", o.exposure, "Display exposure in EV stops")->capture_default_str();
+      ->check(finite_in(1e-12, 1e6));
+  v->add_option("--exposure", o.exposure, "Display exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
   v->add_option("--tonemap", o.tonemap, "Display tone map: clamp | reinhard | aces")
       ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
       ->capture_default_str();
@@ -28,12 +29,12 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("--output-dir", o.output_dir, "Folder for saved images (S key)")->capture_default_str();
   v->add_option("--preview-divisor", o.preview_divisor,
                 "Resolution divisor of the first pass after each change; 0 = automatic, 1 = off")
-      ->check(CLI::Range(0, 64))
+      ->check(whole_in(0, 64))
       ->capture_default_str();
   v->add_option("--seconds", o.seconds, "Quit after S seconds (0 = when the window is closed)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_in(0, 1e7));
   v->add_option("--frames", o.frames, "Quit after N UI frames, drawn continuously (0 = when the window is closed)")
-      ->check(CLI::Range(0LL, 1LL << 40))
+      ->check(whole_in(0, 1LL << 40))
       ->capture_default_str();
   v->add_option("--screenshot", o.screenshot,
                 "Write the window's last frame (panels included) to this PNG when quitting; with --frames, no "
@@ -42,9 +43,9 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("--bench-edits", o.bench_edits,
                 "Every S seconds make an edit (orbit the camera / change the first material's albedo) to time "
                 "edit-to-image latency")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_in(0, 1e6));
   v->add_option("--max-fps", o.max_fps, "UI frame cap when the display does not sync; 0 = none")
-      ->check(CLI::NonNegativeNumber)
+      ->check(finite_in(0, 1e4))
       ->capture_default_str();
   v->add_flag("--hide-ui", o.hide_ui, "Start with the panels hidden (Tab shows them)");
   v->add_flag("--continuous", o.continuous,
@@ -53,7 +54,9 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->footer(
       "Mouse: left drag orbit, middle or shift+left drag pan, wheel dolly, right drag look; right held + WASD/QE\n"
       "fly. Keys: R reset, P pause, S save PNG+PFM, Tab panels, F1 help, Esc quit. See docs/viewer.md.\n"
-      "Exit status: 0 ok, 1 cannot write the screenshot, 2 invalid scene or options, or no display.");
+      "Ctrl-C or SIGTERM saves the image as S does, then quits; a second one quits at once without saving.\n"
+      "Exit status: 0 ok, 1 cannot write the screenshot (or, on Ctrl-C, the image), 2 invalid scene or options, or\n"
+      "no display.");
 }
 
 int run_view(const ViewOptions& o) {

@@ -8,12 +8,12 @@
 
 #include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "cli/interrupt.h"
 #include "viewer/frame_stats.h"
 #include "viewer/gl_api.h"
 #include "viewer/gl_presenter.h"
@@ -33,10 +33,6 @@ double ms_between(Clock::time_point a, Clock::time_point b) { return std::chrono
 std::string g_glfw_error;  // GLFW reports failures through a callback; kept for the error message
 // Bumped by every input event (our callbacks are chained by ImGui's): an idle viewer sleeps until it changes.
 std::atomic<unsigned> g_input_events{0};
-
-// Ctrl-C / SIGTERM close the window normally, so --stats still prints and the session stops cleanly.
-volatile std::sig_atomic_t g_interrupted = 0;
-void on_signal(int) { g_interrupted = 1; }
 
 void on_glfw_error(int, const char* description) { g_glfw_error = description ? description : "unknown error"; }
 void on_cursor(GLFWwindow*, double, double) { ++g_input_events; }
@@ -159,7 +155,9 @@ bool input_held(const ImGuiIO& io) {
   return false;
 }
 
-int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o) {
+// Ctrl-C / SIGTERM: save the image so far (as the S key does), then close the window normally, so --stats still
+// prints and the session stops cleanly. A second signal exits at once (InterruptScope).
+int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const InterruptScope& interrupts) {
   GlPresenter presenter;  // throws GlError
   ImGuiIO& io = ImGui::GetIO();
   DisplayFrame front;
@@ -178,14 +176,21 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o) {
   int bench_index = 0;
   double smoothed_ms = 0.0, image_height = 1.0;
   int rc = 0;
+  bool saving_on_signal = false;
 
   for (;;) {
     const Clock::time_point start = Clock::now();
     glfwPollEvents();
     // Quitting draws one last frame when a screenshot is wanted (the back buffer is undefined after a swap).
-    const bool quitting = glfwWindowShouldClose(window) || model.quit_requested || g_interrupted ||
+    const int sig = interrupts.signal_received();
+    if (sig != 0 && !saving_on_signal) {
+      saving_on_signal = true;
+      model.save_requested = true;
+      std::fprintf(stderr, "interrupted by %s: saving the image so far, then quitting\n", InterruptScope::signal_name(sig));
+    }
+    const bool quitting = glfwWindowShouldClose(window) || model.quit_requested || sig != 0 ||
                           (o.seconds > 0.0 && ms_between(t0, start) >= o.seconds * 1e3);
-    if (quitting && o.screenshot.empty()) break;
+    if (quitting && o.screenshot.empty() && !model.save_requested) break;
     const unsigned events = g_input_events.load();
     if (events != seen_events) active_frames = 3;
     seen_events = events;
@@ -246,8 +251,12 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o) {
       if (model.save_requested) {
         model.save_requested = false;
         presenter.read_image(model.present, save_pixels);
-        if (auto stem = model.save_image(save_pixels, front))
+        if (auto stem = model.save_image(save_pixels, front)) {
           std::printf("wrote %s.png and %s.pfm\n", stem->c_str(), stem->c_str());
+        } else if (saving_on_signal) {
+          std::fprintf(stderr, "error: %s\n", model.status().c_str());
+          rc = 1;
+        }
       }
 
       ++frame;
@@ -296,8 +305,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o) {
 
 int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const SessionSettings& settings) {
   glfwSetErrorCallback(on_glfw_error);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  const InterruptScope interrupts;
   if (!glfwInit()) {
     std::fprintf(stderr,
                  "error: `view` needs a display and none is available (%s).\n"
@@ -356,7 +364,7 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
                                                  : ViewMode::Colour;
       model.output_dir = o.output_dir;
       model.ui_visible = !o.hide_ui;
-      rc = run_loop(window, model, o);
+      rc = run_loop(window, model, o, interrupts);
     } catch (const GlError& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
       rc = 2;

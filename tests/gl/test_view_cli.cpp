@@ -76,3 +76,38 @@ TEST_CASE("view cli: under Xvfb the window shows the Cornell box (red left, gree
   CHECK(red_x / reds < 0.3 * w);
   std::filesystem::remove(shot);
 }
+
+TEST_CASE("view cli: Ctrl-C saves the image so far (PNG and PFM, as the S key does) and quits with status 0") {
+  if (!have_xvfb_run()) {
+    MESSAGE("xvfb-run not found: skipping the windowed interrupt test");
+    return;
+  }
+  // Before, SIGINT just closed the window and the accumulated image was lost.
+  const std::filesystem::path dir = "view_sigint_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  // The viewer runs in the background inside xvfb-run; after 6 s (the first images are there well before) it is
+  // sent SIGINT. --spp 16 keeps the render short on a loaded machine; the accumulation is then done and shown.
+  const std::string script =
+      "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 6; kill -INT $pid; wait $pid";
+  const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" + script + "'",
+                    "view --spp 16 --threads 2 --output-dir " + dir.string());
+  INFO(r.out << r.err);
+  CHECK(r.status == 0);
+  CHECK(r.err.find("interrupted by SIGINT: saving the image so far, then quitting") != std::string::npos);
+  CHECK(r.out.find("wrote " + (dir / "cornell-0001").string() + ".png and") != std::string::npos);
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load((dir / "cornell-0001.png").c_str(), &w, &h, &n, 3);
+  REQUIRE(px != nullptr);
+  stbi_image_free(px);
+  CHECK(w == 512);
+  CHECK(h == 512);
+  std::ifstream pfm(dir / "cornell-0001.pfm", std::ios::binary);
+  std::string magic;
+  int pw = 0, ph = 0;
+  pfm >> magic >> pw >> ph;
+  CHECK(magic == "PF");
+  CHECK(pw == 512);
+  CHECK(ph == 512);
+  std::filesystem::remove_all(dir);
+}

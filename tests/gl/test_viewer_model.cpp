@@ -242,7 +242,7 @@ TEST_CASE("viewer: saved images never overwrite earlier ones, load errors are sh
   CHECK(!model.status_is_error());
 }
 
-TEST_CASE("viewer: a material's type and roughness change live; a rough metal differs from a smooth one") {
+TEST_CASE("viewer: a material's type and roughness change live, a rough metal differs from a smooth one") {
   ViewerModel model(small_cornell(), "cornell", stop_at(8));
   const size_t white = material_index(model, "white");
   MaterialDesc m = model.scene().materials[white];
@@ -267,7 +267,7 @@ TEST_CASE("viewer: a material's type and roughness change live; a rough metal di
   CHECK(model.scene().materials[white].roughness == 0.8f);
 }
 
-TEST_CASE("viewer: the environment switches between constant and sky live; a missing map is refused") {
+TEST_CASE("viewer: the environment switches between constant and sky live, a missing map is refused") {
   ViewerModel model(small_cornell(), "cornell", stop_at(4));
   const DisplayFrame closed = final_frame(model);
   // The box is closed at the back but open towards the camera (z < 0): a bright constant environment lights it.

@@ -1,5 +1,6 @@
 #include "io/image_io.h"
 
+#include "core/memory_budget.h"
 #include "io/safe_file.h"
 
 #include <algorithm>
@@ -77,6 +78,12 @@ Image read_pfm(const std::string& path) {
   if (!in || data_start < 0 || static_cast<unsigned long long>(file_end - data_start) < count * sizeof(float))
     throw ImageError(path + ": truncated PFM data");
   in.seekg(data_start);
+  // The file's floats plus the RGB image (three times the file for a grey "Pf"): refused with the figure when
+  // the machine cannot hold them, rather than an abort in the allocator.
+  const uint64_t need = (count + 3ull * w * h) * sizeof(float), budget = memory_budget_bytes();
+  if (need > budget)
+    throw ImageError(path + ": reading this " + std::to_string(w) + "x" + std::to_string(h) + " image needs about " +
+                     format_bytes(need) + "; this machine allows " + format_bytes(budget));
   std::vector<float> data(count);
   in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size() * sizeof(float)));
   if (!in) throw ImageError(path + ": truncated PFM data");

@@ -145,6 +145,8 @@ std::string validate_scene(const SceneDesc& s) {
   const DVec3 eye = s.camera.position;
   const std::string too_far = " from the camera, beyond the " + short_number(kMaxCameraDistance) +
                               " the tracer represents (move the camera closer or scale the scene down)";
+  // Distances by hypot, which does not overflow: a vertex at 1e200 is 1e200 away, not "inf".
+  const auto distance = [](DVec3 a, DVec3 b) { return std::hypot(a.x - b.x, a.y - b.y, a.z - b.z); };
   double farthest = 0.0;  // of any point of any shape from the camera
   for (size_t i = 0; i < s.shapes.size(); ++i) {
     const ShapeDesc& sh = s.shapes[i];
@@ -155,7 +157,7 @@ std::string validate_scene(const SceneDesc& s) {
     if (sh.type == ShapeType::Sphere) {
       if (!finite3(sh.center)) return path() + ".center: must be finite";
       if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return path() + ".radius: must be finite and > 0";
-      const double d = glm::length(sh.center - eye) + sh.radius;
+      const double d = distance(sh.center, eye) + sh.radius;
       if (!(d <= kMaxCameraDistance)) return path() + ".radius: the sphere reaches " + short_number(d) + too_far;
       farthest = std::max(farthest, d);
       continue;
@@ -164,7 +166,7 @@ std::string validate_scene(const SceneDesc& s) {
     for (int k = 0; k < n; ++k) {
       const auto vk = [&] { return path() + ".vertices[" + std::to_string(k) + "]"; };
       if (!finite3(sh.vertices[k])) return vk() + ": must be finite";
-      const double d = glm::length(sh.vertices[k] - eye);
+      const double d = distance(sh.vertices[k], eye);
       if (!(d <= kMaxCameraDistance)) return vk() + ": " + short_number(d) + too_far;
       farthest = std::max(farthest, d);
     }
