@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include "geometry/geometry.h"
+#include "geometry/polygon_bvh.h"
 #include "core/rng.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -233,4 +234,164 @@ TEST_CASE("SIMD polygon kernels agree bit for bit with the scalar tests") {
     }
   }
   CHECK(hits > 10000);
+}
+
+namespace {
+
+// A polygon soup as the scene stores it (a triangle repeats vertex a as its fourth vertex).
+struct Soup {
+  std::vector<Vec3> v[4];
+  std::vector<uint8_t> triangle;
+  void add_triangle(Vec3 a, Vec3 b, Vec3 c) { add(a, b, c, a, true); }
+  void add_parallelogram(Vec3 a, Vec3 b, Vec3 d) { add(a, b, b + d - a, d, false); }
+  void add(Vec3 a, Vec3 b, Vec3 c, Vec3 d, bool tri) {
+    v[0].push_back(a), v[1].push_back(b), v[2].push_back(c), v[3].push_back(d);
+    triangle.push_back(tri);
+  }
+  bool test(uint32_t i, Vec3 o, const RayShear& s, float t_max, PolygonHit& h) const {
+    if (triangle[i]) return intersect_triangle(v[0][i], v[1][i], v[2][i], o, s, t_max, h);
+    return intersect_quad(v[0][i], v[1][i], v[2][i], v[3][i], o, s, t_max, h);
+  }
+};
+
+// Checks closest and any-hit queries through the hierarchy against a loop over the scalar tests, ray by ray:
+// the same distance bit for bit and the same polygon (or, on an exact tie, one hit at that distance).
+// Every third ray skips a polygon (as a ray leaving a surface does) unless `skips` is false.
+int check_bvh_against_brute_force(const Soup& soup, const std::vector<std::pair<Vec3, Vec3>>& rays, bool skips = true) {
+  const PolygonBvh bvh = build_polygon_bvh(soup.v, soup.triangle);
+  REQUIRE(!bvh.empty());
+  // Every polygon sits in exactly one lane.
+  for (uint32_t p = 0; p < soup.triangle.size(); ++p) REQUIRE(bvh.lane_polygon[bvh.polygon_lane[p]] == p);
+  const uint32_t n = static_cast<uint32_t>(soup.triangle.size());
+  int hits = 0;
+  for (size_t r = 0; r < rays.size(); ++r) {
+    const auto [o, d] = rays[r];
+    const RayShear shear(d);
+    const uint32_t skip = skips && r % 3 == 0 ? static_cast<uint32_t>(r * 7919 % n) : ~0u;
+    float best = kInfinity;
+    uint32_t best_id = ~0u;
+    for (uint32_t p = 0; p < n; ++p) {
+      PolygonHit h;
+      if (p != skip && soup.test(p, o, shear, best, h) && h.t < best) best = h.t, best_id = p;
+    }
+    const auto scalar = [&](uint32_t i, float tm, PolygonHit& h) { return soup.test(i, o, shear, tm, h); };
+    float t = kInfinity;
+    uint32_t id = ~0u;
+    const bool found = closest_polygon_bvh(bvh, o, d, shear, skip, t, id, scalar);
+    INFO("ray " << r << " o " << o.x << " " << o.y << " " << o.z << " d " << d.x << " " << d.y << " " << d.z);
+    REQUIRE(found == (best_id != ~0u));
+    if (!found) continue;
+    ++hits;
+    CHECK(t == best);
+    if (id != best_id) {  // a tie: the hierarchy's polygon must hit at the same distance
+      PolygonHit h;
+      CHECK((id != skip && soup.test(id, o, shear, kInfinity, h) && h.t == best));
+    }
+    CHECK_FALSE(any_polygon_bvh(bvh, o, d, shear, skip, ~0u, best, scalar));
+    CHECK(any_polygon_bvh(bvh, o, d, shear, skip, ~0u, std::nextafter(best, kInfinity), scalar));
+  }
+  return hits;
+}
+
+Vec3 random_in(Pcg32& rng, float lo, float hi) {
+  return Vec3(lo + (hi - lo) * rng.next_float(), lo + (hi - lo) * rng.next_float(), lo + (hi - lo) * rng.next_float());
+}
+
+}  // namespace
+
+TEST_CASE("BVH: closest and any hit equal brute force bit for bit (soups, a closed mesh, degenerate layouts)") {
+  Pcg32 rng(20261123, 3);
+  std::vector<std::pair<Vec3, Vec3>> rays;
+  auto random_rays = [&](int count, float lo, float hi) {
+    rays.clear();
+    for (int i = 0; i < count; ++i) {
+      Vec3 d = random_in(rng, -1, 1);
+      // Every eighth ray axis-aligned (two components exactly 0), from an origin on a box plane (coordinate 0).
+      if (i % 8 == 0) d = Vec3(0), d[i % 3] = i % 16 == 0 ? 1.f : -1.f;
+      Vec3 o = random_in(rng, lo, hi);
+      if (i % 8 == 0) o[(i + 1) % 3] = 0.f;
+      rays.push_back({o, d});
+    }
+  };
+  SUBCASE("3000 random triangles and parallelograms") {
+    Soup soup;
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 a = random_in(rng, -10, 10), b = a + random_in(rng, -1, 1), c = a + random_in(rng, -1, 1);
+      if (i % 2) soup.add_triangle(a, b, c);
+      else soup.add_parallelogram(a, b, c);
+    }
+    random_rays(20000, -12, 12);
+    CHECK(check_bvh_against_brute_force(soup, rays) > 5000);
+  }
+  SUBCASE("a closed triangulated sphere seen from inside: every ray hits (watertight through the hierarchy)") {
+    Soup soup;
+    const int rings = 40, segments = 80;
+    auto point = [&](int i, int j) {
+      const float th = glm::pi<float>() * i / rings, ph = 2 * glm::pi<float>() * (j % segments) / segments;
+      return Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * 3.f;
+    };
+    for (int i = 0; i < rings; ++i)
+      for (int j = 0; j < segments; ++j) {
+        if (i > 0) soup.add_triangle(point(i, j), point(i, j + 1), point(i + 1, j));
+        if (i < rings - 1) soup.add_triangle(point(i, j + 1), point(i + 1, j + 1), point(i + 1, j));
+      }
+    random_rays(20000, -1, 1);
+    // Rays through the shared vertices and edges too: aimed exactly at vertices of the mesh.
+    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), point(1 + k % (rings - 1), k)});
+    CHECK(check_bvh_against_brute_force(soup, rays, false) == static_cast<int>(rays.size()));
+    CHECK(check_bvh_against_brute_force(soup, rays) > 19000);
+  }
+  SUBCASE("degenerate layouts: 300 polygons with one centroid, and axis-aligned flat polygons in one plane") {
+    Soup soup;
+    for (int i = 0; i < 300; ++i) {
+      const float a = 0.01f * i;
+      const Vec3 u(std::cos(a), std::sin(a), 0.3f), w(-std::sin(a), std::cos(a), -0.2f);
+      soup.add_triangle(u, w - u, -w);  // centroid 0 for every one
+    }
+    for (int i = 0; i < 30; ++i)
+      for (int j = 0; j < 30; ++j)  // a 30×30 grid of unit squares in the plane z = 0 (flat boxes)
+        soup.add_parallelogram(Vec3(i - 15, j - 15, 0), Vec3(i - 14, j - 15, 0), Vec3(i - 15, j - 14, 0));
+    random_rays(20000, -4, 4);
+    CHECK(check_bvh_against_brute_force(soup, rays) > 5000);
+  }
+}
+
+TEST_CASE("BVH: a scene above the brute-force limit answers its queries as the scalar loop does") {
+  // The Cornell box with 400 small triangles inside: compiled with a hierarchy, queried through Scene.
+  SceneDesc desc = load_scene("cornell");
+  Pcg32 rng(7, 7);
+  for (int i = 0; i < 400; ++i) {
+    ShapeDesc sh;
+    sh.type = ShapeType::Triangle;
+    sh.material = 0;
+    const DVec3 a(rng.next_float() * 500, rng.next_float() * 500, rng.next_float() * 500);
+    sh.vertices[0] = a;
+    sh.vertices[1] = a + DVec3(rng.next_float() * 40, rng.next_float() * 40, 0);
+    sh.vertices[2] = a + DVec3(0, rng.next_float() * 40, rng.next_float() * 40);
+    desc.shapes.push_back(sh);
+  }
+  const auto scene = compile_scene(desc);
+  REQUIRE(!scene->polygon_bvh.empty());
+  CHECK(scene->polygon_lanes.count == 0);
+  const uint32_t n = static_cast<uint32_t>(scene->polygons.size());
+  int hits = 0;
+  for (int i = 0; i < 5000; ++i) {
+    const Ray ray = scene->camera.generate_ray(rng.next_float() * scene->width, rng.next_float() * scene->height);
+    const RayShear shear(ray.d);
+    float best = kInfinity;
+    uint32_t best_id = ~0u;
+    for (uint32_t p = 0; p < n; ++p) {
+      PolygonHit h;
+      if (intersect_polygon(scene->polygons, p, ray.o, shear, best, h) && h.t < best) best = h.t, best_id = p;
+    }
+    Hit hit;
+    REQUIRE(scene->intersect(ray, kInfinity, ~0u, hit) == (best_id != ~0u));
+    if (best_id == ~0u) continue;
+    ++hits;
+    CHECK(hit.t == best);
+    CHECK(hit.prim == best_id);
+    CHECK_FALSE(scene->occluded(ray, best, ~0u, ~0u));
+    CHECK(scene->occluded(ray, std::nextafter(best, kInfinity), ~0u, ~0u));
+  }
+  CHECK(hits > 4000);
 }

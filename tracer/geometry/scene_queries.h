@@ -12,9 +12,11 @@ inline bool intersect_scene(const Scene& s, const Ray& ray, float t_max, uint32_
   if constexpr ((F & kFeaturePolygons) != 0) {
     const RayShear shear(ray.d);
     uint32_t id = 0;
-    if (closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, [&](uint32_t i, float tm, PolygonHit& h) {
-          return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
-        })) {
+    const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
+      return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
+    };
+    if (s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
+                              : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test)) {
       hit = {t_max, id};
       found = true;
     }
@@ -38,9 +40,11 @@ template <uint32_t F>
 inline bool occluded_scene(const Scene& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
   if constexpr ((F & kFeaturePolygons) != 0) {
     const RayShear shear(ray.d);
-    if (any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, [&](uint32_t i, float tm, PolygonHit& h) {
-          return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
-        }))
+    const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
+      return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
+    };
+    if (s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
+                              : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
       return true;
   }
   if constexpr ((F & kFeatureSpheres) != 0) {

@@ -416,7 +416,10 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
       s.spheres.material.push_back(mat);
     }
   }
-  s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
+  if (s.polygons.size() >= kBvhMinPolygons)
+    s.polygon_bvh = build_polygon_bvh(s.polygons.v, s.polygons.triangle);
+  else
+    s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
   for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
   s.features.spheres = s.spheres.size() > 0;
 

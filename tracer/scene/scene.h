@@ -20,6 +20,7 @@
 #include "scene/camera.h"
 #include "geometry/geometry.h"
 #include "scene/scene_desc.h"
+#include "geometry/polygon_bvh.h"
 #include "geometry/simd_polygons.h"
 #include "lights/environment_map.h"
 #include "materials/material.h"
@@ -131,7 +132,10 @@ class Scene {
   std::vector<Material> materials;
   PolygonSoA polygons;
   SphereSoA spheres;
-  PolygonLanes polygon_lanes;  // the same vertices, padded SoA for the SIMD tests
+  // The same vertices for the SIMD tests: all of them in padded SoA (brute force) when there are fewer than
+  // kBvhMinPolygons, else in the hierarchy's leaves (polygon_lanes then stays empty).
+  PolygonLanes polygon_lanes;
+  PolygonBvh polygon_bvh;
   SceneFeatures features;
 
   std::vector<Light> lights;

@@ -1,0 +1,253 @@
+#include "geometry/polygon_bvh.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <future>
+#include <numeric>
+
+namespace pt {
+
+namespace {
+
+struct Box {
+  Vec3 lo{kInfinity}, hi{-kInfinity};
+  void grow(const Box& b) {
+    lo = glm::min(lo, b.lo);
+    hi = glm::max(hi, b.hi);
+  }
+  void grow(Vec3 p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  // Half the surface area (the SAH only compares areas); 0 for an empty box.
+  double half_area() const {
+    if (!(lo.x <= hi.x)) return 0.0;
+    const DVec3 e = DVec3(hi) - DVec3(lo);
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+  }
+};
+
+// The binary tree the SAH builds, collapsed afterwards. A leaf covers order[first, first + count).
+struct BinaryNode {
+  Box box;
+  uint32_t left = 0, right = 0;  // children (inner nodes)
+  uint32_t first = 0, count = 0;  // count > 0: a leaf
+};
+
+constexpr int kBins = 32;
+// Leaves this small are never split (one 4- or 8-lane block costs about one box test).
+constexpr uint32_t kLeafAlways = 4;
+// Below this many polygons a subtree is built on the calling thread; above, its two halves run concurrently.
+constexpr uint32_t kParallelSubtree = 1u << 15;
+
+class BinaryBuilder {
+ public:
+  BinaryBuilder(const std::vector<Box>& boxes, const std::vector<Vec3>& centroids, std::vector<uint32_t>& order)
+      : boxes_(boxes), centroids_(centroids), order_(order), nodes_(2 * std::max<size_t>(order.size(), 1)) {}
+
+  uint32_t build(uint32_t first, uint32_t count, int depth) {
+    const uint32_t index = next_node_++;
+    BinaryNode& node = nodes_[index];
+    Box box, centroid_box;
+    for (uint32_t i = first; i < first + count; ++i) {
+      box.grow(boxes_[order_[i]]);
+      centroid_box.grow(centroids_[order_[i]]);
+    }
+    node.box = box;
+    const uint32_t split = choose_split(first, count, box, centroid_box, depth);
+    if (split == 0) {
+      node.first = first;
+      node.count = count;
+      return index;
+    }
+    uint32_t left, right;
+    if (count >= kParallelSubtree) {
+      auto l = std::async(std::launch::async, [&] { return build(first, split, depth + 1); });
+      right = build(first + split, count - split, depth + 1);
+      left = l.get();
+    } else {
+      left = build(first, split, depth + 1);
+      right = build(first + split, count - split, depth + 1);
+    }
+    node.left = left;
+    node.right = right;
+    return index;
+  }
+
+  std::vector<BinaryNode>& nodes() { return nodes_; }
+
+ private:
+  // Partitions order[first, first + count) and returns the size of the left part, or 0 for a leaf.
+  uint32_t choose_split(uint32_t first, uint32_t count, const Box& box, const Box& centroid_box, int depth) {
+    if (count <= kLeafAlways) return 0;
+    const Vec3 extent = centroid_box.hi - centroid_box.lo;
+    const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+    uint32_t* begin = order_.data() + first;
+    uint32_t* end = begin + count;
+    // All centroids in one point (or a runaway depth): halve by index, which bounds the depth by log2(n).
+    if (!(extent[axis] > 0.f) || depth > 48) {
+      if (count <= kBvhMaxLeaf) return 0;
+      return count / 2;
+    }
+    // Binned SAH on the widest centroid axis (Wald 2007).
+    std::array<Box, kBins> bin_box;
+    std::array<uint32_t, kBins> bin_count{};
+    const float lo = centroid_box.lo[axis];
+    const float scale = kBins * (1.f - 1e-6f) / extent[axis];
+    auto bin_of = [&](uint32_t p) {
+      return std::min(kBins - 1, static_cast<int>((centroids_[p][axis] - lo) * scale));
+    };
+    for (const uint32_t* p = begin; p != end; ++p) {
+      const int b = bin_of(*p);
+      bin_box[b].grow(boxes_[*p]);
+      ++bin_count[b];
+    }
+    // Sweep: cost of splitting after bin b = A(left)·n(left) + A(right)·n(right), relative to A(node).
+    std::array<double, kBins> right_cost{};
+    Box acc;
+    uint32_t n = 0;
+    for (int b = kBins - 1; b > 0; --b) {
+      acc.grow(bin_box[b]);
+      n += bin_count[b];
+      right_cost[b] = acc.half_area() * n;
+    }
+    double best_cost = std::numeric_limits<double>::infinity();
+    int best_bin = -1;
+    acc = Box{};
+    n = 0;
+    for (int b = 0; b < kBins - 1; ++b) {
+      acc.grow(bin_box[b]);
+      n += bin_count[b];
+      if (n == 0 || n == count) continue;
+      const double cost = acc.half_area() * n + right_cost[b + 1];
+      if (cost < best_cost) {
+        best_cost = cost;
+        best_bin = b;
+      }
+    }
+    // A leaf of up to kBvhMaxLeaf polygons is one SIMD block: keep it when splitting saves nothing (one block
+    // test against a box test plus two smaller blocks).
+    const double leaf_cost = box.half_area() * count;
+    if (count <= kBvhMaxLeaf && (best_bin < 0 || best_cost + box.half_area() >= leaf_cost)) return 0;
+    if (best_bin < 0) return count / 2;
+    uint32_t* mid = std::partition(begin, end, [&](uint32_t p) { return bin_of(p) <= best_bin; });
+    return static_cast<uint32_t>(mid - begin);
+  }
+
+  const std::vector<Box>& boxes_;
+  const std::vector<Vec3>& centroids_;
+  std::vector<uint32_t>& order_;
+  std::vector<BinaryNode> nodes_;
+  std::atomic<uint32_t> next_node_{0};
+};
+
+// Collapses the binary tree into 8-wide nodes and lays the leaves' polygons out in lanes.
+class Collapser {
+ public:
+  Collapser(const std::vector<BinaryNode>& binary, const std::vector<uint32_t>& order, PolygonBvh& out)
+      : binary_(binary), order_(order), out_(out) {}
+
+  // The root: a lone leaf still goes below a node, so traversal always starts at a node.
+  void run() {
+    if (binary_[0].count > 0) {
+      wide_node({0});
+      return;
+    }
+    wide_node({binary_[0].left, binary_[0].right});
+  }
+
+ private:
+  uint32_t wide_node(std::vector<uint32_t> children) {
+    // Open the inner child of largest area until 8 children.
+    while (children.size() < static_cast<size_t>(kBvhWidth)) {
+      int best = -1;
+      double best_area = -1.0;
+      for (size_t k = 0; k < children.size(); ++k) {
+        const BinaryNode& c = binary_[children[k]];
+        if (c.count == 0 && c.box.half_area() > best_area) {
+          best_area = c.box.half_area();
+          best = static_cast<int>(k);
+        }
+      }
+      if (best < 0) break;
+      const BinaryNode& c = binary_[children[best]];
+      children[best] = c.left;
+      children.push_back(c.right);
+    }
+    const uint32_t index = static_cast<uint32_t>(out_.nodes.size());
+    out_.nodes.emplace_back();
+    for (int k = 0; k < kBvhWidth; ++k) {
+      // Written through the index: the recursion below may reallocate the node array.
+      BvhNode& n = out_.nodes[index];
+      if (k >= static_cast<int>(children.size())) {
+        for (int a = 0; a < 3; ++a) n.lo[a][k] = n.hi[a][k] = kInfinity;
+        n.child[k] = 0;
+        n.leaf_lanes[k] = 0;
+        continue;
+      }
+      const BinaryNode& c = binary_[children[k]];
+      for (int a = 0; a < 3; ++a) {
+        n.lo[a][k] = c.box.lo[a];
+        n.hi[a][k] = c.box.hi[a];
+      }
+      if (c.count > 0) {
+        const uint8_t lanes = c.count <= 4 ? 4 : 8;
+        n.child[k] = static_cast<uint32_t>(out_.lane_polygon.size());
+        n.leaf_lanes[k] = lanes;
+        for (uint32_t i = 0; i < lanes; ++i)
+          out_.lane_polygon.push_back(i < c.count ? order_[c.first + i] : kNoLanePolygon);
+      } else {
+        const uint32_t child = wide_node({c.left, c.right});
+        out_.nodes[index].child[k] = child;
+        out_.nodes[index].leaf_lanes[k] = 0;
+      }
+    }
+    return index;
+  }
+
+  const std::vector<BinaryNode>& binary_;
+  const std::vector<uint32_t>& order_;
+  PolygonBvh& out_;
+};
+
+}  // namespace
+
+PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
+  PolygonBvh bvh;
+  const size_t n = is_triangle.size();
+  if (n == 0) return bvh;
+  std::vector<Box> boxes(n);
+  std::vector<Vec3> centroids(n);
+  for (size_t i = 0; i < n; ++i) {
+    for (int k = 0; k < 4; ++k) boxes[i].grow(v[k][i]);
+    centroids[i] = 0.5f * (boxes[i].lo + boxes[i].hi);
+  }
+  std::vector<uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  BinaryBuilder builder(boxes, centroids, order);
+  builder.build(0, static_cast<uint32_t>(n), 0);
+  bvh.nodes.reserve(n / 4 + 1);
+  bvh.lane_polygon.reserve(n * 2);
+  Collapser(builder.nodes(), order, bvh).run();
+
+  // The leaves' polygons in lane order; padding lanes hold NaN (they never hit).
+  const size_t lanes = bvh.lane_polygon.size();
+  PolygonLanes& L = bvh.lanes;
+  L.count = static_cast<uint32_t>(lanes);
+  for (int k = 0; k < 4; ++k)
+    for (int a = 0; a < 3; ++a) L.coord[k][a].assign(lanes, std::numeric_limits<float>::quiet_NaN());
+  L.triangle.assign(lanes, 0.f);
+  bvh.polygon_lane.assign(n, kNoLanePolygon);
+  for (size_t lane = 0; lane < lanes; ++lane) {
+    const uint32_t p = bvh.lane_polygon[lane];
+    if (p == kNoLanePolygon) continue;
+    for (int k = 0; k < 4; ++k)
+      for (int a = 0; a < 3; ++a) L.coord[k][a][lane] = v[k][p][a];
+    L.triangle[lane] = is_triangle[p] ? 1.f : 0.f;
+    bvh.polygon_lane[p] = static_cast<uint32_t>(lane);
+  }
+  return bvh;
+}
+
+}  // namespace pt
