@@ -588,3 +588,78 @@ TEST_CASE("scene_json: files and built-in names") {
 
   fs::remove_all(dir);
 }
+
+TEST_CASE("scene_json: a mesh shape reads an OBJ file (triangulated, transformed, zero-area faces left out)") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pt_mesh_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // A unit square as one quad face (triangulated into two), a triangle, and a zero-area triangle.
+  std::ofstream(dir / "m.obj") << "# test mesh\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 2 0 0\n"
+                                  "f 1 2 3 4\nf 1 2 5\nf 1 2 6\n";
+  const auto scene_with = [&](const std::string& mesh) {
+    std::string text(builtin_scene_json("cornell").value());
+    const std::string first = R"("shapes": [)";
+    return text.replace(text.find(first), first.size(), first + "\n" + mesh + ",");
+  };
+  const std::string mesh = R"({"type": "mesh", "file": "m.obj", "material": "red",
+      "transform": {"scale": [2, 3, 4], "rotate_axis": [0, 0, 1], "rotate_deg": 90, "translate": [10, 20, 30]}})";
+  const SceneDesc base = load_scene("cornell");
+  const SceneDesc s = parse_scene(scene_with(mesh), "mesh.json", dir.string());
+  REQUIRE(s.shapes.size() == base.shapes.size() + 3);
+  // (x, y, z) → scale (2x, 3y, 4z) → 90° about z: (−3y, 2x, 4z) → + (10, 20, 30).
+  const auto expect = [](double x, double y, double z) { return DVec3(-3 * y + 10, 2 * x + 20, 4 * z + 30); };
+  int red = -1;
+  for (size_t m = 0; m < s.materials.size(); ++m)
+    if (s.materials[m].name == "red") red = static_cast<int>(m);
+  std::vector<std::array<DVec3, 3>> got;
+  for (int i = 0; i < 3; ++i) {
+    const ShapeDesc& sh = s.shapes[i];
+    CHECK(sh.type == ShapeType::Triangle);
+    CHECK(sh.material == red);
+    got.push_back({sh.vertices[0], sh.vertices[1], sh.vertices[2]});
+  }
+  const std::array<DVec3, 3> tri = {expect(0, 0, 0), expect(1, 0, 0), expect(0, 0, 1)};
+  bool found_triangle = false;
+  for (const auto& g : got)
+    if (glm::length(g[0] - tri[0]) < 1e-12 && glm::length(g[1] - tri[1]) < 1e-12 && glm::length(g[2] - tri[2]) < 1e-12)
+      found_triangle = true;
+  CHECK(found_triangle);
+  // The two halves of the square cover its corners, each corner at its transformed place.
+  for (const DVec3 corner : {expect(0, 0, 0), expect(1, 0, 0), expect(1, 1, 0), expect(0, 1, 0)}) {
+    bool seen = false;
+    for (int i = 0; i < 2; ++i)
+      for (const DVec3& v : got[i]) seen = seen || glm::length(v - corner) < 1e-12;
+    CHECK(seen);
+  }
+
+  const auto message = [&](const std::string& text) -> std::string {
+    try {
+      parse_scene(text, "mesh.json", dir.string());
+    } catch (const SceneError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "none.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "none.obj").string() + ": cannot open (No such file or directory)");
+  std::ofstream(dir / "bad_index.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "bad_index.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "bad_index.obj").string() + ": a face refers to vertex 7 of 3");
+  std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "flat.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "flat.obj").string() + ": the mesh has no triangle of non-zero area");
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "red", "transform": {"scale": 0}})")) ==
+        "mesh.json: shapes[0].transform.scale: must not be 0 (it flattens the mesh)");
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "red", "smooth": true})")) ==
+        "mesh.json: shapes[0].smooth: unknown key (expected one of: type, file, material, transform)");
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "nope"})")) ==
+        "mesh.json: shapes[0].material: unknown material \"nope\"");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("scene_json: scenes/cornell-bunny.json is the box and the bunny, compiled with a BVH") {
+  const SceneDesc s = load_scene(std::string(PT_SCENES_DIR) + "/cornell-bunny.json");
+  CHECK(s.shapes.size() == 6 + 3674);
+  const auto scene = compile_scene(s);
+  CHECK(!scene->polygon_bvh.empty());
+}

@@ -54,3 +54,6 @@ endif()
 
 # OpenEXR 3 (libopenexr-dev): reading latitude-longitude HDR environment maps (io/image_io.cpp).
 find_package(OpenEXR REQUIRED CONFIG)
+
+# tinyobjloader (libtinyobjloader-dev): Wavefront OBJ meshes of the scene's "mesh" shape (scene/mesh_obj.cpp).
+find_package(tinyobjloader REQUIRED CONFIG)

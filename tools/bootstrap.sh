@@ -13,6 +13,7 @@ PACKAGES=(
   libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)
   gnuplot-nox                               # the convergence plots of `pathtracer bench`
   libopenexr-dev                            # HDR environment maps (.exr)
+  libtinyobjloader-dev                      # OBJ meshes
 )
 
 tools/install_packages.sh "${PACKAGES[@]}"

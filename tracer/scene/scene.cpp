@@ -13,19 +13,17 @@
 
 namespace pt {
 
-namespace {
-
-bool finite3(DVec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-bool finite3(Vec3 v) { return is_finite(v); }
-
-// A polygon corner (b−a, c−a) is degenerate when the sine of its angle is below 1e-12 (in double): slivers
-// 10^-7 thin are legitimate geometry, zero-area triangles are not.
 bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c) {
   const DVec3 e1 = b - a, e2 = c - a;
   const double l1 = glm::length(e1), l2 = glm::length(e2);
   if (!(l1 > 0.0) || !(l2 > 0.0)) return true;
   return !(glm::length(glm::cross(e1, e2)) > 1e-12 * l1 * l2);
 }
+
+namespace {
+
+bool finite3(DVec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite3(Vec3 v) { return is_finite(v); }
 
 // A quad is a parallelogram when d = a + c − b up to rounding of the input (relative 1e-9 of the quad's size).
 bool is_parallelogram(const ShapeDesc& s) {

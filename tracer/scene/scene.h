@@ -160,6 +160,11 @@ class Scene {
   bool occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const;
 };
 
+// A polygon corner (b−a, c−a) is degenerate when the sine of its angle is below 1e-12 (in double): slivers
+// 10^-7 thin are legitimate geometry, zero-area triangles are not. validate_scene refuses them; the mesh reader
+// leaves them out.
+bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c);
+
 // Builds the render-ready scene. The description must already be valid (scene_json validates files; code that
 // builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
 std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);

@@ -21,6 +21,7 @@
 #include <unordered_set>
 #include <utility>
 
+#include "scene/mesh_obj.h"
 #include "scene/scene.h"
 #include "io/image_io.h"
 #include "io/safe_file.h"
@@ -710,10 +711,57 @@ struct StreamedShapes {
     shapes.push_back(s);
   }
   void add(const Json& j, size_t index) {
+    if (j.is_object()) {
+      const auto type = j.find("type");
+      if (type != j.end() && type->is_string() && type->get_ref<const std::string&>() == "mesh")
+        return add_mesh(j, index);
+    }
     const std::string* name = nullptr;
     const ShapeDesc s = read_shape(j, index, name);
     add(s, *name, index);
   }
+
+  // {"type": "mesh", "file": "x.obj", "material": ..., "transform": {...}}: the file's triangles, each a shape.
+  void add_mesh(const Json& j, size_t index) {
+    const std::string path = element("shapes", index);
+    check_known_keys(j, path, {"type", "file", "material", "transform"});
+    const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
+    if (file.empty()) fail(member(path, "file"), "must not be empty");
+    const std::string& material = read_string(required_key(j, path, "material"), member(path, "material"));
+    MeshTransform t;
+    if (const Json* tr = optional_key(j, "transform")) {
+      const std::string tp = member(path, "transform");
+      expect_object(*tr, tp);
+      check_known_keys(*tr, tp, {"scale", "rotate_axis", "rotate_deg", "translate"});
+      if (const Json* v = optional_key(*tr, "scale")) {
+        const std::string sp = member(tp, "scale");
+        t.scale = v->is_array() ? read_dvec3(*v, sp) : DVec3(read_double(*v, sp));
+        if (t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0) fail(sp, "must not be 0 (it flattens the mesh)");
+      }
+      if (const Json* v = optional_key(*tr, "rotate_axis")) {
+        t.axis = read_dvec3(*v, member(tp, "rotate_axis"));
+        if (!(glm::length(t.axis) > 0.0)) fail(member(tp, "rotate_axis"), "must not be the zero vector");
+      }
+      if (const Json* v = optional_key(*tr, "rotate_deg")) t.degrees = read_double(*v, member(tp, "rotate_deg"));
+      if (const Json* v = optional_key(*tr, "translate")) t.translate = read_dvec3(*v, member(tp, "translate"));
+    }
+    const std::filesystem::path f(file);
+    const std::string resolved = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
+    MeshTriangles mesh;
+    try {
+      mesh = load_obj_mesh(resolved, t);
+    } catch (const std::exception& e) {
+      fail(member(path, "file"), e.what());
+    }
+    for (const auto& tri : mesh.triangles) {
+      ShapeDesc s;
+      s.type = ShapeType::Triangle;
+      for (int k = 0; k < 3; ++k) s.vertices[k] = tri[k];
+      add(s, material, index);
+    }
+  }
+
+  std::string base_dir;  // where relative mesh paths start (the scene file's directory)
 
   void resolve(const std::unordered_map<std::string, int>& material_index) {
     std::vector<int> index_of(names.size());
@@ -922,6 +970,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
   }
   Json root;
   StreamedShapes streamed;
+  streamed.base_dir = base_dir;
   SceneSax sax(
       root, [&](const ShapeDesc& shape, std::string_view material, size_t index) { streamed.add(shape, material, index); },
       [&](const Json& element, size_t index) { streamed.add(element, index); });

@@ -1,0 +1,33 @@
+// Triangle meshes from Wavefront OBJ files, for the scene file's "mesh" shape (docs/scene-format.md). The file
+// is read with the scene's safety rules (a regular file, at most kMaxSceneFileBytes) and parsed by tinyobjloader
+// (Debian's libtinyobjloader-dev); polygons are triangulated as fans, normals, texture coordinates and .mtl
+// materials are ignored (the scene gives the material).
+#pragma once
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace pt {
+
+inline constexpr size_t kMaxMeshTriangles = size_t{1} << 24;  // per mesh: ~2.5 GB of scene description
+
+// Applied to the file's vertices in this order: scale, rotate about `axis` by `degrees`, translate.
+struct MeshTransform {
+  DVec3 scale{1.0};
+  DVec3 axis{0.0, 1.0, 0.0};
+  double degrees = 0.0;
+  DVec3 translate{0.0};
+};
+
+struct MeshTriangles {
+  std::vector<std::array<DVec3, 3>> triangles;  // transformed, zero-area triangles left out
+  size_t degenerate = 0;                        // zero-area triangles left out (they can never be hit)
+};
+
+// Throws std::runtime_error with the reason (the file's name, a line where the parser gives one).
+MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& transform);
+
+}  // namespace pt
