@@ -644,7 +644,7 @@ TEST_CASE("scene_json: a mesh shape reads an OBJ file (triangulated, transformed
         "mesh.json: shapes[0].file: " + (dir / "none.obj").string() + ": cannot open (No such file or directory)");
   std::ofstream(dir / "bad_index.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
   CHECK(message(scene_with(R"({"type": "mesh", "file": "bad_index.obj", "material": "red"})")) ==
-        "mesh.json: shapes[0].file: " + (dir / "bad_index.obj").string() + ": a face refers to vertex 7 of 3");
+        "mesh.json: shapes[0].file: " + (dir / "bad_index.obj").string() + ": a face refers to a vertex the file does not have (it has 3)");
   std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
   CHECK(message(scene_with(R"({"type": "mesh", "file": "flat.obj", "material": "red"})")) ==
         "mesh.json: shapes[0].file: " + (dir / "flat.obj").string() + ": the mesh has no triangle of non-zero area");

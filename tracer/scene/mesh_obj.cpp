@@ -45,8 +45,8 @@ MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& t) {
       for (int j = 0; j < 3; ++j) {
         const int vi = idx[f + j].vertex_index;
         if (vi < 0 || static_cast<size_t>(vi) >= vertex_count)
-          throw std::runtime_error(path + ": a face refers to vertex " + std::to_string(vi + 1) + " of " +
-                                   std::to_string(vertex_count));
+          throw std::runtime_error(path + ": a face refers to a vertex the file does not have (it has " +
+                                   std::to_string(vertex_count) + ")");
         const DVec3 p(v[3 * vi], v[3 * vi + 1], v[3 * vi + 2]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
           throw std::runtime_error(path + ": vertex " + std::to_string(vi + 1) + " is not finite");
