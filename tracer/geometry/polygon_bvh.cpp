@@ -86,7 +86,7 @@ class BinaryBuilder {
     uint32_t* begin = order_.data() + first;
     uint32_t* end = begin + count;
     // All centroids in one point (or a runaway depth): halve by index, which bounds the depth by log2(n).
-    if (!(extent[axis] > 0.f) || depth > 48) {
+    if (!(extent[axis] > 0.f) || depth > kBvhSahMaxDepth) {
       if (count <= kBvhMaxLeaf) return 0;
       return count / 2;
     }

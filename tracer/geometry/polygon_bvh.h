@@ -23,6 +23,10 @@ namespace pt {
 inline constexpr uint32_t kBvhMinPolygons = 128;  // below this, brute force (docs/performance.md, "Meshes")
 inline constexpr int kBvhWidth = 8;
 inline constexpr int kBvhMaxLeaf = 8;
+// Below this depth the build splits by SAH; deeper (pathological layouts) it halves by index, which adds at most
+// 32 levels for up to 2^32 polygons. So no path through the tree is longer than kBvhMaxDepth levels.
+inline constexpr int kBvhSahMaxDepth = 48;
+inline constexpr int kBvhMaxDepth = kBvhSahMaxDepth + 1 + 32;
 
 struct BvhNode {
   // Child k's box; an unused slot holds lo = hi = +inf, which no ray enters (child_entry).
@@ -123,7 +127,8 @@ template <size_t N>
   } while (stdx::any_of(hit));
 }
 
-inline constexpr int kStackSize = 64 * kBvhWidth;  // depth ≤ 64 levels × (width − 1) pending siblings
+// Each level down leaves at most width − 1 siblings pending; the wide tree is no deeper than the binary one.
+inline constexpr int kStackSize = kBvhMaxDepth * (kBvhWidth - 1) + 1;
 
 }  // namespace bvh_detail
 
