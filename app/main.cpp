@@ -6,6 +6,7 @@
 #include <new>
 
 #include "cli/bench_command.h"
+#include "cli/bench_rays_command.h"
 #include "cli/compare_command.h"
 #include "cli/render_command.h"
 #include "viewer/view_command.h"
@@ -18,6 +19,8 @@ int main(int argc, char** argv) {
   pt::add_render_command(app, render_options);
   pt::BenchOptions bench_options;
   pt::add_bench_command(app, bench_options);
+  pt::BenchRaysOptions bench_rays_options;
+  pt::add_bench_rays_command(*app.get_subcommand("bench"), bench_rays_options);
   pt::CompareOptions compare_options;
   pt::add_compare_command(app, compare_options);
   pt::ViewOptions view_options;
@@ -36,7 +39,10 @@ int main(int argc, char** argv) {
   // Whatever escapes a command becomes a message and an exit status, never an abort.
   try {
     if (app.got_subcommand("render")) return pt::run_render(render_options);
-    if (app.got_subcommand("bench")) return pt::run_bench(bench_options);
+    if (app.got_subcommand("bench")) {
+      if (app.get_subcommand("bench")->got_subcommand("rays")) return pt::run_bench_rays(bench_rays_options);
+      return pt::run_bench(bench_options);
+    }
     if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
     if (app.got_subcommand("view")) return pt::run_view(view_options);
     if (app.got_subcommand("stress")) return pt::run_stress(stress_options);

@@ -4,13 +4,16 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stb_image.h>
 
 #include "io/image_io.h"
+#include "io/ray_file.h"
 #include "render/metrics.h"
 #include "run_command.h"
 
@@ -123,4 +126,67 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0)
     for (const char* scene : {"cornell", "cornell-spheres", "shadertoy", "materials", "sky"})
       CHECK(std::filesystem::file_size(std::string("bench_quick/convergence-") + scene + ".png") > 1000);
+}
+
+TEST_CASE("cli: bench rays replays a ray file over [tnear, tfar] and records the scene's own rays") {
+  // Rays in cornell's world coordinates with answers known from the box's layout (x in [0, 556], y in [0, 548.8],
+  // z in [0, 559.2], the front at z = 0 open; the blocks below y = 330): from a point above the blocks every
+  // direction but -z hits a wall.
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<RecordedRay> rays = {
+      {{278, 400, 280}, {1, 0, 0}, 0, inf},      // hit (right wall)
+      {{278, 400, 280}, {-1, 0, 0}, 0, inf},     // hit (left wall)
+      {{278, 400, 280}, {0, 1, 0}, 0, 1e30f},    // hit (ceiling or light)
+      {{278, 400, 280}, {0, -1, 0}, 0, inf},     // hit (floor)
+      {{278, 400, 280}, {0, 0, 1}, 0, inf},      // hit (a block or the back wall)
+      {{278, 400, 280}, {0, 0, -1}, 0, inf},     // miss: out through the open front
+      {{278, 400, 280}, {1, 0, 0}, 0, 100},      // miss: tfar ends 178 short of the wall
+      {{278, 274, -1000}, {0, 0, 2}, 0, 400},    // miss: t is in units of |d|, so it stops at z = -200
+      {{278, 274, -1000}, {0, 0, 2}, 0, 800},    // hit: reaches z = 600
+      {{278, 274, -1000}, {0, 0, 1}, 2000, inf}, // miss: starts at tnear, z = 1000, behind the back wall
+  };
+  write_ray_file("bench_rays_known.bin", rays);
+  const Run r = run("bench rays --scene cornell --rays bench_rays_known.bin --repeats 2 --json");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.out.find("\"closest_hits\": 6,") != std::string::npos);
+  CHECK(r.out.find("\"occluded\": 6,") != std::string::npos);  // over [tnear, tfar]: blocked wherever it hits
+  // The shadow-half rule stops odd rays that hit (1 and 3 here) at 0.99 × the hit: those two pass.
+  CHECK(r.out.find("\"occluded_half\": 4,") != std::string::npos);
+  CHECK(r.out.find("\"rays\": 10,") != std::string::npos);
+
+  std::filesystem::remove("bench_rays_own.bin");
+  const Run rec = run("bench rays --scene cornell --record bench_rays_own.bin --count 1000");
+  INFO(rec.out << rec.err);
+  REQUIRE(rec.status == 0);
+  CHECK(std::filesystem::file_size("bench_rays_own.bin") == 16 + 32 * 1000);
+  const std::vector<RecordedRay> own = read_ray_file("bench_rays_own.bin");
+  CHECK(own.front().origin[2] == -800.f);  // world coordinates: the first ray leaves cornell's camera
+  const Run replay = run("bench rays --scene cornell --rays bench_rays_own.bin --repeats 1 --threads 2 "
+                         "--export-tris bench_rays.tris");
+  INFO(replay.out << replay.err);
+  CHECK(replay.status == 0);
+  CHECK(replay.out.find("1000 rays from bench_rays_own.bin, 2 threads") != std::string::npos);
+  // cornell.json has 16 quads: 32 triangles of 9 floats after a 60-byte header (as scene_tris.py of the peers).
+  const std::string tris = slurp("bench_rays.tris");
+  REQUIRE(tris.size() == 60 + 32 * 36);
+  CHECK(tris.substr(0, 8) == "PTTRIS01");
+  uint32_t tri_count = 0;
+  std::memcpy(&tri_count, tris.data() + 56, 4);
+  CHECK(tri_count == 32);
+
+  const Run both = run("bench rays --rays bench_rays_own.bin --record x.bin");
+  CHECK(both.status == 2);
+  CHECK(both.err.find("excludes --record") != std::string::npos);
+  const Run neither = run("bench rays --scene cornell");
+  CHECK(neither.status == 2);
+  CHECK(neither.err.find("give --rays FILE (replay) or --record FILE (record)") != std::string::npos);
+  const Run bad_dir = run("bench rays --record no_such_dir/r.bin");
+  CHECK(bad_dir.status == 2);
+  CHECK(bad_dir.err.find("--record no_such_dir/r.bin") != std::string::npos);
+  std::ofstream("bench_rays_bad.bin") << "PTRAYS01";
+  const Run bad = run("bench rays --rays bench_rays_bad.bin");
+  CHECK(bad.status == 2);
+  CHECK(bad.err.find("error: bench_rays_bad.bin: not a ray file") != std::string::npos);
+  for (const char* f : {"bench_rays.tris", "bench_rays_known.bin", "bench_rays_own.bin", "bench_rays_bad.bin"}) std::filesystem::remove(f);
 }

@@ -1,10 +1,13 @@
 #include "cli/ray_throughput.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cmath>
 
-#include "geometry/interaction.h"
 #include "core/rng.h"
+#include "core/thread_pool.h"
+#include "geometry/interaction.h"
 #include "sampling/sampling.h"
 
 namespace pt {
@@ -21,8 +24,7 @@ RayBatch record_path_rays(const Scene& scene, size_t count, uint64_t seed) {
       const bool hit = scene.intersect(ray, kInfinity, skip, h);
       b.rays.push_back(ray);
       b.skip.push_back(skip);
-      // Alternately just short of the hit (unblocked: every primitive must be tested) and beyond it (blocked).
-      b.shadow_t.push_back(hit && b.rays.size() % 2 == 0 ? 0.99f * h.t : far);
+      b.tfar.push_back(far);
       if (!hit) break;
       const Interaction it = make_interaction(scene, ray, h);
       const Vec3 n = glm::dot(it.ng, ray.d) < 0.f ? it.ng : -it.ng;
@@ -34,30 +36,88 @@ RayBatch record_path_rays(const Scene& scene, size_t count, uint64_t seed) {
   return b;
 }
 
-RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats) {
-  using Clock = std::chrono::steady_clock;
-  std::vector<double> closest, any;
-  RayThroughput r;
-  const size_t n = batch.rays.size();
-  for (int rep = 0; rep < repeats; ++rep) {
-    uint64_t hits = 0, blocked = 0;
-    auto t0 = Clock::now();
-    for (size_t i = 0; i < n; ++i) {
-      Hit h;
-      hits += scene.intersect(batch.rays[i], kInfinity, batch.skip[i], h);
-    }
-    auto t1 = Clock::now();
-    for (size_t i = 0; i < n; ++i) blocked += scene.occluded(batch.rays[i], batch.shadow_t[i], batch.skip[i], ~0u);
-    auto t2 = Clock::now();
-    closest.push_back(n / std::chrono::duration<double>(t1 - t0).count() * 1e-6);
-    any.push_back(n / std::chrono::duration<double>(t2 - t1).count() * 1e-6);
-    r.hits = hits;
-    r.occluded = blocked;
+RayBatch batch_from_recorded(const Scene& scene, const std::vector<RecordedRay>& rays) {
+  RayBatch b;
+  b.rays.reserve(rays.size());
+  b.skip.assign(rays.size(), ~0u);
+  b.tfar.reserve(rays.size());
+  for (const RecordedRay& r : rays) {
+    const DVec3 d(r.direction[0], r.direction[1], r.direction[2]);
+    const double len = glm::length(d);
+    const DVec3 o = DVec3(r.origin[0], r.origin[1], r.origin[2]) + double(r.tnear) * d - scene.world_origin;
+    b.rays.push_back({Vec3(o), Vec3(d / len)});
+    b.tfar.push_back(static_cast<float>((double(r.tfar) - r.tnear) * len));
   }
-  std::sort(closest.begin(), closest.end());
-  std::sort(any.begin(), any.end());
-  r.closest_mrays_per_s = closest[closest.size() / 2];
-  r.any_mrays_per_s = any[any.size() / 2];
+  return b;
+}
+
+std::vector<RecordedRay> recorded_from_batch(const Scene& scene, const RayBatch& batch) {
+  std::vector<RecordedRay> out(batch.rays.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    const DVec3 o = DVec3(batch.rays[i].o) + scene.world_origin;
+    for (int k = 0; k < 3; ++k) {
+      out[i].origin[k] = static_cast<float>(o[k]);
+      out[i].direction[k] = batch.rays[i].d[k];
+    }
+    out[i].tnear = 0.f;
+    out[i].tfar = batch.tfar[i];
+  }
+  return out;
+}
+
+namespace {
+
+constexpr size_t kChunk = 4096;  // rays per task: large enough that handing out tasks costs nothing measurable
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats, int threads) {
+  using Clock = std::chrono::steady_clock;
+  ThreadPool pool(threads);
+  const size_t n = batch.rays.size();
+  const int tasks = static_cast<int>((n + kChunk - 1) / kChunk);
+  std::vector<float> hit_t(n), half_t(n);
+  // Runs `query(i)` (true counts) over all rays in parallel; returns Mrays/s and the count.
+  const auto timed = [&](auto&& query, uint64_t& count) {
+    std::atomic<uint64_t> total{0};
+    const auto t0 = Clock::now();
+    pool.parallel_for(tasks, [&](int task, int) {
+      uint64_t c = 0;
+      const size_t end = std::min(n, (task + 1) * kChunk);
+      for (size_t i = task * kChunk; i < end; ++i) c += query(i);
+      total += c;
+    });
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    count = total;
+    return n / s * 1e-6;
+  };
+  RayThroughput r;
+  r.rays = n;
+  std::vector<double> closest, shadow, half;
+  for (int rep = 0; rep < repeats; ++rep) {
+    closest.push_back(timed(
+        [&](size_t i) {
+          Hit h;
+          const bool hit = scene.intersect(batch.rays[i], batch.tfar[i], batch.skip[i], h);
+          hit_t[i] = hit ? h.t : -1.f;
+          return hit;
+        },
+        r.closest_hits));
+    if (rep == 0)
+      for (size_t i = 0; i < n; ++i) half_t[i] = i % 2 == 1 && hit_t[i] >= 0.f ? 0.99f * hit_t[i] : batch.tfar[i];
+    shadow.push_back(timed([&](size_t i) { return scene.occluded(batch.rays[i], batch.tfar[i], batch.skip[i], ~0u); },
+                           r.occluded));
+    half.push_back(timed([&](size_t i) { return scene.occluded(batch.rays[i], half_t[i], batch.skip[i], ~0u); },
+                         r.occluded_half));
+  }
+  r.closest_mrays_per_s = median(closest);
+  r.shadow_mrays_per_s = median(shadow);
+  r.shadow_half_mrays_per_s = median(half);
   return r;
 }
 
