@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include "geometry/geometry.h"
+#include "geometry/packet_polygons.h"
 #include "geometry/polygon_bvh.h"
 #include "core/rng.h"
 #include "scene/scene.h"
@@ -394,4 +395,162 @@ TEST_CASE("BVH: a scene above the brute-force limit answers its queries as the s
     CHECK(scene->occluded(ray, std::nextafter(best, kInfinity), ~0u, ~0u));
   }
   CHECK(hits > 4000);
+}
+
+namespace {
+
+// Checks the packet kernels (packet_polygons.h) against a loop over the scalar tests, ray by ray: packets of 1 to
+// kLanes rays (inactive lanes), every third ray skipping a polygon; the same distance bit for bit and the same
+// polygon (or, on an exact tie, one hit at that distance); any-hit answers just below and just above the hit.
+int check_packets_against_scalar(const Soup& soup, const std::vector<std::pair<Vec3, Vec3>>& rays) {
+  PolygonLanes lanes;
+  lanes.assign(soup.v, soup.triangle);
+  const uint32_t n = static_cast<uint32_t>(soup.triangle.size());
+  int hits = 0;
+  for (size_t first = 0, size = 1; first < rays.size(); first += size, size = size % kLanes + 1) {
+    const int m = static_cast<int>(std::min(size, rays.size() - first));
+    Ray packet_rays[kLanes];
+    float t_max[kLanes], best[kLanes], below[kLanes], above[kLanes];
+    uint32_t skip[kLanes], other[kLanes], best_id[kLanes];
+    for (int l = 0; l < m; ++l) {
+      const size_t r = first + l;
+      packet_rays[l] = {rays[r].first, rays[r].second};
+      const RayShear shear(packet_rays[l].d);
+      skip[l] = r % 3 == 0 ? static_cast<uint32_t>(r * 7919 % n) : ~0u;
+      other[l] = r % 5 == 0 ? static_cast<uint32_t>(r * 104729 % n) : ~0u;
+      t_max[l] = r % 7 == 0 ? 2.f : kInfinity;
+      best[l] = t_max[l];
+      best_id[l] = ~0u;
+      for (uint32_t p = 0; p < n; ++p) {
+        PolygonHit h;
+        if (p != skip[l] && soup.test(p, packet_rays[l].o, shear, best[l], h) && h.t < best[l]) best[l] = h.t, best_id[l] = p;
+      }
+    }
+    RayPacket P;
+    P.load(packet_rays, t_max, skip, nullptr, m);
+    float t[kLanes];
+    uint32_t id[kLanes];
+    const auto scalar = [&](int l, uint32_t i, float tm, PolygonHit& h) {
+      return soup.test(i, packet_rays[l].o, RayShear(packet_rays[l].d), tm, h);
+    };
+    closest_polygon_packet(lanes, P, t, id, scalar);
+    for (int l = 0; l < m; ++l) {
+      const Ray& ray = packet_rays[l];
+      INFO("ray " << first + l << " lane " << l << " of " << m << " o " << ray.o.x << " " << ray.o.y << " " << ray.o.z
+                  << " d " << ray.d.x << " " << ray.d.y << " " << ray.d.z);
+      const bool found = best_id[l] != ~0u;
+      REQUIRE((t[l] < t_max[l]) == found);
+      // Shadow queries: up to the hit (exclusive) nothing, just past it something; skip_b is honoured too.
+      below[l] = found ? best[l] : t_max[l];
+      above[l] = found ? std::nextafter(best[l], kInfinity) : t_max[l];
+      if (!found) continue;
+      ++hits;
+      CHECK(t[l] == best[l]);
+      if (id[l] != best_id[l]) {
+        PolygonHit h;
+        CHECK((id[l] != skip[l] && soup.test(id[l], ray.o, RayShear(ray.d), kInfinity, h) && h.t == best[l]));
+      }
+    }
+    uint32_t expect_below = 0, expect_above = 0;
+    for (int l = 0; l < m; ++l) {
+      const Ray& ray = packet_rays[l];
+      const RayShear shear(ray.d);
+      for (uint32_t p = 0; p < n; ++p) {
+        PolygonHit h;
+        if (p == skip[l] || p == other[l]) continue;
+        if (soup.test(p, ray.o, shear, below[l], h)) expect_below |= 1u << l;
+        if (soup.test(p, ray.o, shear, above[l], h)) expect_above |= 1u << l;
+      }
+    }
+    P.load(packet_rays, below, skip, other, m);
+    CHECK(any_polygon_packet(lanes, P, scalar) == expect_below);
+    P.load(packet_rays, above, skip, other, m);
+    CHECK(any_polygon_packet(lanes, P, scalar) == expect_above);
+  }
+  return hits;
+}
+
+}  // namespace
+
+TEST_CASE("packet: 16 rays against one polygon per step give the scalar tests' distances bit for bit") {
+  Pcg32 rng(20261124, 5);
+  std::vector<std::pair<Vec3, Vec3>> rays;
+  const auto random_rays = [&](int count, float lo, float hi) {
+    rays.clear();
+    for (int i = 0; i < count; ++i) {
+      Vec3 d = random_in(rng, -1, 1);
+      // Axis-aligned rays, and directions whose largest components tie (the axis choice of the shear).
+      if (i % 8 == 0) d = Vec3(0), d[i % 3] = i % 16 == 0 ? 1.f : -1.f;
+      if (i % 8 == 1) d = Vec3(i % 3 ? 0.5f : -0.5f, -0.5f, i % 5 ? 0.5f : 0.25f);
+      if (i % 8 == 2) d = Vec3(0.3f, i % 3 ? -0.7f : 0.7f, 0.7f);
+      rays.push_back({random_in(rng, lo, hi), d});
+    }
+  };
+  SUBCASE("100 random triangles and parallelograms") {
+    Soup soup;
+    for (int i = 0; i < 100; ++i) {
+      const Vec3 a = random_in(rng, -3, 3), b = a + random_in(rng, -2, 2), c = a + random_in(rng, -2, 2);
+      if (i % 2) soup.add_triangle(a, b, c);
+      else soup.add_parallelogram(a, b, c);
+    }
+    random_rays(20000, -4, 4);
+    CHECK(check_packets_against_scalar(soup, rays) > 5000);
+  }
+  SUBCASE("a closed triangulated sphere seen from inside, rays aimed at its vertices (zero edge functions)") {
+    Soup soup;
+    const int rings = 6, segments = 12;
+    auto point = [&](int i, int j) {
+      const float th = glm::pi<float>() * i / rings, ph = 2 * glm::pi<float>() * (j % segments) / segments;
+      return Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * 3.f;
+    };
+    for (int i = 0; i < rings; ++i)
+      for (int j = 0; j < segments; ++j) {
+        if (i > 0) soup.add_triangle(point(i, j), point(i, j + 1), point(i + 1, j));
+        if (i < rings - 1) soup.add_triangle(point(i, j + 1), point(i + 1, j + 1), point(i + 1, j));
+      }
+    random_rays(4000, -1, 1);
+    for (auto& r : rays) r.first = Vec3(0.f);  // from the centre: no ray may escape
+    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), point(1 + k % (rings - 1), k)});
+    // From the centre a ray misses only where t_max = 2 stops it (every 7th) or it leaves through the polygon
+    // it skips (every 3rd ray skips one of 120).
+    CHECK(check_packets_against_scalar(soup, rays) > static_cast<int>(rays.size() * 0.8));
+  }
+}
+
+TEST_CASE("packet: Scene's packet queries answer as its single-ray queries (cornell, cornell-spheres)") {
+  for (const char* name : {"cornell", "cornell-spheres"}) {
+    const auto scene = compile_scene(load_scene(name));
+    Pcg32 rng(11, 2);
+    int hits = 0;
+    for (int batch = 0; batch < 400; ++batch) {
+      const int m = 1 + batch % kLanes;
+      Ray rays[kLanes];
+      float t_max[kLanes];
+      uint32_t skip[kLanes], other[kLanes];
+      for (int l = 0; l < m; ++l) {
+        // Origins anywhere in the box (camera-relative), directions anywhere.
+        rays[l] = {random_in(rng, -300, 300) + Vec3(0, 0, 1000), glm::normalize(random_in(rng, -1, 1))};
+        t_max[l] = l % 3 == 0 ? 300.f : kInfinity;
+        skip[l] = l % 4 == 0 ? static_cast<uint32_t>(batch % scene->polygons.size()) : ~0u;
+        other[l] = l % 5 == 0 ? static_cast<uint32_t>((batch + 3) % scene->polygons.size()) : ~0u;
+      }
+      Hit h[kLanes];
+      bool found[kLanes];
+      scene->intersect_packet(rays, t_max, skip, m, h, found);
+      const uint32_t blocked = scene->occluded_packet(rays, t_max, skip, other, m);
+      for (int l = 0; l < m; ++l) {
+        Hit one;
+        const bool f = scene->intersect(rays[l], t_max[l], skip[l], one);
+        INFO(name << " batch " << batch << " lane " << l);
+        REQUIRE(found[l] == f);
+        if (f) {
+          ++hits;
+          CHECK(h[l].t == one.t);
+          CHECK(h[l].prim == one.prim);
+        }
+        CHECK(((blocked >> l) & 1u) == (scene->occluded(rays[l], t_max[l], skip[l], other[l]) ? 1u : 0u));
+      }
+    }
+    CHECK(hits > 1000);
+  }
 }

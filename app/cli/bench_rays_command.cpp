@@ -68,6 +68,8 @@ void add_bench_rays_command(CLI::App& bench, BenchRaysOptions& o) {
   r->add_option("--export-tris", o.tris_file,
                 "Also write the scene's polygons (as the tracer holds them, meshes included) as the triangle file "
                 "of ../shared/peers/embree_rays (PTTRIS01), so Embree traces the same geometry");
+  r->add_flag("--packets", o.packets,
+              "Query as many consecutive rays at a time as the SIMD width (16 with AVX-512): one polygon per step for all");
   r->add_flag("--json", o.json, "Print one JSON object instead of the table");
 }
 
@@ -116,23 +118,24 @@ int run_bench_rays(const BenchRaysOptions& o) {
     return 2;
   }
   const int threads = o.threads == 0 ? hardware_threads() : o.threads;
-  const RayThroughput t = measure_ray_throughput(*scene, batch_from_recorded(*scene, recorded), o.repeats, threads);
+  const RayThroughput t = measure_ray_throughput(*scene, batch_from_recorded(*scene, recorded), o.repeats, threads,
+                                                   o.packets);
   const char* accel = scene->polygon_bvh.empty() ? "brute-force SIMD" : "8-wide BVH";
   if (o.json) {
     std::printf(
         "{\"closest_mrays_s\": %.4f, \"shadow_mrays_s\": %.4f, \"shadow_half_mrays_s\": %.4f, \"closest_hits\": %llu, "
         "\"occluded\": %llu, \"occluded_half\": %llu, \"rays\": %llu, \"threads\": %d, \"repeats\": %d, "
-        "\"polygons\": %zu, \"spheres\": %zu, \"polygon_accel\": \"%s\"}\n",
+        "\"polygons\": %zu, \"spheres\": %zu, \"polygon_accel\": \"%s\", \"packets\": %s}\n",
         t.closest_mrays_per_s, t.shadow_mrays_per_s, t.shadow_half_mrays_per_s,
         static_cast<unsigned long long>(t.closest_hits), static_cast<unsigned long long>(t.occluded),
         static_cast<unsigned long long>(t.occluded_half), static_cast<unsigned long long>(t.rays), threads, o.repeats,
-        scene->polygons.size(), scene->spheres.size(), accel);
+        scene->polygons.size(), scene->spheres.size(), accel, o.packets ? "true" : "false");
     return 0;
   }
   std::printf("scene %s: %zu polygons (%s), %zu spheres\n", o.scene.c_str(), scene->polygons.size(), accel,
               scene->spheres.size());
-  std::printf("%llu rays from %s, %d thread%s, median of %d replays\n", static_cast<unsigned long long>(t.rays),
-              o.rays_file.c_str(), threads, threads == 1 ? "" : "s", o.repeats);
+  std::printf("%llu rays from %s, %d thread%s, median of %d replays%s\n", static_cast<unsigned long long>(t.rays),
+              o.rays_file.c_str(), threads, threads == 1 ? "" : "s", o.repeats, o.packets ? ", packets" : "");
   std::printf("query          Mrays/s   count\n");
   std::printf("closest hit  %9.2f   %llu hits\n", t.closest_mrays_per_s, static_cast<unsigned long long>(t.closest_hits));
   std::printf("shadow       %9.2f   %llu occluded (over [tnear, tfar])\n", t.shadow_mrays_per_s,

@@ -19,6 +19,7 @@ struct BenchRaysOptions {
   long long seed = 1;
   int threads = 1;
   int repeats = 5;
+  bool packets = false;  // kLanes rays per query call (the packet kernels)
   bool json = false;
 };
 

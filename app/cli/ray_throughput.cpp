@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 
 #include "core/rng.h"
 #include "core/thread_pool.h"
 #include "geometry/interaction.h"
+#include "geometry/simd_polygons.h"
 #include "sampling/sampling.h"
 
 namespace pt {
@@ -67,7 +69,8 @@ std::vector<RecordedRay> recorded_from_batch(const Scene& scene, const RayBatch&
 
 namespace {
 
-constexpr size_t kChunk = 4096;  // rays per task: large enough that handing out tasks costs nothing measurable
+constexpr size_t kChunk = 4096;  // rays per task (a multiple of kLanes): handing out tasks costs nothing measurable
+static_assert(kChunk % kLanes == 0);
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -76,12 +79,14 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats, int threads) {
+RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats, int threads,
+                                     bool packets) {
   using Clock = std::chrono::steady_clock;
   ThreadPool pool(threads);
   const size_t n = batch.rays.size();
   const int tasks = static_cast<int>((n + kChunk - 1) / kChunk);
   std::vector<float> hit_t(n), half_t(n);
+  const std::vector<uint32_t> none(n, ~0u);  // shadow rays of the replay skip nothing besides the ray's own skip
   // Runs `query(i)` (true counts) over all rays in parallel; returns Mrays/s and the count.
   const auto timed = [&](auto&& query, uint64_t& count) {
     std::atomic<uint64_t> total{0};
@@ -100,20 +105,44 @@ RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, 
   r.rays = n;
   std::vector<double> closest, shadow, half;
   for (int rep = 0; rep < repeats; ++rep) {
-    closest.push_back(timed(
-        [&](size_t i) {
-          Hit h;
-          const bool hit = scene.intersect(batch.rays[i], batch.tfar[i], batch.skip[i], h);
-          hit_t[i] = hit ? h.t : -1.f;
-          return hit;
-        },
-        r.closest_hits));
+    if (!packets) {
+      closest.push_back(timed(
+          [&](size_t i) {
+            Hit h;
+            const bool hit = scene.intersect(batch.rays[i], batch.tfar[i], batch.skip[i], h);
+            hit_t[i] = hit ? h.t : -1.f;
+            return hit;
+          },
+          r.closest_hits));
+    } else {  // kLanes consecutive rays per call (chunks are multiples of kLanes)
+      closest.push_back(timed(
+          [&](size_t i) -> int {
+            if (i % kLanes != 0) return 0;
+            const int m = static_cast<int>(std::min<size_t>(kLanes, n - i));
+            Hit h[kLanes];
+            bool found[kLanes];
+            scene.intersect_packet(&batch.rays[i], &batch.tfar[i], &batch.skip[i], m, h, found);
+            int hits = 0;
+            for (int l = 0; l < m; ++l) {
+              hit_t[i + l] = found[l] ? h[l].t : -1.f;
+              hits += found[l];
+            }
+            return hits;
+          },
+          r.closest_hits));
+    }
     if (rep == 0)
       for (size_t i = 0; i < n; ++i) half_t[i] = i % 2 == 1 && hit_t[i] >= 0.f ? 0.99f * hit_t[i] : batch.tfar[i];
-    shadow.push_back(timed([&](size_t i) { return scene.occluded(batch.rays[i], batch.tfar[i], batch.skip[i], ~0u); },
-                           r.occluded));
-    half.push_back(timed([&](size_t i) { return scene.occluded(batch.rays[i], half_t[i], batch.skip[i], ~0u); },
-                         r.occluded_half));
+    const auto shadow_query = [&](const std::vector<float>& t_max) {
+      return [&, packets](size_t i) -> int {
+        if (!packets) return scene.occluded(batch.rays[i], t_max[i], batch.skip[i], ~0u);
+        if (i % kLanes != 0) return 0;
+        const int m = static_cast<int>(std::min<size_t>(kLanes, n - i));
+        return std::popcount(scene.occluded_packet(&batch.rays[i], &t_max[i], &batch.skip[i], none.data(), m));
+      };
+    };
+    shadow.push_back(timed(shadow_query(batch.tfar), r.occluded));
+    half.push_back(timed(shadow_query(half_t), r.occluded_half));
   }
   r.closest_mrays_per_s = median(closest);
   r.shadow_mrays_per_s = median(shadow);

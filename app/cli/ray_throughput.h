@@ -36,7 +36,9 @@ struct RayThroughput {
 };
 
 // Replays the batch `repeats` times on `threads` threads (rays handed out in chunks); reports the median rate of
-// the repeats for each query and the counts, which are the same in every repeat.
-RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats, int threads = 1);
+// the repeats for each query and the counts, which are the same in every repeat. With `packets`, kLanes
+// consecutive rays go to the scene's packet queries at a time (Scene::intersect_packet, occluded_packet).
+RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, int repeats, int threads = 1,
+                                     bool packets = false);
 
 }  // namespace pt

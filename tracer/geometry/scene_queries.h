@@ -1,6 +1,7 @@
 // Ray queries specialised on a kernel feature set F (see KernelFeature): primitive kinds outside F are not
 // tested, not even by a branch. With F = kAllFeatures each kind is tested when the scene has some.
 #pragma once
+#include "geometry/packet_polygons.h"
 #include "scene/scene.h"
 
 namespace pt {
@@ -58,6 +59,64 @@ inline bool occluded_scene(const Scene& s, const Ray& ray, float t_max, uint32_t
     }
   }
   return false;
+}
+
+// Closest hits of n ≤ kLanes rays at once (found[l] and hits[l] per ray), with the same results as n calls of
+// intersect_scene: polygons kept in brute-force lanes go through the packet kernel (packet_polygons.h); polygons
+// in a BVH and spheres are searched ray by ray.
+template <uint32_t F>
+inline void intersect_scene_packet(const Scene& s, const Ray* rays, const float* t_max, const uint32_t* skip, int n,
+                                   Hit* hits, bool* found) {
+  if constexpr ((F & kFeaturePolygons) != 0) {
+    if (s.polygon_bvh.empty()) {
+      RayPacket P;
+      P.load(rays, t_max, skip, nullptr, n);
+      float t[kLanes];
+      uint32_t id[kLanes];
+      closest_polygon_packet(s.polygon_lanes, P, t, id, [&](int l, uint32_t i, float tm, PolygonHit& h) {
+        return intersect_polygon(s.polygons, i, rays[l].o, RayShear(rays[l].d), tm, h);
+      });
+      for (int l = 0; l < n; ++l) {
+        found[l] = t[l] < t_max[l];
+        if (found[l]) hits[l] = {t[l], id[l]};
+      }
+      if constexpr ((F & kFeatureSpheres) != 0) {
+        for (int l = 0; l < n; ++l) {
+          Hit h;
+          if (intersect_scene<F & ~uint32_t{kFeaturePolygons}>(s, rays[l], found[l] ? hits[l].t : t_max[l], skip[l], h)) {
+            hits[l] = h;
+            found[l] = true;
+          }
+        }
+      }
+      return;
+    }
+  }
+  for (int l = 0; l < n; ++l) found[l] = intersect_scene<F>(s, rays[l], t_max[l], skip[l], hits[l]);
+}
+
+// Any hits of n ≤ kLanes shadow rays at once: bit l of the result is occluded_scene's answer for ray l.
+template <uint32_t F>
+inline uint32_t occluded_scene_packet(const Scene& s, const Ray* rays, const float* t_max, const uint32_t* skip_a,
+                                      const uint32_t* skip_b, int n) {
+  uint32_t bits = 0;
+  if constexpr ((F & kFeaturePolygons) != 0) {
+    if (s.polygon_bvh.empty()) {
+      RayPacket P;
+      P.load(rays, t_max, skip_a, skip_b, n);
+      bits = any_polygon_packet(s.polygon_lanes, P, [&](int l, uint32_t i, float tm, PolygonHit& h) {
+        return intersect_polygon(s.polygons, i, rays[l].o, RayShear(rays[l].d), tm, h);
+      });
+      if constexpr ((F & kFeatureSpheres) != 0)
+        for (int l = 0; l < n; ++l)
+          if (!(bits >> l & 1u) && occluded_scene<F & ~uint32_t{kFeaturePolygons}>(s, rays[l], t_max[l], skip_a[l], skip_b[l]))
+            bits |= 1u << l;
+      return bits;
+    }
+  }
+  for (int l = 0; l < n; ++l)
+    if (occluded_scene<F>(s, rays[l], t_max[l], skip_a[l], skip_b[l])) bits |= 1u << l;
+  return bits;
 }
 
 }  // namespace pt

@@ -527,4 +527,14 @@ bool Scene::occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip
   return occluded_scene<kAllFeatures>(*this, ray, t_max, skip_a, skip_b);
 }
 
+void Scene::intersect_packet(const Ray* rays, const float* t_max, const uint32_t* skip, int n, Hit* hits,
+                             bool* found) const {
+  intersect_scene_packet<kAllFeatures>(*this, rays, t_max, skip, n, hits, found);
+}
+
+uint32_t Scene::occluded_packet(const Ray* rays, const float* t_max, const uint32_t* skip_a, const uint32_t* skip_b,
+                                int n) const {
+  return occluded_scene_packet<kAllFeatures>(*this, rays, t_max, skip_a, skip_b, n);
+}
+
 }  // namespace pt
