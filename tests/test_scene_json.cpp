@@ -646,6 +646,19 @@ TEST_CASE("scene_json: a mesh shape reads an OBJ file (triangulated, transformed
   CHECK(message(scene_with(R"({"type": "mesh", "file": "bad_index.obj", "material": "red"})")) ==
         "mesh.json: shapes[0].file: " + (dir / "bad_index.obj").string() + ": a face refers to a vertex the file does not have (it has 3)");
   std::ofstream(dir / "flat.obj") << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+  // Coordinates tinyobjloader would read as 0 without a word.
+  std::ofstream(dir / "nan.obj") << "v 0 0 0\nv 1 0 0\n  v\t0 nan 0\nf 1 2 3\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "nan.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "nan.obj").string() + ": line 3: vertex coordinate 2 'nan' is not a finite number");
+  std::ofstream(dir / "junk.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0abc\nf 1 2 3\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "junk.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "junk.obj").string() + ": line 3: vertex coordinate 3 '0abc' is not a finite number");
+  std::ofstream(dir / "huge.obj") << "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "huge.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "huge.obj").string() + ": line 2: vertex coordinate 1 '1e39' is not a finite number");
+  std::ofstream(dir / "short.obj") << "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n";
+  CHECK(message(scene_with(R"({"type": "mesh", "file": "short.obj", "material": "red"})")) ==
+        "mesh.json: shapes[0].file: " + (dir / "short.obj").string() + ": line 2: vertex coordinate 3 is missing");
   CHECK(message(scene_with(R"({"type": "mesh", "file": "flat.obj", "material": "red"})")) ==
         "mesh.json: shapes[0].file: " + (dir / "flat.obj").string() + ": the mesh has no triangle of non-zero area");
   CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "red", "transform": {"scale": 0}})")) ==

@@ -2,7 +2,9 @@
 
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "io/safe_file.h"
@@ -11,8 +13,40 @@
 
 namespace pt {
 
+namespace {
+
+// tinyobjloader's number parser reads a malformed coordinate ("nan", "abc", "1e999") as 0 or clamps it without a
+// word, which would silently move a vertex. So every vertex line is checked first: its first three fields must be
+// numbers (the whole field) that are finite in float.
+void check_vertex_lines(const std::string& path, const std::string& text) {
+  size_t line_no = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    const size_t end = std::min(text.find('\n', pos), text.size());
+    ++line_no;
+    size_t i = text.find_first_not_of(" \t", pos);
+    if (i < end && text[i] == 'v' && i + 1 < end && (text[i + 1] == ' ' || text[i + 1] == '\t')) {
+      i += 1;
+      for (int field = 0; field < 3; ++field) {
+        i = text.find_first_not_of(" \t\r", i);
+        const size_t stop = i < end ? std::min(text.find_first_of(" \t\r", i), end) : end;
+        const std::string token = i < end ? text.substr(i, stop - i) : std::string();
+        char* tail = nullptr;
+        const double value = token.empty() ? 0.0 : std::strtod(token.c_str(), &tail);
+        if (token.empty() || *tail != '\0' || !std::isfinite(value) || std::abs(value) > 3.4e38)
+          throw std::runtime_error(path + ": line " + std::to_string(line_no) + ": vertex coordinate " +
+                                   std::to_string(field + 1) + (token.empty() ? " is missing" : " '" + token + "' is not a finite number"));
+        i = stop;
+      }
+    }
+    pos = end + 1;
+  }
+}
+
+}  // namespace
+
 MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& t) {
   const std::string text = read_file_limited(path, kMaxSceneFileBytes);  // FileError names the path
+  check_vertex_lines(path, text);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
