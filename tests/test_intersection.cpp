@@ -255,6 +255,22 @@ struct Soup {
   }
 };
 
+// A closed lat-long triangulated sphere of radius 3 about the origin; returns its vertex (ring i, segment j).
+struct SphereMesh {
+  int rings, segments;
+  Vec3 point(int i, int j) const {
+    const float th = glm::pi<float>() * i / rings, ph = 2 * glm::pi<float>() * (j % segments) / segments;
+    return Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * 3.f;
+  }
+  void add_to(Soup& soup) const {
+    for (int i = 0; i < rings; ++i)
+      for (int j = 0; j < segments; ++j) {
+        if (i > 0) soup.add_triangle(point(i, j), point(i, j + 1), point(i + 1, j));
+        if (i < rings - 1) soup.add_triangle(point(i, j + 1), point(i + 1, j + 1), point(i + 1, j));
+      }
+  }
+};
+
 // Checks closest and any-hit queries through the hierarchy against a loop over the scalar tests, ray by ray:
 // the same distance bit for bit and the same polygon (or, on an exact tie, one hit at that distance).
 // Every third ray skips a polygon (as a ray leaving a surface does) unless `skips` is false.
@@ -326,19 +342,11 @@ TEST_CASE("BVH: closest and any hit equal brute force bit for bit (soups, a clos
   }
   SUBCASE("a closed triangulated sphere seen from inside: every ray hits (watertight through the hierarchy)") {
     Soup soup;
-    const int rings = 40, segments = 80;
-    auto point = [&](int i, int j) {
-      const float th = glm::pi<float>() * i / rings, ph = 2 * glm::pi<float>() * (j % segments) / segments;
-      return Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * 3.f;
-    };
-    for (int i = 0; i < rings; ++i)
-      for (int j = 0; j < segments; ++j) {
-        if (i > 0) soup.add_triangle(point(i, j), point(i, j + 1), point(i + 1, j));
-        if (i < rings - 1) soup.add_triangle(point(i, j + 1), point(i + 1, j + 1), point(i + 1, j));
-      }
+    const SphereMesh sphere{40, 80};
+    sphere.add_to(soup);
     random_rays(20000, -1, 1);
     // Rays through the shared vertices and edges too: aimed exactly at vertices of the mesh.
-    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), point(1 + k % (rings - 1), k)});
+    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), sphere.point(1 + k % (sphere.rings - 1), k)});
     CHECK(check_bvh_against_brute_force(soup, rays, false) == static_cast<int>(rays.size()));
     CHECK(check_bvh_against_brute_force(soup, rays) > 19000);
   }
@@ -498,19 +506,11 @@ TEST_CASE("packet: 16 rays against one polygon per step give the scalar tests' d
   }
   SUBCASE("a closed triangulated sphere seen from inside, rays aimed at its vertices (zero edge functions)") {
     Soup soup;
-    const int rings = 6, segments = 12;
-    auto point = [&](int i, int j) {
-      const float th = glm::pi<float>() * i / rings, ph = 2 * glm::pi<float>() * (j % segments) / segments;
-      return Vec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * 3.f;
-    };
-    for (int i = 0; i < rings; ++i)
-      for (int j = 0; j < segments; ++j) {
-        if (i > 0) soup.add_triangle(point(i, j), point(i, j + 1), point(i + 1, j));
-        if (i < rings - 1) soup.add_triangle(point(i, j + 1), point(i + 1, j + 1), point(i + 1, j));
-      }
+    const SphereMesh sphere{6, 12};
+    sphere.add_to(soup);
     random_rays(4000, -1, 1);
     for (auto& r : rays) r.first = Vec3(0.f);  // from the centre: no ray may escape
-    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), point(1 + k % (rings - 1), k)});
+    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), sphere.point(1 + k % (sphere.rings - 1), k)});
     // From the centre a ray misses only where t_max = 2 stops it (every 7th) or it leaves through the polygon
     // it skips (every 3rd ray skips one of 120).
     CHECK(check_packets_against_scalar(soup, rays) > static_cast<int>(rays.size() * 0.8));

@@ -3,8 +3,6 @@
 // valid result (OBJ: at least one triangle, every coordinate finite; rays: at least one, each finite with a
 // non-zero direction and 0 <= tnear <= tfar) or an error message naming the file; a crash, a sanitizer report,
 // a hang or an oversized allocation is a finding. Build and run: tools/fuzz.sh (docs/reliability.md).
-#include <unistd.h>
-
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -13,33 +11,22 @@
 #include <stdexcept>
 #include <string>
 
+#include "fuzz_input.h"
 #include "io/ray_file.h"
 #include "scene/mesh_obj.h"
 
 namespace {
 
-[[noreturn]] void finding(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "fuzz_geometry_files: %s: %s\n", what, detail.c_str());
-  std::abort();
-}
+constexpr const char* kTarget = "fuzz_geometry_files";
 
-// The readers take a path: the input goes to a per-process file in shared memory (RAM), rewritten each time.
-std::string write_input(const uint8_t* data, size_t size, const char* extension) {
-  const std::string dir = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
-  const std::string path = dir + "/pt_fuzz_geometry_" + std::to_string(getpid()) + extension;
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) finding("cannot create the input file", path);
-  if (size && std::fwrite(data, 1, size, f) != size) finding("cannot write the input file", path);
-  if (std::fclose(f) != 0) finding("cannot close the input file", path);
-  return path;
-}
+[[noreturn]] void finding(const char* what, const std::string& detail) { pt::fuzz::finding(kTarget, what, detail); }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   const bool obj = data[0] % 2 == 0;
-  const std::string path = write_input(data + 1, size - 1, obj ? ".obj" : ".rays");
+  const std::string path = pt::fuzz::write_input(kTarget, data + 1, size - 1, obj ? ".obj" : ".rays");
   try {
     if (obj) {
       const pt::MeshTriangles mesh = pt::load_obj_mesh(path, pt::MeshTransform{});

@@ -3,8 +3,6 @@
 // size is consistent and whose texels are finite and >= 0, or an error message naming the file; a crash, a
 // sanitizer report, a hang or an oversized allocation is a finding.
 // Build and run: tools/fuzz.sh (docs/reliability.md).
-#include <unistd.h>
-
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -12,32 +10,21 @@
 #include <cstdlib>
 #include <string>
 
+#include "fuzz_input.h"
 #include "io/image_io.h"
 
 namespace {
 
-[[noreturn]] void finding(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "fuzz_images: %s: %s\n", what, detail.c_str());
-  std::abort();
-}
+constexpr const char* kTarget = "fuzz_images";
 
-// The readers take a path: the input goes to a per-process file in shared memory (RAM), rewritten each time.
-std::string write_input(const uint8_t* data, size_t size, const char* extension) {
-  const std::string dir = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
-  const std::string path = dir + "/pt_fuzz_images_" + std::to_string(getpid()) + extension;
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) finding("cannot create the input file", path);
-  if (size && std::fwrite(data, 1, size, f) != size) finding("cannot write the input file", path);
-  if (std::fclose(f) != 0) finding("cannot close the input file", path);
-  return path;
-}
+[[noreturn]] void finding(const char* what, const std::string& detail) { pt::fuzz::finding(kTarget, what, detail); }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   static const char* const kExtensions[] = {".pfm", ".hdr", ".exr"};
-  const std::string path = write_input(data + 1, size - 1, kExtensions[data[0] % 3]);
+  const std::string path = pt::fuzz::write_input(kTarget, data + 1, size - 1, kExtensions[data[0] % 3]);
   const pt::HdrImageResult result = pt::read_hdr_image(path);
   if (result.ok()) {
     const pt::Image& img = result.image;
