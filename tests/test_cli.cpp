@@ -154,6 +154,11 @@ TEST_CASE("cli: bench rays replays a ray file over [tnear, tfar] and records the
   // The shadow-half rule stops odd rays that hit (1 and 3 here) at 0.99 × the hit: those two pass.
   CHECK(r.out.find("\"occluded_half\": 4,") != std::string::npos);
   CHECK(r.out.find("\"rays\": 10,") != std::string::npos);
+  // The packet queries give the same answers.
+  const Run packets = run("bench rays --scene cornell --rays bench_rays_known.bin --repeats 1 --packets --json");
+  INFO(packets.out << packets.err);
+  REQUIRE(packets.status == 0);
+  CHECK(packets.out.find("\"closest_hits\": 6, \"occluded\": 6, \"occluded_half\": 4,") != std::string::npos);
 
   std::filesystem::remove("bench_rays_own.bin");
   const Run rec = run("bench rays --scene cornell --record bench_rays_own.bin --count 1000");

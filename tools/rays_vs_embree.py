@@ -4,7 +4,8 @@
 For each scene: `pathtracer bench rays --export-tris` writes the polygons the tracer holds (meshes included) as
 the peers' triangle file; Embree's `embree_rays` (../shared/peers, built by its build.sh) records 2^20 rays of
 its recipe into a ray file, `pathtracer bench rays --record` records 2^20 of the project's own path rays; then
-each file is replayed by Embree (triangles, and quads where the scene has them) and by the project, one thread,
+each file is replayed by Embree (triangles, and quads where the scene has them) and by the project (one ray
+at a time, and in packets where the scene is on brute force), one thread,
 median of 5 replays each, the systems alternating. Prints Mrays/s, hit counts and ratios project / Embree.
 A benchmark, not a test: it prints figures and fails only when a tool fails or hit counts differ in more than
 10^-5 of the rays. (They may differ in a few: the tracer holds geometry camera-relative, so a file in world
@@ -54,23 +55,25 @@ def main():
             sys.exit(r.stderr)
         made = run_json([embree, "--tris", tris, "--write-rays", emb_rays, "--count", str(a.count), "--json"])
         for label, rays in (("embree", emb_rays), ("project", own_rays)):
-            rows = [("Embree triangles", run_json([embree, "--tris", tris, "--rays", rays, "--json"]))]
-            rows.append(("project", run_json(pt + ["--scene", scene, "--rays", rays])))
+            embree_rows = [("triangles", run_json([embree, "--tris", tris, "--rays", rays, "--json"]))]
+            project_rows = [("project", run_json(pt + ["--scene", scene, "--rays", rays]))]
+            if project_rows[0][1]["polygon_accel"] == "brute-force SIMD":  # the packet kernels serve these scenes
+                project_rows.append(("project packets", run_json(pt + ["--scene", scene, "--rays", rays, "--packets"])))
             if made["triangles"] <= 64:  # the Cornell scenes: quads as Embree's own primitive, its best case
-                rows.append(("Embree quads", run_json([embree, "--tris", tris, "--rays", rays, "--quads", "--json"])))
-            for system, j in rows:
+                embree_rows.append(("quads", run_json([embree, "--tris", tris, "--rays", rays, "--quads", "--json"])))
+            for system, j in [("Embree " + k, j) for k, j in embree_rows] + project_rows:
                 print("%-14s %-8s %-22s %8.2f %8.2f %8.2f %9d" % (name, label, system, j["closest_mrays_s"],
                       j["shadow_mrays_s"], j["shadow_half_mrays_s"], j["closest_hits"]))
-            p = rows[1][1]
-            for system, j in rows[::2]:
-                print("%-14s %-8s ratio project / %-7s %8.2f %8.2f %8.2f" % (name, label, system.split()[1],
-                      p["closest_mrays_s"] / j["closest_mrays_s"], p["shadow_mrays_s"] / j["shadow_mrays_s"],
-                      p["shadow_half_mrays_s"] / j["shadow_half_mrays_s"]))
-                if (j["closest_hits"], j["occluded_half"]) != (p["closest_hits"], p["occluded_half"]):
-                    diff = abs(j["closest_hits"] - p["closest_hits"]) + abs(j["occluded_half"] - p["occluded_half"])
-                    mismatch = mismatch or diff > 1e-5 * p["rays"]
-                    print("  hit counts differ: Embree %d / %d, project %d / %d" % (j["closest_hits"],
-                          j["occluded_half"], p["closest_hits"], p["occluded_half"]))
+            for mine, p in project_rows:
+                for kind, j in embree_rows:
+                    print("%-14s %-8s ratio %s / %s %8.2f %8.2f %8.2f" % (name, label, mine, kind,
+                          p["closest_mrays_s"] / j["closest_mrays_s"], p["shadow_mrays_s"] / j["shadow_mrays_s"],
+                          p["shadow_half_mrays_s"] / j["shadow_half_mrays_s"]))
+                    if (j["closest_hits"], j["occluded_half"]) != (p["closest_hits"], p["occluded_half"]):
+                        diff = abs(j["closest_hits"] - p["closest_hits"]) + abs(j["occluded_half"] - p["occluded_half"])
+                        mismatch = mismatch or diff > 1e-5 * p["rays"]
+                        print("  hit counts differ: Embree %d / %d, %s %d / %d" % (j["closest_hits"],
+                              j["occluded_half"], mine, p["closest_hits"], p["occluded_half"]))
     sys.exit(1 if mismatch else 0)
 
 

@@ -2,13 +2,14 @@
 
 #include <CLI/CLI.hpp>
 #include <array>
-#include <bit>
 #include <cstdio>
 
 #include "cli/option_checks.h"
 #include "cli/ray_throughput.h"
 #include "cli/scene_arg.h"
 #include "core/thread_pool.h"
+#include "io/little_endian.h"
+#include "io/ray_file.h"
 #include "io/safe_file.h"
 #include "scene/scene_json.h"
 
@@ -16,15 +17,11 @@ namespace pt {
 
 namespace {
 
-void put_f32(std::string& out, float f) { out.append(reinterpret_cast<const char*>(&f), 4); }
-void put_u32(std::string& out, uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); }
-
 // The peers' triangle file (../shared/peers/README.md): 8 bytes PTTRIS01; camera position, look-at, up and vertical
 // fov (10 float32); film width, height, triangle count (3 uint32); 9 float32 per triangle. Quads split into
 // (a, b, c), (a, c, d) as the tracer splits them; vertices back in world coordinates (camera-relative + origin in
-// double, rounded once). Little-endian machines only (as the peers' harness).
+// double, rounded once).
 void write_triangle_file(const std::string& path, const SceneDesc& desc, const Scene& s) {
-  static_assert(std::endian::native == std::endian::little, "the triangle file is little-endian");
   if (desc.camera.fov_axis != FovAxis::Vertical) throw std::runtime_error(path + ": the triangle file needs a vertical fov");
   const PolygonSoA& p = s.polygons;
   std::vector<std::array<Vec3, 3>> tris;
@@ -35,14 +32,14 @@ void write_triangle_file(const std::string& path, const SceneDesc& desc, const S
   }
   std::string out = "PTTRIS01";
   for (const DVec3& v : {desc.camera.position, desc.camera.look_at, desc.camera.up})
-    for (int k = 0; k < 3; ++k) put_f32(out, static_cast<float>(v[k]));
-  put_f32(out, static_cast<float>(desc.camera.fov_deg));
-  put_u32(out, static_cast<uint32_t>(desc.width));
-  put_u32(out, static_cast<uint32_t>(desc.height));
-  put_u32(out, static_cast<uint32_t>(tris.size()));
+    for (int k = 0; k < 3; ++k) put_le_f32(out, static_cast<float>(v[k]));
+  put_le_f32(out, static_cast<float>(desc.camera.fov_deg));
+  put_le_u32(out, static_cast<uint32_t>(desc.width));
+  put_le_u32(out, static_cast<uint32_t>(desc.height));
+  put_le_u32(out, static_cast<uint32_t>(tris.size()));
   for (const auto& t : tris)
     for (const Vec3& v : t)
-      for (int k = 0; k < 3; ++k) put_f32(out, v[k]);
+      for (int k = 0; k < 3; ++k) put_le_f32(out, v[k]);
   write_file_safely(path, out);
 }
 
@@ -138,7 +135,7 @@ int run_bench_rays(const BenchRaysOptions& o) {
               o.rays_file.c_str(), threads, threads == 1 ? "" : "s", o.repeats, o.packets ? ", packets" : "");
   std::printf("query          Mrays/s   count\n");
   std::printf("closest hit  %9.2f   %llu hits\n", t.closest_mrays_per_s, static_cast<unsigned long long>(t.closest_hits));
-  std::printf("shadow       %9.2f   %llu occluded (over [tnear, tfar])\n", t.shadow_mrays_per_s,
+  std::printf("shadow       %9.2f   %llu occluded (over (tnear, tfar))\n", t.shadow_mrays_per_s,
               static_cast<unsigned long long>(t.occluded));
   std::printf("shadow half  %9.2f   %llu occluded (odd rays that hit stop at 0.99 x the hit)\n",
               t.shadow_half_mrays_per_s, static_cast<unsigned long long>(t.occluded_half));

@@ -69,8 +69,7 @@ std::vector<RecordedRay> recorded_from_batch(const Scene& scene, const RayBatch&
 
 namespace {
 
-constexpr size_t kChunk = 4096;  // rays per task (a multiple of kLanes): handing out tasks costs nothing measurable
-static_assert(kChunk % kLanes == 0);
+constexpr size_t kChunk = 4096;  // rays per task: handing out tasks costs nothing measurable
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -86,61 +85,52 @@ RayThroughput measure_ray_throughput(const Scene& scene, const RayBatch& batch, 
   const size_t n = batch.rays.size();
   const int tasks = static_cast<int>((n + kChunk - 1) / kChunk);
   std::vector<float> hit_t(n), half_t(n);
-  const std::vector<uint32_t> none(n, ~0u);  // shadow rays of the replay skip nothing besides the ray's own skip
-  // Runs `query(i)` (true counts) over all rays in parallel; returns Mrays/s and the count.
+  // Runs `query(begin, end)` (returns how many of rays [begin, end) count) over all rays in parallel, in chunks;
+  // returns Mrays/s and the count.
   const auto timed = [&](auto&& query, uint64_t& count) {
     std::atomic<uint64_t> total{0};
     const auto t0 = Clock::now();
-    pool.parallel_for(tasks, [&](int task, int) {
-      uint64_t c = 0;
-      const size_t end = std::min(n, (task + 1) * kChunk);
-      for (size_t i = task * kChunk; i < end; ++i) c += query(i);
-      total += c;
-    });
+    pool.parallel_for(tasks, [&](int task, int) { total += query(task * kChunk, std::min(n, (task + 1) * kChunk)); });
     const double s = std::chrono::duration<double>(Clock::now() - t0).count();
     count = total;
     return n / s * 1e-6;
+  };
+  // Closest hits, one ray at a time or kLanes at a time; records each ray's hit distance (−1 for none).
+  const auto closest_query = [&](size_t begin, size_t end) {
+    uint64_t hits = 0;
+    for (size_t i = begin; i < end; i += packets ? kLanes : 1) {
+      const int m = packets ? static_cast<int>(std::min<size_t>(kLanes, end - i)) : 1;
+      Hit h[kLanes];
+      bool found[kLanes];
+      if (packets) scene.intersect_packet(&batch.rays[i], &batch.tfar[i], &batch.skip[i], m, h, found);
+      else found[0] = scene.intersect(batch.rays[i], batch.tfar[i], batch.skip[i], h[0]);
+      for (int l = 0; l < m; ++l) {
+        hit_t[i + l] = found[l] ? h[l].t : -1.f;
+        hits += found[l];
+      }
+    }
+    return hits;
+  };
+  const auto shadow_query = [&](const std::vector<float>& t_max) {
+    return [&](size_t begin, size_t end) {
+      uint64_t blocked = 0;
+      if (!packets) {
+        for (size_t i = begin; i < end; ++i) blocked += scene.occluded(batch.rays[i], t_max[i], batch.skip[i], ~0u);
+      } else {
+        for (size_t i = begin; i < end; i += kLanes)
+          blocked += std::popcount(scene.occluded_packet(&batch.rays[i], &t_max[i], &batch.skip[i], nullptr,
+                                                         static_cast<int>(std::min<size_t>(kLanes, end - i))));
+      }
+      return blocked;
+    };
   };
   RayThroughput r;
   r.rays = n;
   std::vector<double> closest, shadow, half;
   for (int rep = 0; rep < repeats; ++rep) {
-    if (!packets) {
-      closest.push_back(timed(
-          [&](size_t i) {
-            Hit h;
-            const bool hit = scene.intersect(batch.rays[i], batch.tfar[i], batch.skip[i], h);
-            hit_t[i] = hit ? h.t : -1.f;
-            return hit;
-          },
-          r.closest_hits));
-    } else {  // kLanes consecutive rays per call (chunks are multiples of kLanes)
-      closest.push_back(timed(
-          [&](size_t i) -> int {
-            if (i % kLanes != 0) return 0;
-            const int m = static_cast<int>(std::min<size_t>(kLanes, n - i));
-            Hit h[kLanes];
-            bool found[kLanes];
-            scene.intersect_packet(&batch.rays[i], &batch.tfar[i], &batch.skip[i], m, h, found);
-            int hits = 0;
-            for (int l = 0; l < m; ++l) {
-              hit_t[i + l] = found[l] ? h[l].t : -1.f;
-              hits += found[l];
-            }
-            return hits;
-          },
-          r.closest_hits));
-    }
+    closest.push_back(timed(closest_query, r.closest_hits));
     if (rep == 0)
       for (size_t i = 0; i < n; ++i) half_t[i] = i % 2 == 1 && hit_t[i] >= 0.f ? 0.99f * hit_t[i] : batch.tfar[i];
-    const auto shadow_query = [&](const std::vector<float>& t_max) {
-      return [&, packets](size_t i) -> int {
-        if (!packets) return scene.occluded(batch.rays[i], t_max[i], batch.skip[i], ~0u);
-        if (i % kLanes != 0) return 0;
-        const int m = static_cast<int>(std::min<size_t>(kLanes, n - i));
-        return std::popcount(scene.occluded_packet(&batch.rays[i], &t_max[i], &batch.skip[i], none.data(), m));
-      };
-    };
     shadow.push_back(timed(shadow_query(batch.tfar), r.occluded));
     half.push_back(timed(shadow_query(half_t), r.occluded_half));
   }

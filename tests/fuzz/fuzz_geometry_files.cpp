@@ -15,18 +15,14 @@
 #include "io/ray_file.h"
 #include "scene/mesh_obj.h"
 
-namespace {
+const char* const pt::fuzz::kTarget = "fuzz_geometry_files";
 
-constexpr const char* kTarget = "fuzz_geometry_files";
-
-[[noreturn]] void finding(const char* what, const std::string& detail) { pt::fuzz::finding(kTarget, what, detail); }
-
-}  // namespace
+using pt::fuzz::finding;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   const bool obj = data[0] % 2 == 0;
-  const std::string path = pt::fuzz::write_input(kTarget, data + 1, size - 1, obj ? ".obj" : ".rays");
+  const std::string path = pt::fuzz::write_input(data + 1, size - 1, obj ? ".obj" : ".rays");
   try {
     if (obj) {
       const pt::MeshTriangles mesh = pt::load_obj_mesh(path, pt::MeshTransform{});

@@ -13,18 +13,14 @@
 #include "fuzz_input.h"
 #include "io/image_io.h"
 
-namespace {
+const char* const pt::fuzz::kTarget = "fuzz_images";
 
-constexpr const char* kTarget = "fuzz_images";
-
-[[noreturn]] void finding(const char* what, const std::string& detail) { pt::fuzz::finding(kTarget, what, detail); }
-
-}  // namespace
+using pt::fuzz::finding;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   static const char* const kExtensions[] = {".pfm", ".hdr", ".exr"};
-  const std::string path = pt::fuzz::write_input(kTarget, data + 1, size - 1, kExtensions[data[0] % 3]);
+  const std::string path = pt::fuzz::write_input(data + 1, size - 1, kExtensions[data[0] % 3]);
   const pt::HdrImageResult result = pt::read_hdr_image(path);
   if (result.ok()) {
     const pt::Image& img = result.image;

@@ -9,19 +9,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "fuzz_input.h"
 #include "render/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
 
-namespace {
+const char* const pt::fuzz::kTarget = "fuzz_scene";
 
-[[noreturn]] void finding(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "fuzz_scene: %s: %s\n", what, detail.c_str());
-  std::abort();
-}
-
-}  // namespace
+using pt::fuzz::finding;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

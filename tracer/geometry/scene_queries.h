@@ -95,7 +95,8 @@ inline void intersect_scene_packet(const Scene& s, const Ray* rays, const float*
   for (int l = 0; l < n; ++l) found[l] = intersect_scene<F>(s, rays[l], t_max[l], skip[l], hits[l]);
 }
 
-// Any hits of n ≤ kLanes shadow rays at once: bit l of the result is occluded_scene's answer for ray l.
+// Any hits of n ≤ kLanes shadow rays at once: bit l of the result is occluded_scene's answer for ray l. skip_b
+// may be null (no second primitive to ignore).
 template <uint32_t F>
 inline uint32_t occluded_scene_packet(const Scene& s, const Ray* rays, const float* t_max, const uint32_t* skip_a,
                                       const uint32_t* skip_b, int n) {
@@ -109,13 +110,13 @@ inline uint32_t occluded_scene_packet(const Scene& s, const Ray* rays, const flo
       });
       if constexpr ((F & kFeatureSpheres) != 0)
         for (int l = 0; l < n; ++l)
-          if (!(bits >> l & 1u) && occluded_scene<F & ~uint32_t{kFeaturePolygons}>(s, rays[l], t_max[l], skip_a[l], skip_b[l]))
+          if (!(bits >> l & 1u) && occluded_scene<F & ~uint32_t{kFeaturePolygons}>(s, rays[l], t_max[l], skip_a[l], skip_b ? skip_b[l] : ~0u))
             bits |= 1u << l;
       return bits;
     }
   }
   for (int l = 0; l < n; ++l)
-    if (occluded_scene<F>(s, rays[l], t_max[l], skip_a[l], skip_b[l])) bits |= 1u << l;
+    if (occluded_scene<F>(s, rays[l], t_max[l], skip_a[l], skip_b ? skip_b[l] : ~0u)) bits |= 1u << l;
   return bits;
 }
 

@@ -4,30 +4,12 @@
 #include <cstring>
 
 #include "core/memory_budget.h"
+#include "io/little_endian.h"
 #include "io/safe_file.h"
 
 namespace pt {
 
 namespace {
-
-// Byte-order independent encoding: the format is little-endian whatever the machine.
-void put_u32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xffu));
-}
-void put_f32(std::string& out, float f) {
-  uint32_t v;
-  std::memcpy(&v, &f, 4);
-  put_u32(out, v);
-}
-uint32_t get_u32(const unsigned char* p) {
-  return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
-}
-float get_f32(const unsigned char* p) {
-  const uint32_t v = get_u32(p);
-  float f;
-  std::memcpy(&f, &v, 4);
-  return f;
-}
 
 const char* const kFieldNames[8] = {"origin x", "origin y", "origin z", "direction x",
                                     "direction y", "direction z", "tnear", "tfar"};
@@ -39,14 +21,12 @@ void write_ray_file(const std::string& path, const std::vector<RecordedRay>& ray
   std::string out;
   out.reserve(kRayFileHeaderBytes + kRayRecordBytes * rays.size());
   out.append(kRayFileMagic, 8);
-  const uint64_t n = rays.size();
-  put_u32(out, static_cast<uint32_t>(n));
-  put_u32(out, static_cast<uint32_t>(n >> 32));
+  put_le_u64(out, rays.size());
   for (const RecordedRay& r : rays) {
-    for (float f : r.origin) put_f32(out, f);
-    for (float f : r.direction) put_f32(out, f);
-    put_f32(out, r.tnear);
-    put_f32(out, r.tfar);
+    for (float f : r.origin) put_le_f32(out, f);
+    for (float f : r.direction) put_le_f32(out, f);
+    put_le_f32(out, r.tnear);
+    put_le_f32(out, r.tfar);
   }
   write_file_safely(path, out);
 }
@@ -58,7 +38,7 @@ std::vector<RecordedRay> read_ray_file(const std::string& path) {
   const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
   if (bytes.size() < kRayFileHeaderBytes || std::memcmp(p, kRayFileMagic, 8) != 0)
     throw RayFileError(path + ": not a ray file (it must start with the 8 bytes PTRAYS01 and a uint64 ray count)");
-  const uint64_t n = uint64_t(get_u32(p + 8)) | uint64_t(get_u32(p + 12)) << 32;
+  const uint64_t n = get_le_u64(p + 8);
   const uint64_t records = (bytes.size() - kRayFileHeaderBytes) / kRayRecordBytes;
   if (n == 0) throw RayFileError(path + ": the header says 0 rays");
   if (n != records || (bytes.size() - kRayFileHeaderBytes) % kRayRecordBytes != 0)
@@ -69,7 +49,7 @@ std::vector<RecordedRay> read_ray_file(const std::string& path) {
   for (uint64_t i = 0; i < n; ++i) {
     const unsigned char* rec = p + kRayFileHeaderBytes + kRayRecordBytes * i;
     float f[8];
-    for (int k = 0; k < 8; ++k) f[k] = get_f32(rec + 4 * k);
+    for (int k = 0; k < 8; ++k) f[k] = get_le_f32(rec + 4 * k);
     const auto bad = [&](int field, const char* why) {
       return RayFileError(path + ": ray " + std::to_string(i) + ", " + kFieldNames[field] + " = " +
                           std::to_string(f[field]) + ": " + why);

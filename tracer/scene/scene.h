@@ -159,7 +159,7 @@ class Scene {
   // Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
   bool occluded(const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) const;
   // The same for n ≤ kLanes rays at once (geometry/packet_polygons.h): found[l] and hits[l] per ray; bit l of
-  // occluded_packet's result for ray l.
+  // occluded_packet's result for ray l (skip_b may be null).
   void intersect_packet(const Ray* rays, const float* t_max, const uint32_t* skip, int n, Hit* hits, bool* found) const;
   uint32_t occluded_packet(const Ray* rays, const float* t_max, const uint32_t* skip_a, const uint32_t* skip_b,
                            int n) const;
