@@ -42,9 +42,14 @@ TEST_CASE("furnace: a closed emitting sphere gives Le·(1−ρ^(k+1))/(1−ρ) f
 }
 
 TEST_CASE("furnace: Russian roulette with no bounce limit converges to Le/(1−ρ)") {
+  // Uniform hemisphere sampling weighs a Lambertian bounce by X = 2ρ·cos θ, and roulette only acts while the
+  // throughput β < 1, so above 1 β performs a multiplicative random walk with tail P(β > x) ~ x^−k, where
+  // E[X^k] = (2ρ)^k/(k+1) = 1. For ρ = 0.9, k ≈ 1.8: the uniform estimator's variance is infinite and a test in
+  // standard errors is meaningless (its mean still converges). ρ = 0.7 gives k ≈ 5.6: finite variance and
+  // kurtosis. The other estimators sample cos θ/π, so β = ρ^n exactly and any ρ < 1 will do.
   const Rgb Le(1.f);
-  for (float rho : {0.5f, 0.9f}) {
-    for (Estimator est : kAll) {
+  for (Estimator est : kAll) {
+    for (float rho : {0.5f, est == Estimator::Uniform ? 0.7f : 0.9f}) {
       const Film film = render_film(furnace_scene(Le, Rgb(rho), 1 << 30, 0, est), 1024);
       const MeanWithError m = film_mean(film);
       const double expected = 1.0 / (1.0 - rho);
@@ -119,7 +124,7 @@ void check_estimators_agree(const char* scene_name, int size, int spp, int max_b
   // estimators; a bias of one standard error anywhere pushes it well above 1.5).
   for (int e = static_cast<int>(first); e < 3; ++e) {
     const BlockZ z = block_z_scores(films[e], films[3], 8);
-    INFO(std::string(scene_name) << ": " << to_string(kAll[e]) << " vs mis: max |z| " << z.max_abs << ", mean z² "
+    INFO(std::string(scene_name) << ": " << std::string(to_string(kAll[e])) << " vs mis: max |z| " << z.max_abs << ", mean z² "
                                  << z.mean_sq() << " over " << z.n);
     CHECK(z.n > 0);
     CHECK(z.max_abs < 4.5);
@@ -135,6 +140,14 @@ TEST_CASE("agreement: the four estimators agree on cornell-spheres") {
   check_estimators_agree("cornell-spheres", 32, 512);
 }
 
+namespace {
+// Raises every glossy roughness to at least 0.3 (smooth lobes stay smooth): see the two tests below.
+void widen_glossy_lobes(SceneDesc& d) {
+  for (MaterialDesc& m : d.materials)
+    if (m.roughness > 0.f) m.roughness = std::max(m.roughness, 0.3f);
+}
+}  // namespace
+
 // The new materials (every type, several roughness values) and the outdoor sky with its sun: a bias in any
 // BSDF's eval/pdf/sample consistency or in the environment's sampling shows up as disagreement. Fewer bounces
 // than the scenes' own keep the glass caustics' heavy tails (whose variance the film underestimates at low
@@ -143,17 +156,19 @@ TEST_CASE("agreement: the four estimators agree on cornell-spheres") {
 // that lands in the narrow lobe weighs ~10⁴), which the film's variance underestimates at any affordable
 // sample count; the agreement check raises the glossy roughness to 0.3 (smooth lobes stay smooth).
 TEST_CASE("agreement: the four estimators agree on materials") {
-  check_estimators_agree("materials", 32, 2048, 4, [](SceneDesc& d) {
-    for (MaterialDesc& m : d.materials)
-      if (m.roughness > 0.f) m.roughness = std::max(m.roughness, 0.3f);
-  });
+  check_estimators_agree("materials", 32, 2048, 4, widen_glossy_lobes);
 }
 // The sun subtends 7e-5 sr: BSDF sampling alone (uniform, cosine) almost never finds it, so its mean stays far
 // from converged at any affordable sample count. The four estimators agree on the sky without the sun; with the
-// sun, nee agrees with mis.
+// sun, nee agrees with mis. As for `materials`, glossy lobes are widened to roughness 0.3: with the scene's gold
+// (0.15) next-event estimation of the sky is heavy-tailed, its 512-spp means fall short of mis in most runs
+// (mean block z ≈ −0.35 over 8 seed sets) and agree once the lobe is 0.3 wide (mean z ≈ −0.03).
 TEST_CASE("agreement: the four estimators agree on sky (without the sun), nee and mis with it") {
-  check_estimators_agree("sky", 32, 512, 4, [](SceneDesc& d) { d.environment.sun = false; });
-  check_estimators_agree("sky", 32, 512, 4, nullptr, Estimator::Nee);
+  check_estimators_agree("sky", 64, 512, 4, [](SceneDesc& d) {
+    d.environment.sun = false;
+    widen_glossy_lobes(d);
+  });
+  check_estimators_agree("sky", 64, 512, 4, widen_glossy_lobes, Estimator::Nee);
 }
 
 TEST_CASE("determinism: identical images for 1, 2 and 3 threads and any pass split") {
