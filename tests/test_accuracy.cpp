@@ -379,7 +379,7 @@ TEST_CASE("furnace: Russian roulette ends every path of an albedo-1 closed room"
   for (int i = 0; i < paths; ++i) {
     IndependentSampler sampler(static_cast<uint64_t>(i), 0, 3);
     RayCount count;
-    const Vec2 u = sampler.next_2d();
+    const Vec2 u = sampler.get_2d(SampleDimensions::kCameraJitter);
     const Rgb L = estimate_radiance(*scene, s.render, scene->camera.generate_ray(u.x * 8, u.y * 8), sampler, count);
     CHECK(is_finite(L));
     total += count.rays;

@@ -251,8 +251,8 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
       pdf);
 }
 
-TEST_CASE("rng: sample streams are reproducible and distinct") {
-  Pcg32 a = sample_rng(10, 3, 1), b = sample_rng(10, 3, 1), c = sample_rng(10, 4, 1), d = sample_rng(11, 3, 1);
+TEST_CASE("rng: PCG32 streams are reproducible and distinct") {
+  Pcg32 a(10, 3), b(10, 3), c(10, 4), d(11, 3);
   const uint32_t x = a.next_u32();
   CHECK(x == b.next_u32());
   CHECK(x != c.next_u32());

@@ -425,7 +425,7 @@ void furnaces(Report& r, const StressOptions& o) {
       for (int i = 0; i < paths; ++i) {
         IndependentSampler sampler(static_cast<uint64_t>(i), 0, 7);
         RayCount count;
-        const Vec2 u = sampler.next_2d();
+        const Vec2 u = sampler.get_2d(SampleDimensions::kCameraJitter);
         const Ray ray = scene->camera.generate_ray(u.x * s.width, u.y * s.height);
         estimate_radiance(*scene, s.render, ray, sampler, count);
         total += count.rays;

@@ -1,6 +1,5 @@
-// PCG32 random number generator (O'Neill 2014, pcg-random.org, "pcg32" = XSH-RR 64/32)
-// plus the seeding that makes every image independent of thread count and tile order:
-// each camera sample owns a stream derived from (pixel index, sample index, user seed).
+// PCG32 random number generator (O'Neill 2014, pcg-random.org, "pcg32" = XSH-RR 64/32) and the SplitMix64
+// finaliser. (Camera samples do not draw from a stream: sampling/sampler.h hashes each dimension.)
 #pragma once
 #include <cstdint>
 
@@ -41,12 +40,5 @@ class Pcg32 {
  private:
   uint64_t state_ = 0, inc_ = 1;
 };
-
-// The generator for one camera sample. Distinct (pixel, sample, seed) give independent-looking streams.
-inline Pcg32 sample_rng(uint64_t pixel_index, uint64_t sample_index, uint64_t seed) {
-  const uint64_t a = mix64(pixel_index * 0x9e3779b97f4a7c15ULL ^ mix64(seed + 0x632be59bd9b4e019ULL));
-  const uint64_t b = mix64(sample_index ^ (a + 0x2545f4914f6cdd1dULL));
-  return Pcg32(a ^ b, mix64(b + pixel_index));
-}
 
 }  // namespace pt

@@ -2,6 +2,7 @@
 #pragma once
 #include <atomic>
 
+#include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 #include "scene/scene.h"
 

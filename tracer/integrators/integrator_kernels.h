@@ -26,6 +26,7 @@
 #include "geometry/scene_queries.h"
 #include "lights/light_sampling.h"
 #include "materials/bsdf.h"
+#include "sampling/sample_dimensions.h"
 
 namespace pt {
 
@@ -53,126 +54,181 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
   return L;
 }
 
-// F: what the kernel is compiled for (KernelFeature): intersection code for primitive kinds outside F is compiled
-// out, and so is the BSDF dispatch when every material is Lambertian.
-template <class Sampler, uint32_t F>
-Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count,
-          const std::atomic<bool>* cancel) {
-  constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
-  const Estimator estimator = settings.estimator;
-  const bool light_sampling = estimator == Estimator::Nee || estimator == Estimator::Mis;
-  const bool mis = estimator == Estimator::Mis;
-  Ray ray = camera_ray;
-  const int max_bounces = settings.max_bounces;
-  const int rr_depth = settings.russian_roulette_depth;
-  Rgb L(0.f), beta(1.f);
+// The state of one path between bounces: what the scalar loop keeps in locals and the wavefront loop keeps per
+// path in its batch.
+struct PathState {
+  Ray ray;                    // the ray to trace next
+  uint32_t skip = ~0u;        // the planar primitive it leaves
+  int depth = 0;              // scattering events so far
+  Rgb L{0.f}, beta{1.f};      // radiance so far; throughput
   float eta_scale = 1.f;      // undoes the 1/η² of refraction when judging the path's worth for roulette
   bool count_emission = true; // camera ray or a specular bounce: no light sample covered this direction
   float prev_bsdf_pdf = 0.f;  // solid-angle pdf of the non-specular sample that produced `ray` (for MIS)
-  Vec3 prev_p(0.f), prev_n(0.f);  // the last non-specular vertex (for MIS weights of emission found from it)
-  uint32_t skip = ~0u;
+  Vec3 prev_p{0.f}, prev_n{0.f};  // the last non-specular vertex (for MIS weights of emission found from it)
+};
 
-  for (int depth = 0;; ++depth) {
-    if (depth % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
-      break;
-    Hit h;
-    ++count.rays;
-    if (!intersect_scene<F>(s, ray, kInfinity, skip, h)) {
-      // Infinite lights are lights like any other: with light sampling they are counted here only where no light
-      // sample covered them (camera, specular bounce), or MIS-weighted.
-      if (!s.infinite_lights.empty()) {
-        if (!light_sampling || count_emission) L += beta * escaped_radiance<false>(s, ray.d, prev_n, prev_bsdf_pdf);
-        else if (mis) L += beta * escaped_radiance<true>(s, ray.d, prev_n, prev_bsdf_pdf);
-      }
-      break;
+// A light sample's shadow ray, and what it adds to the path's L if nothing blocks it.
+struct ShadowRay {
+  Ray ray{Vec3(0.f), Vec3(0.f)};
+  float t_max = 0.f;
+  uint32_t skip_a = ~0u, skip_b = ~0u;  // the primitive it leaves and the light's own
+  Rgb contribution{0.f};
+};
+
+// The render settings as the path loop reads them, resolved once per tile.
+struct PathOptions {
+  explicit PathOptions(const RenderSettings& s)
+      : uniform(s.estimator == Estimator::Uniform),
+        light_sampling(s.estimator == Estimator::Nee || s.estimator == Estimator::Mis),
+        mis(s.estimator == Estimator::Mis),
+        dims(light_sampling),
+        max_bounces(s.max_bounces),
+        rr_depth(s.russian_roulette_depth) {}
+  bool uniform, light_sampling, mis;
+  SampleDimensions dims;
+  int max_bounces, rr_depth;
+};
+
+// A ray that left the scene: infinite lights are lights like any other, so with light sampling they are counted
+// here only where no light sample covered them (camera, specular bounce), or MIS-weighted.
+inline void add_escaped_radiance(const Scene& s, const PathOptions& o, PathState& p) {
+  if (s.infinite_lights.empty()) return;
+  if (!o.light_sampling || p.count_emission) p.L += p.beta * escaped_radiance<false>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
+  else if (o.mis) p.L += p.beta * escaped_radiance<true>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
+}
+
+// One vertex of the path at hit `h` of p.ray: adds the emission found there, prepares the light sample's shadow
+// ray (`shadow`, when the result's `shadow_ray` is set; its contribution is the caller's to add if unoccluded),
+// and samples the next direction into p (when `continues`). F: what the kernel is compiled for (KernelFeature):
+// intersection code for primitive kinds outside F is compiled out, and so is the BSDF dispatch when every
+// material is Lambertian.
+struct VertexResult {
+  bool continues = false;
+  bool shadow_ray = false;
+};
+template <class Sampler, uint32_t F>
+[[gnu::always_inline]] inline VertexResult shade_vertex(const Scene& s, const PathOptions& o, const Sampler& rng,
+                                                        const Hit& h, PathState& p, ShadowRay& shadow,
+                                                        RayCount& count) {
+  constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
+  VertexResult result;
+  const int depth = p.depth;
+  const Interaction it = make_interaction<F>(s, p.ray, h);
+  const Material& m = s.materials[it.material];
+  const Vec3 wo = -p.ray.d;
+
+  if (!is_black(m.emission)) {
+    const int li = s.light_of_prim[it.prim];
+    const Light& light = s.lights[li];
+    const Rgb Le = area_light_emission(light, it.ng, wo);
+    if (!o.light_sampling || p.count_emission) {
+      p.L += p.beta * Le;
+    } else if (o.mis && !is_black(Le)) {
+      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, it.p, it.ng));
     }
-    const Interaction it = make_interaction<F>(s, ray, h);
-    const Material& m = s.materials[it.material];
-    const Vec3 wo = -ray.d;
+  }
+  if (depth >= o.max_bounces) return result;
 
-    if (!is_black(m.emission)) {
-      const int li = s.light_of_prim[it.prim];
-      const Light& light = s.lights[li];
-      const Rgb Le = area_light_emission(light, it.ng, wo);
-      if (!light_sampling || count_emission) {
-        L += beta * Le;
-      } else if (mis && !is_black(Le)) {
-        L += beta * Le * power_heuristic(prev_bsdf_pdf, lights_pdf_area<F>(s, li, prev_p, it.p, it.ng));
-      }
-    }
-    if (depth >= max_bounces) break;
+  // The shading frame: z is the front geometric normal; `n` faces the viewer (the side lights are sampled on,
+  // for BSDFs that only reflect: they are two-sided).
+  const Frame frame = Frame::from_normal(it.ng);
+  const Vec3 wo_local = frame.to_local(wo);
+  const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
+  const uint32_t flags = bsdf_flags<kM>(m);
 
-    // The shading frame: z is the front geometric normal; `n` faces the viewer (the side lights are sampled on,
-    // for BSDFs that only reflect: they are two-sided).
-    const Frame frame = Frame::from_normal(it.ng);
-    const Vec3 wo_local = frame.to_local(wo);
-    const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
-    const uint32_t flags = bsdf_flags<kM>(m);
-
-    if (light_sampling && has_non_specular(flags)) {
-      const float u_light = rng.next_1d();
-      const Vec2 u_point = rng.next_2d();
-      LightSample ls;
-      int li;
-      if (sample_lights<F>(s, {it.p, n}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
-        const Vec3 wi_local = frame.to_local(ls.wi);
-        const Rgb f = bsdf_eval<kM>(m, wo_local, wi_local);
-        if (!is_black(f)) {  // no shadow ray where the BSDF is zero
-          const Vec3 origin = offset_ray_origin(it, ls.wi);
-          Vec3 dir = ls.wi;
-          float t_max = kInfinity;
-          if (ls.dist != kInfinity) {
-            const Vec3 to_light = ls.p - origin;
-            const float dist = glm::length(to_light);
-            dir = to_light / dist;
-            t_max = dist * kShadowRayShorten;
-          }
-          ++count.rays;
-          if (t_max > 0.f && !occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(it), ls.prim)) {
-            const float w = mis ? power_heuristic(ls.pdf, bsdf_pdf<kM>(m, wo_local, wi_local)) : 1.f;
-            L += beta * f * ls.Le * (std::abs(wi_local.z) * w / ls.pdf);
-          }
+  if (o.light_sampling && has_non_specular(flags)) {
+    const float u_light = rng.get_1d(o.dims.light_choice(depth));
+    const Vec2 u_point = rng.get_2d(o.dims.light_point(depth));
+    LightSample ls;
+    int li;
+    if (sample_lights<F>(s, {it.p, n}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
+      const Vec3 wi_local = frame.to_local(ls.wi);
+      const Rgb f = bsdf_eval<kM>(m, wo_local, wi_local);
+      if (!is_black(f)) {  // no shadow ray where the BSDF is zero
+        const Vec3 origin = offset_ray_origin(it, ls.wi);
+        Vec3 dir = ls.wi;
+        float t_max = kInfinity;
+        if (ls.dist != kInfinity) {
+          const Vec3 to_light = ls.p - origin;
+          const float dist = glm::length(to_light);
+          dir = to_light / dist;
+          t_max = dist * kShadowRayShorten;
+        }
+        ++count.rays;
+        if (t_max > 0.f) {
+          const float w = o.mis ? power_heuristic(ls.pdf, bsdf_pdf<kM>(m, wo_local, wi_local)) : 1.f;
+          shadow = {{origin, dir}, t_max, skip_on_leave(it), ls.prim,
+                    p.beta * f * ls.Le * (std::abs(wi_local.z) * w / ls.pdf)};
+          result.shadow_ray = true;
         }
       }
     }
+  }
 
-    // Continue the path: sample the BSDF (or, for the uniform estimator, the hemisphere of a diffuse BSDF).
-    const float uc = rng.next_1d();
-    const Vec2 u = rng.next_2d();
-    BsdfSample bs;
-    if (estimator == Estimator::Uniform && (flags & ~(kBsdfReflection | kBsdfDiffuse)) == 0) {
-      Vec3 local = sample_uniform_hemisphere(u);
-      if (wo_local.z < 0.f) local.z = -local.z;
-      bs = {local, bsdf_eval<kM>(m, wo_local, local), uniform_hemisphere_pdf(), kBsdfReflection | kBsdfDiffuse, 1.f};
-    } else if (!bsdf_sample<kM>(m, wo_local, uc, u, bs)) {
+  // Continue the path: sample the BSDF (or, for the uniform estimator, the hemisphere of a diffuse BSDF).
+  const float uc = rng.get_1d(o.dims.bsdf_lobe(depth));
+  const Vec2 u = rng.get_2d(o.dims.bsdf_direction(depth));
+  BsdfSample bs;
+  if (o.uniform && (flags & ~(kBsdfReflection | kBsdfDiffuse)) == 0) {
+    Vec3 local = sample_uniform_hemisphere(u);
+    if (wo_local.z < 0.f) local.z = -local.z;
+    bs = {local, bsdf_eval<kM>(m, wo_local, local), uniform_hemisphere_pdf(), kBsdfReflection | kBsdfDiffuse, 1.f};
+  } else if (!bsdf_sample<kM>(m, wo_local, uc, u, bs)) {
+    return result;
+  }
+  if (!(bs.pdf > 0.f) || bs.wi.z == 0.f) return result;  // grazing sample of measure zero
+  p.beta *= bs.f * (std::abs(bs.wi.z) / bs.pdf);
+  if (is_specular(bs.flags)) {
+    p.count_emission = true;
+  } else {
+    p.count_emission = false;
+    p.prev_bsdf_pdf = bs.pdf;
+    p.prev_p = it.p;
+    p.prev_n = n;
+  }
+  if (is_transmissive(bs.flags)) p.eta_scale *= sqr(bs.eta);
+  const Vec3 wi = frame.to_world(bs.wi);
+
+  // Russian roulette (unbiased: survivors are re-weighted by 1/q). q follows the throughput, so paths through
+  // dark materials end early; q ≤ 1 − 2^-10 so even albedo-1 rooms terminate (mean length ~1000 bounces) while
+  // rooms of albedo ρ < 1 keep finite variance under cosine sampling (a cap c needs ρ² < c: 0.95 would not do
+  // for ρ = 0.999).
+  if (o.rr_depth >= 0 && depth >= o.rr_depth) {
+    const float q = std::min(1.f - 0x1p-10f, max_component(p.beta) * p.eta_scale);
+    if (!(rng.get_1d(o.dims.roulette(depth)) < q)) return result;
+    p.beta /= q;
+  }
+  if (is_black(p.beta) || !is_finite(p.beta)) return result;
+  p.ray = {offset_ray_origin(it, wi), wi};
+  p.skip = skip_on_leave(it);
+  p.depth = depth + 1;
+  result.continues = true;
+  return result;
+}
+
+// The scalar path loop: one path per call, the reference the wavefront loop (wavefront.h) must agree with.
+template <class Sampler, uint32_t F>
+Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count,
+          const std::atomic<bool>* cancel) {
+  const PathOptions o(settings);
+  PathState p;
+  p.ray = camera_ray;
+  for (;;) {
+    if (p.depth % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
+      break;
+    Hit h;
+    ++count.rays;
+    if (!intersect_scene<F>(s, p.ray, kInfinity, p.skip, h)) {
+      add_escaped_radiance(s, o, p);
       break;
     }
-    if (!(bs.pdf > 0.f) || bs.wi.z == 0.f) break;  // grazing sample of measure zero
-    beta *= bs.f * (std::abs(bs.wi.z) / bs.pdf);
-    if (is_specular(bs.flags)) {
-      count_emission = true;
-    } else {
-      count_emission = false;
-      prev_bsdf_pdf = bs.pdf;
-      prev_p = it.p;
-      prev_n = n;
-    }
-    if (is_transmissive(bs.flags)) eta_scale *= sqr(bs.eta);
-    const Vec3 wi = frame.to_world(bs.wi);
-
-    // Russian roulette (unbiased: survivors are re-weighted by 1/q). q follows the throughput, so paths through
-    // dark materials end early; q ≤ 1 − 2^-10 so even albedo-1 rooms terminate (mean length ~1000 bounces) while
-    // rooms of albedo ρ < 1 keep finite variance (a cap c needs ρ² < c: 0.95 would not do for ρ = 0.999).
-    if (rr_depth >= 0 && depth >= rr_depth) {
-      const float q = std::min(1.f - 0x1p-10f, max_component(beta) * eta_scale);
-      if (!(rng.next_1d() < q)) break;
-      beta /= q;
-    }
-    if (is_black(beta) || !is_finite(beta)) break;
-    ray = {offset_ray_origin(it, wi), wi};
-    skip = skip_on_leave(it);
+    ShadowRay shadow;
+    const VertexResult v = shade_vertex<Sampler, F>(s, o, rng, h, p, shadow, count);
+    if (v.shadow_ray && !occluded_scene<F>(s, shadow.ray, shadow.t_max, shadow.skip_a, shadow.skip_b))
+      p.L += shadow.contribution;
+    if (!v.continues) break;
   }
-  return L;
+  return p.L;
 }
 
 template <class Sampler, size_t... F>

@@ -1,6 +1,7 @@
 #include "render/renderer.h"
 
 #include "integrators/integrator.h"
+#include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 
 namespace pt {
@@ -25,7 +26,7 @@ bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film,
       const size_t pixel = static_cast<size_t>(y) * w + x;
       for (int s = 0; s < spp; ++s) {
         Sampler sampler(pixel, film.next_sample_index(pixel), seed);
-        const Vec2 jitter = sampler.next_2d();
+        const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
         const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
         const Rgb L = radiance(scene, settings, ray, sampler, count, cancel);
         if (cancel && cancel->load(std::memory_order_relaxed)) return false;

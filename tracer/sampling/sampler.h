@@ -1,13 +1,16 @@
-// Sample generators for one camera sample (one path). Both hand out values in [0,1) by dimension, in the
-// order the integrator asks for them; a path's dimensions are numbered by call order.
+// Sample generators for one camera sample (one path). Dimensions are numbered explicitly by the integrator
+// (sample_dimensions.h: dimension = f(bounce, purpose), as pbrt-v4's per-bounce RaySamples), never by call order,
+// so a value is the same whatever was asked before it: paths of different lengths sharing a wavefront batch, or
+// a vertex that skips its light sample, leave every other dimension where it was.
 //
-// - IndependentSampler: PCG32 seeded from (pixel, sample index, seed): every value independent.
+// - IndependentSampler: every value a hash of (pixel, sample index, seed, dimension): independent, counter-based.
 // - SobolSampler: the 2D Sobol (0,2)-sequence, Owen-scrambled and padded (Burley 2020, "Practical Hash-based
-//   Owen Scrambling", JCGT 9(4)): dimension pair k of sample i uses the Sobol point of a shuffled index
-//   i' = owen(i, hash(pixel, k, seed)) with its own scramble seed. Each pair is stratified across the pixel's
-//   samples (any power-of-two prefix is a (0,2)-net), pairs are decorrelated from each other and from
+//   Owen Scrambling", JCGT 9(4)): 2D dimension k of sample i uses the Sobol point of a shuffled index
+//   i' = owen(i, hash(pixel, k, seed)) with its own scramble seed. Each dimension is stratified across the pixel's
+//   samples (any power-of-two prefix is a (0,2)-net), dimensions are decorrelated from each other and from
 //   neighbouring pixels, and every point is uniformly distributed over seeds, so estimates stay unbiased.
-//   Only the first kSobolPairs 2D requests are Sobol points; later pairs and all 1D requests use PCG32.
+//   Only 2D dimensions below kSobolPairs are Sobol points; later ones and all 1D dimensions are hashed as in the
+//   IndependentSampler.
 #pragma once
 #if defined(__GFNI__)
 #include <immintrin.h>
@@ -18,17 +21,37 @@
 
 namespace pt {
 
-class IndependentSampler {
+// Uniform values in [0,1) from a 64-bit hash of the sample's key and the dimension (SplitMix64's finaliser over
+// a Weyl sequence, as in Steele et al. 2014, "Fast splittable pseudorandom number generators"): 1D and 2D
+// dimensions are separate name spaces; a 2D value takes the hash's two 24-bit halves.
+class HashedDimensions {
  public:
-  IndependentSampler(uint64_t pixel, uint64_t sample, uint64_t seed) : rng_(sample_rng(pixel, sample, seed)) {}
-  float next_1d() { return rng_.next_float(); }
-  Vec2 next_2d() {
-    const float a = rng_.next_float();
-    return {a, rng_.next_float()};
+  explicit HashedDimensions(uint64_t key) : key_(key) {}
+  float get_1d(uint32_t dim) const { return static_cast<float>(hash(2 * uint64_t{dim}) >> 40) * 0x1p-24f; }
+  Vec2 get_2d(uint32_t dim) const {
+    const uint64_t h = hash(2 * uint64_t{dim} + 1);
+    return {static_cast<float>(h >> 40) * 0x1p-24f, static_cast<float>((h >> 8) & 0xffffffu) * 0x1p-24f};
   }
 
  private:
-  Pcg32 rng_;
+  uint64_t hash(uint64_t d) const { return mix64(key_ + (d + 1) * 0x9e3779b97f4a7c15ULL); }
+  uint64_t key_;
+};
+
+// The key of one camera sample: distinct (pixel, sample, seed) give unrelated keys.
+inline uint64_t sample_key(uint64_t pixel, uint64_t sample, uint64_t seed) {
+  const uint64_t a = mix64(pixel * 0x9e3779b97f4a7c15ULL ^ mix64(seed + 0x632be59bd9b4e019ULL));
+  return mix64(sample ^ (a + 0x2545f4914f6cdd1dULL));
+}
+
+class IndependentSampler {
+ public:
+  IndependentSampler(uint64_t pixel, uint64_t sample, uint64_t seed) : dims_(sample_key(pixel, sample, seed)) {}
+  float get_1d(uint32_t dim) const { return dims_.get_1d(dim); }
+  Vec2 get_2d(uint32_t dim) const { return dims_.get_2d(dim); }
+
+ private:
+  HashedDimensions dims_;
 };
 
 namespace sobol_detail {
@@ -114,24 +137,20 @@ class SobolSampler {
  public:
   // Stratification pays where the integrand still varies a lot over a pixel's samples: the pixel footprint and the
   // first few bounces. Deeper 2D dimensions, and every 1D decision (light choice, Russian roulette, reflect or
-  // refract), come from PCG32: those carry little of the variance, and an Owen-scrambled point costs ~140
-  // integer operations against ~10 for PCG32. 8 pairs cover the camera jitter and the light and BSDF samples of
-  // the first three and a half bounces.
+  // refract), are hashed: those carry little of the variance, and an Owen-scrambled point costs ~140 integer
+  // operations against ~10 for a hash. 8 dimensions cover the camera jitter and the light and BSDF samples of
+  // the first three and a half bounces (sample_dimensions.h).
   static constexpr uint32_t kSobolPairs = 8;
 
   SobolSampler(uint64_t pixel, uint64_t sample, uint64_t seed)
       : reversed_index_(sobol_detail::reverse_bits(static_cast<uint32_t>(sample))),
         key_(static_cast<uint32_t>(mix64(pixel ^ mix64(seed + 0x51ed270b27a1c3f5ULL)))),
-        rng_(mix64((static_cast<uint64_t>(key_) << 32) | static_cast<uint32_t>(sample)), key_) {}
+        hashed_(sample_key(pixel, sample, seed)) {}
 
   // Out of line: inlined twice per bounce it would crowd the path loop out of the compiler's inlining budget.
-  [[gnu::noinline]] Vec2 next_2d() {
+  [[gnu::noinline]] Vec2 get_2d(uint32_t d) const {
     using namespace sobol_detail;
-    const uint32_t d = dimension_++;
-    if (d >= kSobolPairs) {
-      const float a = rng_.next_float();
-      return {a, rng_.next_float()};
-    }
+    if (d >= kSobolPairs) return hashed_.get_2d(d);
     const uint32_t shuffle_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 1)));
     const uint32_t x_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 2)));
     const uint32_t y_seed = hash32(key_ ^ (0x9e3779b9u * (3 * d + 3)));
@@ -144,13 +163,12 @@ class SobolSampler {
     const uint32_t y = reverse_bits(laine_karras(sobol_dim1_reversed(r), y_seed));
     return {to_unit(x), to_unit(y)};
   }
-  float next_1d() { return rng_.next_float(); }
+  float get_1d(uint32_t d) const { return hashed_.get_1d(d); }
 
  private:
   uint32_t reversed_index_;  // the sample index, bit-reversed
   uint32_t key_;
-  uint32_t dimension_ = 0;
-  Pcg32 rng_;
+  HashedDimensions hashed_;
 };
 
 }  // namespace pt

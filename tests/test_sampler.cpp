@@ -1,0 +1,120 @@
+// The camera-sample generators (sampling/sampler.h) and the dimension layout (sampling/sample_dimensions.h).
+#include <doctest/doctest.h>
+
+#include <set>
+#include <vector>
+
+#include "chi2.h"
+#include "sampling/sample_dimensions.h"
+#include "sampling/sampler.h"
+
+using namespace pt;
+
+namespace {
+
+// Number of distinct cells hit when n = 2^m points are binned into the 2^a × 2^(m−a) elementary intervals.
+int cells_hit(const std::vector<Vec2>& pts, int a, int m) {
+  std::set<uint32_t> cells;
+  for (const Vec2& p : pts) {
+    const uint32_t cx = static_cast<uint32_t>(p.x * static_cast<float>(1u << a));
+    const uint32_t cy = static_cast<uint32_t>(p.y * static_cast<float>(1u << (m - a)));
+    cells.insert(cx << (m - a) | cy);
+  }
+  return static_cast<int>(cells.size());
+}
+
+// Pearson's test of uniformity of values on a k×k grid (k = 1 for a 1D test on the x axis only).
+template <class F>
+double uniformity_p_value(int n, int kx, int ky, F&& value) {
+  std::vector<double> observed(kx * ky, 0.0), expected(kx * ky, static_cast<double>(n) / (kx * ky));
+  for (int i = 0; i < n; ++i) {
+    const Vec2 v = value(i);
+    REQUIRE(v.x >= 0.f);
+    REQUIRE(v.x < 1.f);
+    REQUIRE(v.y >= 0.f);
+    REQUIRE(v.y < 1.f);
+    observed[static_cast<int>(v.x * kx) * ky + static_cast<int>(v.y * ky)] += 1;
+  }
+  return test::chi2_test(observed, expected).p_value;
+}
+
+}  // namespace
+
+TEST_CASE("sampler: every Sobol dimension of a pixel is a (0,2)-net over its first 2^m samples") {
+  // Each power-of-two prefix of a (0,2)-sequence puts exactly one point in every elementary interval of area
+  // 2^-m, whatever the split 2^a × 2^(m−a); Owen scrambling keeps that (Burley 2020, §3). A wrong generator
+  // column, bit reversal or scramble breaks it at once.
+  for (uint64_t pixel : {0ull, 7ull, 123456ull}) {
+    for (uint32_t d = 0; d < SobolSampler::kSobolPairs; ++d) {
+      for (int m : {4, 8}) {
+        std::vector<Vec2> pts;
+        for (uint64_t i = 0; i < (1u << m); ++i) pts.push_back(SobolSampler(pixel, i, 5).get_2d(d));
+        for (int a = 0; a <= m; ++a) CHECK(cells_hit(pts, a, m) == (1 << m));
+      }
+    }
+  }
+  // The hashed dimensions beyond are not stratified: 256 independent points fill far fewer than 256 of 16×16
+  // cells (expected 256·(1 − (1 − 1/256)^256) ≈ 162; P(≥ 250) is astronomically small).
+  std::vector<Vec2> pts;
+  for (uint64_t i = 0; i < 256; ++i) pts.push_back(SobolSampler(3, i, 5).get_2d(SobolSampler::kSobolPairs));
+  CHECK(cells_hit(pts, 4, 8) < 200);
+}
+
+TEST_CASE("sampler: dimensions and pixels are decorrelated, values uniform") {
+  // Pooled over pixels, each kind of value is uniform (Pearson's test on a 16×16 grid or 64 bins, fixed seeds;
+  // each check fails with probability 1e-4 for a correct sampler).
+  const int n = 1 << 16;
+  for (uint32_t d : {0u, 3u, 9u}) {
+    CHECK(uniformity_p_value(n, 16, 16, [&](int i) { return SobolSampler(i, 0, 1).get_2d(d); }) > 1e-4);
+    CHECK(uniformity_p_value(n, 16, 16, [&](int i) { return IndependentSampler(i, 0, 1).get_2d(d); }) > 1e-4);
+    // Pairs across dimensions: dimension d's x against dimension d+1's x of the same sample.
+    CHECK(uniformity_p_value(n, 16, 16, [&](int i) {
+            const SobolSampler s(i % 97, i / 97, 2);
+            return Vec2(s.get_2d(d).x, s.get_2d(d + 1).x);
+          }) > 1e-4);
+    CHECK(uniformity_p_value(n, 64, 1, [&](int i) { return Vec2(SobolSampler(i, 0, 1).get_1d(d), 0.f); }) > 1e-4);
+    CHECK(uniformity_p_value(n, 16, 16, [&](int i) {
+            const IndependentSampler s(i % 31, i / 31, 4);
+            return Vec2(s.get_1d(d), s.get_1d(d + 1));
+          }) > 1e-4);
+    // Neighbouring pixels at the same sample index.
+    CHECK(uniformity_p_value(n, 16, 16, [&](int i) {
+            return Vec2(SobolSampler(2 * i, 7, 3).get_2d(d).x, SobolSampler(2 * i + 1, 7, 3).get_2d(d).x);
+          }) > 1e-4);
+  }
+}
+
+TEST_CASE("sampler: a value depends on its dimension only, not on what was asked before") {
+  const SobolSampler a(42, 17, 9), b(42, 17, 9);
+  const Vec2 late = a.get_2d(5);
+  for (uint32_t d = 0; d < 5; ++d) (void)b.get_2d(d);
+  CHECK(b.get_2d(5).x == late.x);
+  CHECK(b.get_2d(5).y == late.y);
+  CHECK(a.get_1d(4) == b.get_1d(4));
+  // Different seeds, pixels and sample indices give different values.
+  CHECK(SobolSampler(42, 17, 10).get_2d(5).x != late.x);
+  CHECK(SobolSampler(43, 17, 9).get_2d(5).x != late.x);
+  CHECK(SobolSampler(42, 18, 9).get_2d(5).x != late.x);
+}
+
+TEST_CASE("sampler: the dimension layout gives each decision of each bounce its own dimension") {
+  for (bool light_sampling : {false, true}) {
+    const SampleDimensions dims(light_sampling);
+    std::set<uint32_t> two_d{SampleDimensions::kCameraJitter}, one_d;
+    for (uint32_t b = 0; b < 50; ++b) {
+      CHECK(two_d.insert(dims.bsdf_direction(b)).second);
+      if (light_sampling) CHECK(two_d.insert(dims.light_point(b)).second);
+      CHECK(one_d.insert(SampleDimensions::light_choice(b)).second);
+      CHECK(one_d.insert(SampleDimensions::bsdf_lobe(b)).second);
+      CHECK(one_d.insert(SampleDimensions::roulette(b)).second);
+    }
+    // Dense: no stratified dimension is left unused.
+    CHECK(*two_d.rbegin() == two_d.size() - 1);
+  }
+  // The stratified dimensions go to the first bounces: with light sampling, camera + 3.5 bounces.
+  const SampleDimensions nee(true);
+  CHECK(nee.light_point(0) == 1);
+  CHECK(nee.bsdf_direction(0) == 2);
+  CHECK(nee.light_point(3) == 7);
+  CHECK(SampleDimensions(false).bsdf_direction(6) == 7);
+}
