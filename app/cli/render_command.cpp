@@ -64,6 +64,12 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
   r->add_flag("--generic-kernel", o.generic_kernel,
               "Diagnostic: run the kernel compiled for every scene feature instead of the one specialised for this "
               "scene (same image, more work; for instruction-count comparisons)");
+  r->add_option("--path-loop", o.path_loop,
+                enum_names_joined<PathLoop>(" | ") +
+                    ": trace paths one at a time, or a tile's paths together bounce by bounce with 16-ray packets "
+                    "(same image; auto: the wavefront where polygons are few enough for brute force)")
+      ->check(CLI::IsMember(enum_name_list<PathLoop>()))
+      ->capture_default_str();
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
@@ -176,6 +182,7 @@ int run_render(const RenderOptions& o) {
   if (o.estimator) parse_enum(*o.estimator, desc.render.estimator);
   if (o.sampler) parse_enum(*o.sampler, desc.render.sampler);
   desc.render.generic_kernel = o.generic_kernel;
+  parse_enum(o.path_loop, desc.render.path_loop);
   if (std::string err = validate_scene(desc); !err.empty()) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;

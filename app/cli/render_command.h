@@ -23,6 +23,7 @@ struct RenderOptions {
   bool quiet = false;
   bool adaptive = false;
   bool generic_kernel = false;
+  std::string path_loop = "auto";
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

@@ -1,9 +1,10 @@
-// The path-tracing kernels for the SobolSampler (see integrator_kernels.h).
-#include "integrators/integrator_kernels.h"
+// The path-tracing kernels for the SobolSampler (see integrator_kernels.h), scalar and wavefront.
+#include "integrators/wavefront_kernels.h"
 
 namespace pt {
 
 template RadianceKernel<SobolSampler> select_kernel(const Scene&, bool);
+template BatchKernel<SobolSampler> select_batch_kernel(const Scene&, const RenderSettings&);
 template Rgb estimate_radiance(const Scene&, const RenderSettings&, const Ray&, SobolSampler&, RayCount&);
 
 }  // namespace pt

@@ -1,6 +1,7 @@
 #include "render/renderer.h"
 
 #include "integrators/integrator.h"
+#include "integrators/wavefront.h"
 #include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 
@@ -11,21 +12,19 @@ Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads
 namespace {
 
 // One tile: every pixel gets `spp` more samples, numbered after those it already has. Returns false when
-// cancelled: a set `cancel` stops the tile at once and the sample in flight is dropped (it may have been cut
+// cancelled: a set `cancel` stops the tile at once and the samples in flight are dropped (they may have been cut
 // short), so every pixel keeps an unbiased mean of the samples it has, and the same sample indices are traced
 // again later.
 template <class Sampler>
-bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film, int x0, int y0, int x1, int y1,
-                 int spp, RayCount& count, uint64_t& samples, const std::atomic<bool>* cancel) {
-  // The kernel compiled for the scene's feature set, resolved once per tile.
-  const RadianceKernel<Sampler> radiance = select_kernel<Sampler>(scene, settings.generic_kernel);
-  const uint64_t seed = settings.seed;
+bool render_tile_scalar(RadianceKernel<Sampler> radiance, const Scene& scene, const RenderSettings& settings,
+                        Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count, uint64_t& samples,
+                        const std::atomic<bool>* cancel) {
   const int w = film.width();
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
       const size_t pixel = static_cast<size_t>(y) * w + x;
       for (int s = 0; s < spp; ++s) {
-        Sampler sampler(pixel, film.next_sample_index(pixel), seed);
+        Sampler sampler(pixel, film.next_sample_index(pixel), settings.seed);
         const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
         const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
         const Rgb L = radiance(scene, settings, ray, sampler, count, cancel);
@@ -37,6 +36,51 @@ bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film,
     }
   }
   return true;
+}
+
+// The same through the wavefront loop: one batch per sample index, every pixel of the tile in it. Each pixel
+// receives its samples in the same order as above, so the film's means are bit-identical.
+template <class Sampler>
+bool render_tile_wavefront(BatchKernel<Sampler> batch, const Scene& scene, const RenderSettings& settings,
+                           Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count, uint64_t& samples,
+                           const std::atomic<bool>* cancel) {
+  static_assert(Renderer::kTileSize * Renderer::kTileSize <= kWavefrontBatch);
+  Sampler samplers[kWavefrontBatch];
+  Ray rays[kWavefrontBatch];
+  Rgb L[kWavefrontBatch];
+  const int w = film.width();
+  for (int s = 0; s < spp; ++s) {
+    int n = 0;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = x0; x < x1; ++x, ++n) {
+        const size_t pixel = static_cast<size_t>(y) * w + x;
+        samplers[n] = Sampler(pixel, film.next_sample_index(pixel), settings.seed);
+        const Vec2 jitter = samplers[n].get_2d(SampleDimensions::kCameraJitter);
+        rays[n] = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
+      }
+    }
+    if (!batch(scene, settings, samplers, rays, n, L, count, cancel)) return false;
+    n = 0;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = x0; x < x1; ++x, ++n) {
+        const size_t pixel = static_cast<size_t>(y) * w + x;
+        film.note_attempt(pixel);
+        film.add_sample(pixel, L[n]);
+      }
+    }
+    samples += static_cast<uint64_t>(n);
+  }
+  return true;
+}
+
+// The kernels compiled for the scene's feature set, resolved once per tile.
+template <class Sampler>
+bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film, int x0, int y0, int x1, int y1,
+                 int spp, RayCount& count, uint64_t& samples, const std::atomic<bool>* cancel) {
+  if (const BatchKernel<Sampler> batch = select_batch_kernel<Sampler>(scene, settings))
+    return render_tile_wavefront(batch, scene, settings, film, x0, y0, x1, y1, spp, count, samples, cancel);
+  return render_tile_scalar(select_kernel<Sampler>(scene, settings.generic_kernel), scene, settings, film, x0, y0,
+                            x1, y1, spp, count, samples, cancel);
 }
 
 }  // namespace

@@ -26,6 +26,7 @@ namespace pt {
 // dimensions are separate name spaces; a 2D value takes the hash's two 24-bit halves.
 class HashedDimensions {
  public:
+  HashedDimensions() = default;
   explicit HashedDimensions(uint64_t key) : key_(key) {}
   float get_1d(uint32_t dim) const { return static_cast<float>(hash(2 * uint64_t{dim}) >> 40) * 0x1p-24f; }
   Vec2 get_2d(uint32_t dim) const {
@@ -35,7 +36,7 @@ class HashedDimensions {
 
  private:
   uint64_t hash(uint64_t d) const { return mix64(key_ + (d + 1) * 0x9e3779b97f4a7c15ULL); }
-  uint64_t key_;
+  uint64_t key_ = 0;
 };
 
 // The key of one camera sample: distinct (pixel, sample, seed) give unrelated keys.
@@ -46,6 +47,7 @@ inline uint64_t sample_key(uint64_t pixel, uint64_t sample, uint64_t seed) {
 
 class IndependentSampler {
  public:
+  IndependentSampler() = default;  // for arrays of samplers to be filled in (integrators/wavefront.h)
   IndependentSampler(uint64_t pixel, uint64_t sample, uint64_t seed) : dims_(sample_key(pixel, sample, seed)) {}
   float get_1d(uint32_t dim) const { return dims_.get_1d(dim); }
   Vec2 get_2d(uint32_t dim) const { return dims_.get_2d(dim); }
@@ -142,6 +144,7 @@ class SobolSampler {
   // the first three and a half bounces (sample_dimensions.h).
   static constexpr uint32_t kSobolPairs = 8;
 
+  SobolSampler() = default;  // for arrays of samplers to be filled in (integrators/wavefront.h)
   SobolSampler(uint64_t pixel, uint64_t sample, uint64_t seed)
       : reversed_index_(sobol_detail::reverse_bits(static_cast<uint32_t>(sample))),
         key_(static_cast<uint32_t>(mix64(pixel ^ mix64(seed + 0x51ed270b27a1c3f5ULL)))),
@@ -166,8 +169,8 @@ class SobolSampler {
   float get_1d(uint32_t d) const { return hashed_.get_1d(d); }
 
  private:
-  uint32_t reversed_index_;  // the sample index, bit-reversed
-  uint32_t key_;
+  uint32_t reversed_index_ = 0;  // the sample index, bit-reversed
+  uint32_t key_ = 0;
   HashedDimensions hashed_;
 };
 

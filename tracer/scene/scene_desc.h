@@ -23,6 +23,10 @@ enum class Estimator { Uniform, Cosine, Nee, Mis };
 enum class SamplerType { Independent, Sobol };
 // What lights the scene from infinitely far away (lights/environment.h).
 enum class EnvironmentType { Constant, Sky, Map };
+// How paths are traced (integrators/wavefront.h): one at a time, or a tile's paths together, bounce by bounce,
+// their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront where
+// the packet kernels serve the scene (polygons few enough for brute force).
+enum class PathLoop { Auto, Scalar, Wavefront };
 
 template <>
 struct EnumTable<ShapeType> {
@@ -51,8 +55,16 @@ struct EnumTable<Estimator> {
 template <>
 struct EnumTable<SamplerType> {
   static constexpr std::array<EnumEntry<SamplerType>, 2> kEntries{{
-      {SamplerType::Independent, "independent", "Independent (PCG32)"},
+      {SamplerType::Independent, "independent", "Independent (hashed)"},
       {SamplerType::Sobol, "sobol", "Sobol (Owen-scrambled)"},
+  }};
+};
+template <>
+struct EnumTable<PathLoop> {
+  static constexpr std::array<EnumEntry<PathLoop>, 3> kEntries{{
+      {PathLoop::Auto, "auto", "Automatic"},
+      {PathLoop::Scalar, "scalar", "One path at a time"},
+      {PathLoop::Wavefront, "wavefront", "Wavefront (16-ray packets)"},
   }};
 };
 template <>
@@ -109,6 +121,8 @@ struct RenderSettings {
   // Diagnostic, not part of scene files: run the kernel compiled for every geometry kind instead of the one for
   // the scene's own (same image; for instruction-count comparisons, `render --generic-kernel`).
   bool generic_kernel = false;
+  // Not part of scene files either: the path loop (same image; `render --path-loop`).
+  PathLoop path_loop = PathLoop::Auto;
 };
 
 struct EnvironmentDesc {

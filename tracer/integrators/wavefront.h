@@ -1,0 +1,37 @@
+// The wavefront path loop: a batch of paths (one tile's worth of camera samples) advances bounce by bounce.
+// Each bounce runs in stages over the live paths, as pbrt-v4's wavefront integrator runs its work queues
+// (wavefront/workitems.h): closest hits for kLanes rays at a time through the packet kernels
+// (geometry/packet_polygons.h), then each path's vertex (the scalar loop's own shade_vertex), then the queued
+// shadow rays, kLanes at a time. Paths that end drop out of the queue, so the packets stay full.
+//
+// Each path performs exactly the arithmetic of the scalar loop (integrator_kernels.h), and its random numbers
+// depend on (pixel, sample, seed, dimension) alone (sample_dimensions.h), so every sample's radiance is
+// bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
+// sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain).
+#pragma once
+#include <atomic>
+
+#include "integrators/integrator.h"
+
+namespace pt {
+
+// Paths per batch: one 16×16 tile at one sample per pixel.
+inline constexpr int kWavefrontBatch = 256;
+
+// Radiance of n ≤ kWavefrontBatch camera samples: path i starts along camera_rays[i] and draws its random
+// numbers from samplers[i]; its estimate goes to L[i]. Returns false, leaving L unspecified, if `cancel` was set
+// (polled once per bounce): the whole batch must then be dropped.
+template <class Sampler>
+using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler* samplers, const Ray* camera_rays,
+                             int n, Rgb* L, RayCount& count, const std::atomic<bool>* cancel);
+
+// The batch kernel compiled for the scene's feature set (or all features with settings.generic_kernel), or null
+// where settings.path_loop asks for the scalar loop (PathLoop::Auto: the wavefront only where polygons are
+// searched by brute force, which is where the packet kernels pay).
+template <class Sampler>
+BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
+
+// What PathLoop::Auto resolves to for this scene.
+bool wavefront_pays(const Scene& scene);
+
+}  // namespace pt

@@ -1,0 +1,100 @@
+// The wavefront batch kernel template (wavefront.h); integrator_independent.cpp and integrator_sobol.cpp
+// instantiate it per feature set, beside the scalar kernels whose vertex code it shares.
+#pragma once
+#include "integrators/integrator_kernels.h"
+#include "integrators/wavefront.h"
+
+namespace pt {
+
+namespace integrator_detail {
+
+template <class Sampler, uint32_t F>
+bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* samplers, const Ray* camera_rays,
+                 int n, Rgb* L, RayCount& count, const std::atomic<bool>* cancel) {
+  const PathOptions o(settings);
+  // The batch's state (~64 KB of stack): paths by index, the queue of live paths for this bounce and the next,
+  // and the shadow rays this bounce's vertices asked for.
+  PathState paths[kWavefrontBatch];
+  uint16_t live[kWavefrontBatch], next[kWavefrontBatch], shadow_owner[kWavefrontBatch];
+  ShadowRay shadows[kWavefrontBatch];
+  for (int i = 0; i < n; ++i) {
+    paths[i].ray = camera_rays[i];
+    live[i] = static_cast<uint16_t>(i);
+  }
+  int live_count = n;
+  while (live_count > 0) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) return false;
+    int next_count = 0, shadow_count = 0;
+    // Closest hits kLanes at a time, then the vertices of those paths.
+    for (int first = 0; first < live_count; first += kLanes) {
+      const int k = std::min(kLanes, live_count - first);
+      Ray rays[kLanes];
+      float t_max[kLanes];
+      uint32_t skip[kLanes];
+      for (int l = 0; l < k; ++l) {
+        const PathState& p = paths[live[first + l]];
+        rays[l] = p.ray;
+        t_max[l] = kInfinity;
+        skip[l] = p.skip;
+      }
+      Hit hits[kLanes];
+      bool found[kLanes];
+      intersect_scene_packet<F>(s, rays, t_max, skip, k, hits, found);
+      count.rays += static_cast<uint64_t>(k);
+      for (int l = 0; l < k; ++l) {
+        const uint16_t i = live[first + l];
+        PathState& p = paths[i];
+        if (!found[l]) {
+          add_escaped_radiance(s, o, p);
+          continue;
+        }
+        const VertexResult v = shade_vertex<Sampler, F>(s, o, samplers[i], hits[l], p, shadows[shadow_count], count);
+        if (v.shadow_ray) shadow_owner[shadow_count++] = i;
+        if (v.continues) next[next_count++] = i;
+      }
+    }
+    // Shadow rays kLanes at a time; an unblocked one adds its contribution (before the path's next vertex, as in
+    // the scalar loop, so the sums round alike).
+    for (int first = 0; first < shadow_count; first += kLanes) {
+      const int k = std::min(kLanes, shadow_count - first);
+      Ray rays[kLanes];
+      float t_max[kLanes];
+      uint32_t skip_a[kLanes], skip_b[kLanes];
+      for (int l = 0; l < k; ++l) {
+        const ShadowRay& sr = shadows[first + l];
+        rays[l] = sr.ray;
+        t_max[l] = sr.t_max;
+        skip_a[l] = sr.skip_a;
+        skip_b[l] = sr.skip_b;
+      }
+      const uint32_t blocked = occluded_scene_packet<F>(s, rays, t_max, skip_a, skip_b, k);
+      for (int l = 0; l < k; ++l)
+        if (!(blocked >> l & 1u)) paths[shadow_owner[first + l]].L += shadows[first + l].contribution;
+    }
+    std::copy(next, next + next_count, live);
+    live_count = next_count;
+  }
+  for (int i = 0; i < n; ++i) L[i] = paths[i].L;
+  return true;
+}
+
+template <class Sampler, size_t... F>
+constexpr std::array<BatchKernel<Sampler>, sizeof...(F)> batch_kernels_for(std::index_sequence<F...>) {
+  return {&trace_batch<Sampler, static_cast<uint32_t>(F)>...};
+}
+
+template <class Sampler>
+constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> kBatchKernels =
+    batch_kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
+
+}  // namespace integrator_detail
+
+template <class Sampler>
+BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings) {
+  if (settings.path_loop == PathLoop::Scalar || (settings.path_loop == PathLoop::Auto && !wavefront_pays(scene)))
+    return nullptr;
+  const uint32_t features = settings.generic_kernel ? kAllFeatures : scene.kernel_features();
+  return integrator_detail::kBatchKernels<Sampler>[features];
+}
+
+}  // namespace pt
