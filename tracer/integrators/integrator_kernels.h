@@ -236,10 +236,28 @@ constexpr std::array<RadianceKernel<Sampler>, sizeof...(F)> kernels_for(std::ind
   return {&trace<Sampler, static_cast<uint32_t>(F)>...};
 }
 
+// Sanitizer and fuzzing builds (PT_GENERIC_KERNELS_ONLY, set by CMake with PT_SANITIZE and PT_FUZZ) compile
+// only the all-features kernels and serve every feature set with them: they run every line the specialised ones
+// do, and instrumented builds of 8 feature sets × 2 samplers × 2 path loops took most of CI's time.
+#if defined(PT_GENERIC_KERNELS_ONLY)
+inline constexpr bool kGenericKernelsOnly = true;
+#else
+inline constexpr bool kGenericKernelsOnly = false;
+#endif
+
 // One kernel per feature set, indexed by the KernelFeature mask (masks without geometry never run).
 template <class Sampler>
-constexpr std::array<RadianceKernel<Sampler>, kAllFeatures + 1> kKernels =
-    kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
+constexpr std::array<RadianceKernel<Sampler>, kAllFeatures + 1> make_kernels() {
+  if constexpr (kGenericKernelsOnly) {
+    std::array<RadianceKernel<Sampler>, kAllFeatures + 1> all{};
+    all.fill(&trace<Sampler, kAllFeatures>);
+    return all;
+  } else {
+    return kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
+  }
+}
+template <class Sampler>
+constexpr std::array<RadianceKernel<Sampler>, kAllFeatures + 1> kKernels = make_kernels<Sampler>();
 
 }  // namespace integrator_detail
 

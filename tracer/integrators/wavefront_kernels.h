@@ -83,9 +83,19 @@ constexpr std::array<BatchKernel<Sampler>, sizeof...(F)> batch_kernels_for(std::
   return {&trace_batch<Sampler, static_cast<uint32_t>(F)>...};
 }
 
+// As kKernels (integrator_kernels.h), generic only in instrumented builds.
 template <class Sampler>
-constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> kBatchKernels =
-    batch_kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
+constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> make_batch_kernels() {
+  if constexpr (kGenericKernelsOnly) {
+    std::array<BatchKernel<Sampler>, kAllFeatures + 1> all{};
+    all.fill(&trace_batch<Sampler, kAllFeatures>);
+    return all;
+  } else {
+    return batch_kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
+  }
+}
+template <class Sampler>
+constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> kBatchKernels = make_batch_kernels<Sampler>();
 
 }  // namespace integrator_detail
 
