@@ -11,6 +11,13 @@ Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads
 
 namespace {
 
+// The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel.
+template <class Sampler>
+Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y) {
+  const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
+  return scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
+}
+
 // One tile: every pixel gets `spp` more samples, numbered after those it already has. Returns false when
 // cancelled: a set `cancel` stops the tile at once and the samples in flight are dropped (they may have been cut
 // short), so every pixel keeps an unbiased mean of the samples it has, and the same sample indices are traced
@@ -25,9 +32,7 @@ bool render_tile_scalar(RadianceKernel<Sampler> radiance, const Scene& scene, co
       const size_t pixel = static_cast<size_t>(y) * w + x;
       for (int s = 0; s < spp; ++s) {
         Sampler sampler(pixel, film.next_sample_index(pixel), settings.seed);
-        const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
-        const Ray ray = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
-        const Rgb L = radiance(scene, settings, ray, sampler, count, cancel);
+        const Rgb L = radiance(scene, settings, camera_ray(scene, sampler, x, y), sampler, count, cancel);
         if (cancel && cancel->load(std::memory_order_relaxed)) return false;
         film.note_attempt(pixel);
         film.add_sample(pixel, L);
@@ -55,8 +60,7 @@ bool render_tile_wavefront(BatchKernel<Sampler> batch, const Scene& scene, const
       for (int x = x0; x < x1; ++x, ++n) {
         const size_t pixel = static_cast<size_t>(y) * w + x;
         samplers[n] = Sampler(pixel, film.next_sample_index(pixel), settings.seed);
-        const Vec2 jitter = samplers[n].get_2d(SampleDimensions::kCameraJitter);
-        rays[n] = scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
+        rays[n] = camera_ray(scene, samplers[n], x, y);
       }
     }
     if (!batch(scene, settings, samplers, rays, n, L, count, cancel)) return false;
