@@ -25,7 +25,7 @@ using namespace pt::stress;
 
 namespace {
 
-const Estimator kAll[] = {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis};
+const Estimator kAll[] = {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis, Estimator::Bdpt};
 
 // The two-sided 1e-5 quantile of one z-score.
 double z_one() { return normal_upper_quantile(kAlpha / 2); }

@@ -77,6 +77,20 @@ inline bool use_spherical_rect(const Light& l, Vec3 ref) {
   return glm::dot(d, d) <= 4.f * l.area;
 }
 
+// A point uniform by area on polygon i (pbrt-v4 §6.5): parallelograms map u onto their area directly (keeping
+// its stratification); other polygons pick a half in proportion to its area (reusing u.x; a triangle is all
+// half 0), then a point in that triangle.
+inline Vec3 sample_polygon_area(const PolygonSoA& P, uint32_t i, Vec2 u) {
+  const Vec3 a = P.v[0][i], b = P.v[1][i], c = P.v[2][i];
+  if (P.parallelogram[i]) return a + u.x * (b - a) + u.y * (c - b);
+  const float f = P.first_half_fraction[i];
+  const bool first = u.x < f;
+  const Vec2 ut(std::min(first ? u.x / f : (u.x - f) / (1.f - f), kOneMinusEpsilon), u.y);
+  const Vec2 bt = sample_uniform_triangle(ut);
+  const Vec3 q = first ? b : c, r = first ? c : P.v[3][i];
+  return bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
+}
+
 // Radiance of the infinite light `l` arriving from direction w (an escaping ray's direction).
 inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 w) {
   if (l.kind == LightKind::Sun) return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? l.emission : Rgb(0.f);
@@ -163,22 +177,8 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       [[fallthrough]];  // far from the light: by area
     }
     case LightKind::Polygon: {
-      const uint32_t i = l.prim;
-      const PolygonSoA& P = s.polygons;
-      const Vec3 a = P.v[0][i], b = P.v[1][i], c = P.v[2][i];
-      if (P.parallelogram[i]) {
-        ls.p = a + u.x * (b - a) + u.y * (c - b);
-      } else {
-        // Uniform by area: pick a half in proportion to its area (reusing u.x; a triangle is all half 0), then a
-        // point in that triangle.
-        const float f = P.first_half_fraction[i];
-        const bool first = u.x < f;
-        const Vec2 ut(std::min(first ? u.x / f : (u.x - f) / (1.f - f), kOneMinusEpsilon), u.y);
-        const Vec2 bt = sample_uniform_triangle(ut);
-        const Vec3 q = first ? b : c, r = first ? c : P.v[3][i];
-        ls.p = bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
-      }
-      n = P.normal[i];
+      ls.p = sample_polygon_area(s.polygons, l.prim, u);
+      n = s.polygons.normal[l.prim];
       break;
     }
     case LightKind::Sphere: {

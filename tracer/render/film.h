@@ -66,6 +66,8 @@ class Film {
   // Unbiased estimate of the variance of pixel i's mean, per channel: s²/n with s² = M2/(n−1). Infinite below 2 samples.
   glm::dvec3 variance_of_mean(size_t i) const;
   uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
+  // Counts a non-finite value dropped before it reached add_sample (a light-traced splat).
+  void note_rejected() { rejected_.fetch_add(1, std::memory_order_relaxed); }
   // Samples attempted in pixel i (accepted + rejected): the index of the pixel's next sample.
   uint32_t next_sample_index(size_t i) const { return attempts_[i]; }
   void note_attempt(size_t i) { ++attempts_[i]; }

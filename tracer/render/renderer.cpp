@@ -87,6 +87,27 @@ bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film,
                             x1, y1, spp, count, samples, cancel);
 }
 
+// One BDPT round over a tile: each pixel's camera estimate into `estimate`, its light subpath's splats into
+// `splats`. False when cancelled.
+template <class Sampler>
+bool render_tile_bdpt(const Scene& scene, const RenderSettings& settings, const Film& film, int x0, int y0, int x1,
+                      int y1, BdptScratch& scratch, std::vector<glm::dvec3>& estimate, std::vector<Splat>& splats,
+                      RayCount& count, const std::atomic<bool>* cancel) {
+  const BdptKernel<Sampler> kernel = select_bdpt_kernel<Sampler>(scene, settings);
+  const int w = film.width();
+  for (int y = y0; y < y1; ++y) {
+    for (int x = x0; x < x1; ++x) {
+      const size_t pixel = static_cast<size_t>(y) * w + x;
+      const Sampler sampler(pixel, film.next_sample_index(pixel), settings.seed);
+      Rgb L;
+      if (!kernel(scene, settings, sampler, camera_ray(scene, sampler, x, y), scratch, splats, L, count, cancel))
+        return false;
+      estimate[pixel] = glm::dvec3(L);
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
@@ -95,8 +116,63 @@ PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settin
   return render_pass(scene, settings, film, std::vector<int>(tiles, spp), cancel);
 }
 
+PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings& settings, Film& film, int rounds,
+                                       const std::atomic<bool>* cancel) {
+  const int w = film.width(), h = film.height();
+  const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
+  round_estimate_.resize(film.pixel_count());
+  tile_splats_.resize(static_cast<size_t>(tiles_x) * tiles_y);
+  bdpt_scratch_.resize(static_cast<size_t>(pool_.size()));
+  PassStats stats;
+  for (int round = 0; round < rounds; ++round) {
+    std::atomic<uint64_t> rays{0};
+    std::atomic<bool> cancelled{false};
+    pool_.parallel_for(tiles_x * tiles_y, [&](int tile, int thread) {
+      if (cancelled.load(std::memory_order_relaxed) || (cancel && cancel->load(std::memory_order_relaxed))) {
+        cancelled.store(true, std::memory_order_relaxed);
+        return;
+      }
+      const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
+      const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
+      RayCount count;
+      std::vector<Splat>& splats = tile_splats_[tile];
+      splats.clear();
+      const bool complete =
+          settings.sampler == SamplerType::Sobol
+              ? render_tile_bdpt<SobolSampler>(scene, settings, film, x0, y0, x1, y1, bdpt_scratch_[thread],
+                                               round_estimate_, splats, count, cancel)
+              : render_tile_bdpt<IndependentSampler>(scene, settings, film, x0, y0, x1, y1, bdpt_scratch_[thread],
+                                                     round_estimate_, splats, count, cancel);
+      if (!complete) cancelled.store(true, std::memory_order_relaxed);
+      rays.fetch_add(count.rays, std::memory_order_relaxed);
+    });
+    stats.rays += rays.load();
+    if (cancelled.load()) {
+      stats.cancelled = true;
+      break;
+    }
+    for (const std::vector<Splat>& splats : tile_splats_) {
+      for (const Splat& sp : splats) {
+        if (is_finite(sp.value)) round_estimate_[sp.pixel] += glm::dvec3(sp.value);
+        else film.note_rejected();
+      }
+    }
+    for (size_t pixel = 0; pixel < film.pixel_count(); ++pixel) {
+      film.note_attempt(pixel);
+      film.add_sample(pixel, Rgb(round_estimate_[pixel]));
+    }
+    stats.samples += film.pixel_count();
+  }
+  return stats;
+}
+
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
                                 const std::vector<int>& tile_spp, const std::atomic<bool>* cancel) {
+  if (settings.estimator == Estimator::Bdpt) {
+    int rounds = 0;
+    for (const int n : tile_spp) rounds = std::max(rounds, n);
+    return render_bdpt_rounds(scene, settings, film, rounds, cancel);
+  }
   const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   std::atomic<uint64_t> samples{0}, rays{0};

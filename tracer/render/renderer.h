@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "integrators/bdpt.h"
 #include "render/film.h"
 #include "scene/scene.h"
 #include "core/thread_pool.h"
@@ -37,7 +38,20 @@ class Renderer {
   static constexpr int kTileSize = 16;
 
  private:
+  // The bidirectional estimator's passes (integrators/bdpt.h): light-traced contributions land on any pixel, so
+  // a pass runs in rounds of one sample per pixel. In a round every pixel traces one camera sample and one
+  // light subpath; each tile collects its splats in a list; once all tiles are done the lists are added in
+  // tile order (the same sums whatever the thread count) to the round's camera estimates, and each pixel's
+  // total enters the film as one sample. A round's light subpaths (one per pixel) estimate the light-traced
+  // part of every pixel, so a pixel's samples stay independent and identically distributed: the running mean
+  // and the film's variance estimate keep their meaning. A cancelled round is dropped whole. Adaptive
+  // per-tile counts do not apply (splats reach every tile): a pass runs the largest count for every pixel.
+  PassStats render_bdpt_rounds(const Scene& scene, const RenderSettings& settings, Film& film, int rounds,
+                               const std::atomic<bool>* cancel);
   ThreadPool pool_;
+  std::vector<glm::dvec3> round_estimate_;           // per pixel: the round's camera-subpath estimate
+  std::vector<std::vector<Splat>> tile_splats_;     // per tile: its light-traced contributions this round
+  std::vector<BdptScratch> bdpt_scratch_;           // per thread: subpath vertices
 };
 
 }  // namespace pt

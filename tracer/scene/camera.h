@@ -22,6 +22,34 @@ struct Camera {
     const float sy = (1.f - 2.f * y / static_cast<float>(height)) * tan_half_y;
     return {origin, glm::normalize(forward + sx * right + sy * up)};
   }
+
+  // Importance (light tracing, integrators/bdpt.h). The image plane at distance 1 has area A = 4·tan_x·tan_y;
+  // camera rays are uniform over it, so their density per solid angle is 1/(A·cos³θ) and the importance
+  // that makes a pixel the mean radiance over its square is We = 1/(A·cos⁴θ) (pbrt-v3 §16.1.1, the pinhole
+  // with lens area 1), normalised over the whole film: a light-traced path adds to pixel j with We, and one
+  // light path per pixel and pass makes the sum over the pass an estimate of every pixel.
+  float image_plane_area() const { return 4.f * tan_half_x * tan_half_y; }
+  // The image point (pixel units) a unit direction from the eye passes through; false when it misses the film.
+  bool raster_of(Vec3 w, float& x, float& y) const {
+    const float c = glm::dot(w, forward);
+    if (!(c > 0.f)) return false;
+    const float sx = glm::dot(w, right) / (c * tan_half_x), sy = glm::dot(w, up) / (c * tan_half_y);
+    x = 0.5f * (sx + 1.f) * static_cast<float>(width);
+    y = 0.5f * (1.f - sy) * static_cast<float>(height);
+    return x >= 0.f && x < static_cast<float>(width) && y >= 0.f && y < static_cast<float>(height);
+  }
+  // Density per solid angle with which generate_ray (with a uniform jitter over the film) produces direction w.
+  float direction_pdf(Vec3 w) const {
+    float x, y;
+    if (!raster_of(w, x, y)) return 0.f;
+    const float c = glm::dot(w, forward);
+    return 1.f / (image_plane_area() * c * c * c);
+  }
+  // We(w)·cos θ: the importance times the cosine at the (unit-area) lens, what a connection to the eye carries.
+  float importance_cos(Vec3 w) const {
+    const float c = glm::dot(w, forward);
+    return c > 0.f ? 1.f / (image_plane_area() * c * c * c) : 0.f;
+  }
 };
 
 }  // namespace pt

@@ -18,7 +18,7 @@ namespace pt {
 enum class ShapeType { Triangle, Quad, Sphere };
 enum class FovAxis { Vertical, Horizontal };
 // Estimators of docs/estimators.md; all converge to the same image.
-enum class Estimator { Uniform, Cosine, Nee, Mis };
+enum class Estimator { Uniform, Cosine, Nee, Mis, Bdpt };
 // Sample generators (sampler.h): independent PCG32 numbers, or Owen-scrambled padded Sobol points.
 enum class SamplerType { Independent, Sobol };
 // What lights the scene from infinitely far away (lights/environment.h).
@@ -45,11 +45,12 @@ struct EnumTable<FovAxis> {
 };
 template <>
 struct EnumTable<Estimator> {
-  static constexpr std::array<EnumEntry<Estimator>, 4> kEntries{{
+  static constexpr std::array<EnumEntry<Estimator>, 5> kEntries{{
       {Estimator::Uniform, "uniform", "Uniform hemisphere"},
       {Estimator::Cosine, "cosine", "BSDF sampling"},
       {Estimator::Nee, "nee", "Next-event estimation"},
       {Estimator::Mis, "mis", "MIS (light + BSDF)"},
+      {Estimator::Bdpt, "bdpt", "Bidirectional (BDPT)"},
   }};
 };
 template <>
@@ -123,6 +124,11 @@ struct RenderSettings {
   bool generic_kernel = false;
   // Not part of scene files either: the path loop (same image; `render --path-loop`).
   PathLoop path_loop = PathLoop::Auto;
+  // Not part of scene files either: with s ≥ 0, the bidirectional estimator evaluates only the strategy with s
+  // light and t camera vertices, unweighted (pbrt's per-strategy images; `render --bdpt-strategy s,t`).
+  struct BdptStrategy {
+    int s = -1, t = -1;
+  } bdpt_only;
 };
 
 struct EnvironmentDesc {

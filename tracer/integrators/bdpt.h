@@ -1,0 +1,50 @@
+// Bidirectional path tracing (Veach 1997, ch. 10; pbrt-v3 ch. 16 is the model): `Estimator::Bdpt`.
+//
+// Per camera sample, one camera subpath and one light subpath (a light chosen ∝ power, a point and a direction
+// from lights/light_emission.h), then every connection strategy (s light vertices, t camera vertices):
+// - s = 0: the camera subpath found a light by itself;
+// - s = 1: a light sampled from a camera vertex (next-event estimation, lights/light_sampling.h);
+// - t = 1: a light-subpath vertex joined to the eye (light tracing): its contribution lands on whatever pixel
+//   the eye sees the vertex through, a "splat", which the renderer adds after the pass (render/renderer.h);
+// - s, t ≥ 2: the two subpaths' end vertices joined by a shadow ray.
+// Each is weighted by the power heuristic over all strategies that could have produced the same path,
+// computed from the per-vertex forward and reverse densities by pbrt-v3's ratio recursion (no second copy of
+// the densities per strategy). Strategies through specular vertices are left out of the sum, so caustics seen
+// through glass, reachable only by light tracing or by hitting the light, come from those alone.
+//
+// The estimator sees materials only through the BSDF interface and lights only through the light interfaces,
+// like the path tracer. Subpath lengths follow RenderSettings: a strategy (s, t) makes a path of s + t − 2
+// scattering events, at most max_bounces, the path tracer's meaning; Russian roulette from
+// russian_roulette_depth ends subpaths early (unbiased: survivors are re-weighted; the MIS densities ignore it).
+#pragma once
+#include <atomic>
+#include <vector>
+
+#include "integrators/bdpt_vertex.h"
+#include "integrators/integrator.h"
+
+namespace pt {
+
+// A light-traced contribution to pixel `pixel` (= y·width + x), to be added to that pixel's sample of the pass.
+struct Splat {
+  uint32_t pixel;
+  Rgb value;
+};
+
+// Per-thread working memory of the estimator, kept between samples (no allocation per sample once grown).
+struct BdptScratch {
+  std::vector<BdptVertex> camera, light;
+};
+
+// Estimates the radiance along camera_ray (t ≥ 2 strategies, returned in L) and appends the light-traced
+// contributions of the sample's light subpath to `splats`. Returns false if `cancel` was set (polled every
+// kCancelPollBounces vertices): L and the splats appended are then to be dropped.
+template <class Sampler>
+using BdptKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler&, const Ray& camera_ray,
+                            BdptScratch&, std::vector<Splat>& splats, Rgb& L, RayCount&,
+                            const std::atomic<bool>* cancel);
+
+template <class Sampler>
+BdptKernel<Sampler> select_bdpt_kernel(const Scene& scene, const RenderSettings& settings);
+
+}  // namespace pt

@@ -1,0 +1,386 @@
+// The bidirectional estimator's kernel (integrators/bdpt.h): subpath generation, the connection strategies and
+// their MIS weights. Notation after pbrt-v3 §16.3 (GenerateCameraSubpath, GenerateLightSubpath, RandomWalk,
+// ConnectBDPT, MISWeight); bdpt.cpp instantiates it per sampler.
+#pragma once
+#include "integrators/bdpt.h"
+
+#include "geometry/scene_queries.h"
+#include "sampling/sample_dimensions.h"
+
+namespace pt {
+namespace bdpt_detail {
+
+using D = BdptDimensions;
+
+// Shadow rays stop this fraction short of their end point (relative, so scale-independent), as the path
+// tracer's (integrator_kernels.h); both ends are also pushed off their surfaces by their rounding bounds.
+constexpr float kConnectShorten = 1.f - 0x1p-12f;
+// Roulette's survival probability cap, the path tracer's (integrator_kernels.h explains the value).
+constexpr float kMaxSurvival = 1.f - 0x1p-10f;
+
+// Subpaths keep their vertices in memory and connect every pair, so their length is capped: paths of more
+// scattering events than this are not counted (with Russian roulette they never occur; without it only rooms
+// of albedo 1 reach them). docs/estimators.md states the limit.
+constexpr int kMaxBounces = 1024;
+
+struct Options {
+  Options(const Scene& s, const RenderSettings& r)
+      : max_bounces(std::min(r.max_bounces, kMaxBounces)),
+        rr_depth(r.russian_roulette_depth),
+        only_s(r.bdpt_only.s),
+        only_t(r.bdpt_only.t),
+        has_lights(!s.lights.empty()) {}
+  int max_bounces, rr_depth, only_s, only_t;
+  bool has_lights;
+};
+
+// Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
+// absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
+// a miss adds a vertex at infinity when the scene has infinite lights. Returns false if cancelled.
+template <class Sampler, uint32_t F>
+bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, uint32_t skip, Rgb beta,
+                 float pdf_dir, bool light_subpath, std::vector<BdptVertex>& path, size_t max_vertices,
+                 RayCount& count, const std::atomic<bool>* cancel) {
+  constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
+  const float beta_scale = max_component(beta);  // roulette judges the throughput relative to the start
+  float eta_scale = 1.f;
+  for (uint32_t bounce = 0;; ++bounce) {
+    if (path.size() >= max_vertices) return true;
+    if (bounce % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
+      return false;
+    Hit h;
+    ++count.rays;
+    const size_t prev = path.size() - 1;
+    if (!intersect_scene<F>(s, ray, kInfinity, skip, h)) {
+      if (!light_subpath && !s.infinite_lights.empty()) {
+        BdptVertex v;
+        v.kind = VertexKind::Light;
+        v.infinite = true;
+        v.it.p = path[prev].it.p;
+        v.it.ng = -ray.d;
+        v.wo = -ray.d;
+        v.beta = beta;
+        v.pdf_fwd = pdf_dir;
+        path.push_back(v);
+      }
+      return true;
+    }
+    BdptVertex v;
+    v.it = make_interaction<F>(s, ray, h);
+    v.wo = -ray.d;
+    v.beta = beta;
+    v.light = s.light_of_prim[v.it.prim];
+    v.pdf_fwd = to_area_density(pdf_dir, path[prev], v);
+    path.push_back(v);
+    if (path.size() >= max_vertices) return true;
+
+    const size_t cur = prev + 1;
+    const Material& m = s.materials[v.it.material];
+    const Frame frame = Frame::from_normal(v.it.ng);
+    const Vec3 wo = frame.to_local(v.wo);
+    const float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
+    const Vec2 u = rng.get_2d(light_subpath ? D::light_direction(bounce) : D::camera_direction(bounce));
+    BsdfSample bs;
+    if (!bsdf_sample<kM>(m, wo, uc, u, bs) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
+    Rgb f = bs.f;
+    float pdf_rev = 0.f;
+    if (is_specular(bs.flags)) {
+      // A Dirac lobe sampled from the light side carries no 1/η² (Veach 1997 §5.2: the adjoint of refraction);
+      // bsdf_sample's value is for radiance, sampled from the eye side.
+      if (light_subpath && is_transmissive(bs.flags)) f *= sqr(bs.eta);
+      path[cur].delta = true;
+      pdf_dir = 0.f;
+    } else {
+      // Light subpath: the light arrives from wo and leaves along wi, the reverse of what bsdf_sample assumed.
+      if (light_subpath) f = bsdf_eval<kM>(m, bs.wi, wo);
+      pdf_dir = bs.pdf;
+      pdf_rev = bsdf_pdf<kM>(m, bs.wi, wo);
+    }
+    beta *= f * (std::abs(bs.wi.z) / bs.pdf);
+    path[prev].pdf_rev = to_area_density(pdf_rev, path[cur], path[prev]);
+    if (!light_subpath && is_transmissive(bs.flags)) eta_scale *= sqr(bs.eta);
+    if (o.rr_depth >= 0 && static_cast<int>(bounce) >= o.rr_depth) {
+      const float q = std::min(kMaxSurvival, max_component(beta) * eta_scale / beta_scale);
+      const uint32_t dim = light_subpath ? D::light_roulette(bounce) : D::camera_roulette(bounce);
+      if (!(rng.get_1d(dim) < q)) return true;
+      beta /= q;
+    }
+    if (is_black(beta) || !is_finite(beta)) return true;
+    const Vec3 wi = frame.to_world(bs.wi);
+    ray = {offset_ray_origin(path[cur].it, wi), wi};
+    skip = skip_on_leave(path[cur].it);
+  }
+}
+
+// The camera subpath: the eye, then up to max_bounces + 1 surface vertices (the last only to find emission).
+template <class Sampler, uint32_t F>
+bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const Ray& ray,
+                    std::vector<BdptVertex>& path, RayCount& count, const std::atomic<bool>* cancel) {
+  path.clear();
+  BdptVertex eye;
+  eye.kind = VertexKind::Camera;
+  eye.it.p = ray.o;
+  eye.it.ng = Vec3(0.f);
+  path.push_back(eye);
+  return random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
+                                 static_cast<size_t>(o.max_bounces) + 2, count, cancel);
+}
+
+// The light subpath: a point on a light chosen ∝ power, then up to max_bounces surface vertices.
+template <class Sampler, uint32_t F>
+bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::vector<BdptVertex>& path,
+                   RayCount& count, const std::atomic<bool>* cancel) {
+  path.clear();
+  if (!o.has_lights) return true;
+  const int li = choose_light(s, rng.get_1d(D::kLightChoice));
+  const Light& l = s.lights[li];
+  const float pmf = s.light_pmf[li];
+  EmissionSample es;
+  if (!(pmf > 0.f) || !sample_emission<F>(s, l, rng.get_2d(D::kEmissionPoint), rng.get_2d(D::kEmissionDirection), es))
+    return true;
+  if (is_black(es.Le)) return true;
+  BdptVertex v;
+  v.kind = VertexKind::Light;
+  v.infinite = l.infinite();
+  v.light = li;
+  v.it.p = es.p;
+  v.it.p_error = es.p_error;
+  v.it.ng = es.n;
+  v.it.prim = l.prim;
+  v.it.planar = l.kind != LightKind::Sphere;
+  v.beta = es.Le;
+  v.pdf_fwd = es.pdf_pos * pmf;
+  path.push_back(v);
+  const Rgb beta = es.Le * (std::abs(glm::dot(es.n, es.d)) / (pmf * es.pdf_pos * es.pdf_dir));
+  const Ray ray{v.infinite ? es.p : offset_ray_origin(v.it, es.d), es.d};
+  const uint32_t skip = v.infinite ? ~0u : skip_on_leave(v.it);
+  if (!random_walk<Sampler, F>(s, o, rng, ray, skip, beta, es.pdf_dir, true, path,
+                               static_cast<size_t>(o.max_bounces) + 1, count, cancel))
+    return false;
+  if (v.infinite) {
+    // At infinity the origin density is over directions and the first vertex's over the disk's area
+    // (pbrt-v3 §16.3.2).
+    if (path.size() > 1) {
+      path[1].pdf_fwd = es.pdf_pos;
+      if (path[1].on_surface()) path[1].pdf_fwd *= std::abs(glm::dot(es.d, path[1].it.ng));
+    }
+    path[0].pdf_fwd = infinite_lights_origin_pdf(s, -es.d);
+  }
+  return true;
+}
+
+// Restores a value when it goes out of scope (pbrt-v3 ScopedAssignment): the MIS weight edits the subpaths'
+// end vertices for the strategy being weighted.
+template <class T>
+class Scoped {
+ public:
+  Scoped() = default;
+  void set(T* target, T value) {
+    target_ = target;
+    saved_ = *target;
+    *target = value;
+  }
+  ~Scoped() {
+    if (target_) *target_ = saved_;
+  }
+  Scoped(const Scoped&) = delete;
+  Scoped& operator=(const Scoped&) = delete;
+
+ private:
+  T* target_ = nullptr;
+  T saved_{};
+};
+
+// The power-heuristic weight of strategy (s, t) for the path it made (pbrt-v3 MISWeight, §16.3.4, with squared
+// ratios: w = p_s² / Σ_i p_i²). The densities of the other strategies follow from the current one's by walking
+// out from the connection, each step multiplying by pdf_rev/pdf_fwd of one vertex; strategies that would have
+// to connect at a specular vertex cannot produce the path and are left out. `sampled` replaces the end vertex
+// of the subpath that the strategy sampled afresh (s = 1: the light point; t = 1: the eye).
+inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
+                        const BdptVertex& sampled, int ns, int nt) {
+  if (ns + nt == 2) return 1.f;
+  BdptVertex* qs = ns > 0 ? &light[ns - 1] : nullptr;
+  BdptVertex* pt = nt > 0 ? &camera[nt - 1] : nullptr;
+  BdptVertex* qs_minus = ns > 1 ? &light[ns - 2] : nullptr;
+  BdptVertex* pt_minus = nt > 1 ? &camera[nt - 2] : nullptr;
+
+  Scoped<BdptVertex> a1;
+  if (ns == 1) a1.set(qs, sampled);
+  else if (nt == 1) a1.set(pt, sampled);
+  // The connection's end vertices are not specular for this strategy, whatever was sampled there.
+  Scoped<bool> a2, a3;
+  if (pt) a2.set(&pt->delta, false);
+  if (qs) a3.set(&qs->delta, false);
+  // Reverse densities of the end vertices and their predecessors, as the other subpath would have made them.
+  Scoped<float> a4, a5, a6, a7;
+  if (pt) a4.set(&pt->pdf_rev, ns > 0 ? pdf_at(s, *qs, qs_minus, *pt) : pdf_light_origin(s, *pt));
+  if (pt_minus) a5.set(&pt_minus->pdf_rev, ns > 0 ? pdf_at(s, *pt, qs, *pt_minus) : pdf_light(s, *pt, *pt_minus));
+  if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, pt_minus, *qs));
+  if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, pt, *qs_minus));
+
+  const auto remap0 = [](float f) { return f != 0.f ? f : 1.f; };
+  float sum = 0.f;
+  float r = 1.f;
+  for (int i = nt - 1; i > 0; --i) {
+    r *= remap0(camera[i].pdf_rev) / remap0(camera[i].pdf_fwd);
+    if (!camera[i].delta && !camera[i - 1].delta) sum += r * r;
+  }
+  r = 1.f;
+  for (int i = ns - 1; i >= 0; --i) {
+    r *= remap0(light[i].pdf_rev) / remap0(light[i].pdf_fwd);
+    const bool delta_before = i > 0 && light[i - 1].delta;  // no light is a Dirac (every kind has an extent)
+    if (!light[i].delta && !delta_before) sum += r * r;
+  }
+  return 1.f / (1.f + sum);
+}
+
+// The shadow ray between two vertices (neither at infinity): from a's surface towards b's, both ends pushed off
+// their surfaces by their rounding bounds; the planar primitives they lie on are skipped.
+template <uint32_t F>
+bool unoccluded(const Scene& s, const BdptVertex& a, const BdptVertex& b, RayCount& count) {
+  ++count.rays;
+  const Vec3 dir = b.it.p - a.it.p;
+  const Vec3 from = a.kind == VertexKind::Camera ? a.it.p : offset_ray_origin(a.it, dir);
+  const Vec3 to = b.kind == VertexKind::Camera ? b.it.p : offset_ray_origin(b.it, -dir);
+  const Vec3 d = to - from;
+  const float dist = glm::length(d);
+  if (!(dist > 0.f)) return false;
+  const uint32_t skip_a = a.kind == VertexKind::Camera ? ~0u : skip_on_leave(a.it);
+  const uint32_t skip_b = b.kind == VertexKind::Camera ? ~0u : skip_on_leave(b.it);
+  return !occluded_scene<F>(s, {from, d / dist}, dist * kConnectShorten, skip_a, skip_b);
+}
+
+// Strategy s = 1: a light sampled from camera vertex pt (its index t − 1; bounce t − 2). Fills `sampled`.
+template <class Sampler, uint32_t F>
+Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& pt, int t, BdptVertex& sampled,
+                         RayCount& count) {
+  const uint32_t bounce = static_cast<uint32_t>(t - 2);
+  const int li = choose_light(s, rng.get_1d(D::connection_light_choice(bounce)));
+  const Light& l = s.lights[li];
+  const float pmf = s.light_pmf[li];
+  const Vec2 u = rng.get_2d(D::connection_point(bounce));
+  sampled = BdptVertex{};
+  sampled.kind = VertexKind::Light;
+  sampled.light = li;
+  Vec3 wi;
+  if (l.infinite()) {
+    Rgb Le;
+    float pdf;
+    if (!sample_infinite_light_direction(s, l, u, wi, Le, pdf) || is_black(Le)) return Rgb(0.f);
+    sampled.infinite = true;
+    sampled.it.ng = -wi;
+    sampled.beta = Le / (pdf * pmf);
+  } else {
+    LightSample ls;
+    if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng}, u, ls) || is_black(ls.Le)) return Rgb(0.f);
+    wi = ls.wi;
+    sampled.it.p = ls.p;
+    sampled.it.ng = area_light_normal(s, l, ls.p);
+    sampled.it.prim = l.prim;
+    sampled.beta = ls.Le / (ls.pdf * pmf);
+  }
+  sampled.pdf_fwd = pdf_light_origin(s, sampled);
+  const Frame frame = Frame::from_normal(pt.it.ng);
+  const Rgb f = bsdf_eval(s.materials[pt.it.material], frame.to_local(pt.wo), frame.to_local(wi));
+  const Rgb L = pt.beta * f * sampled.beta * std::abs(glm::dot(wi, pt.it.ng));
+  if (is_black(L)) return L;
+  // The shadow ray as the path tracer casts it: the light's own primitive is skipped (a sphere light's sampled
+  // point is on the side facing the receiver).
+  ++count.rays;
+  const Vec3 origin = offset_ray_origin(pt.it, wi);
+  float t_max = kInfinity;
+  Vec3 dir = wi;
+  if (!sampled.infinite) {
+    const Vec3 to_light = sampled.it.p - origin;
+    const float dist = glm::length(to_light);
+    if (!(dist > 0.f)) return Rgb(0.f);
+    dir = to_light / dist;
+    t_max = dist * kConnectShorten;
+  }
+  if (occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(pt.it), l.prim)) return Rgb(0.f);
+  return L;
+}
+
+// Strategy t = 1: light vertex qs joined to the eye. Fills `sampled` (the eye) and the pixel it lands on.
+template <uint32_t F>
+Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint32_t& pixel, RayCount& count) {
+  const Camera& cam = s.camera;
+  const Vec3 d = qs.it.p - cam.origin;
+  const float dist2 = glm::dot(d, d);
+  if (!(dist2 > 0.f)) return Rgb(0.f);
+  const Vec3 w = d / std::sqrt(dist2);
+  float x, y;
+  if (!cam.raster_of(w, x, y)) return Rgb(0.f);
+  sampled = BdptVertex{};
+  sampled.kind = VertexKind::Camera;
+  sampled.it.p = cam.origin;
+  sampled.it.ng = Vec3(0.f);
+  // We·cos θ at the eye over the density of the eye as seen from qs (per solid angle: dist²/cos at a lens of
+  // unit area), pbrt-v3 PerspectiveCamera::Sample_Wi with lens radius 0.
+  sampled.beta = Rgb(cam.importance_cos(w) / dist2);
+  const Rgb L = qs.beta * vertex_f(s, qs, sampled, true) * sampled.beta * std::abs(glm::dot(w, qs.it.ng));
+  if (is_black(L) || !unoccluded<F>(s, qs, sampled, count)) return Rgb(0.f);
+  pixel = static_cast<uint32_t>(std::min(static_cast<int>(y), cam.height - 1)) * static_cast<uint32_t>(cam.width) +
+          static_cast<uint32_t>(std::min(static_cast<int>(x), cam.width - 1));
+  return L;
+}
+
+// One camera sample: both subpaths, every strategy.
+template <class Sampler, uint32_t F>
+bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& rng, const Ray& camera_ray,
+                 BdptScratch& scratch, std::vector<Splat>& splats, Rgb& L, RayCount& count,
+                 const std::atomic<bool>* cancel) {
+  const Options o(s, settings);
+  std::vector<BdptVertex>& camera = scratch.camera;
+  std::vector<BdptVertex>& light = scratch.light;
+  L = Rgb(0.f);
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, count, cancel)) return false;
+  if (!light_subpath<Sampler, F>(s, o, rng, light, count, cancel)) return false;
+  const int nc = static_cast<int>(camera.size()), nl = static_cast<int>(light.size());
+  const bool only = o.only_s >= 0;
+  for (int t = 1; t <= nc; ++t) {
+    if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;  // long paths: O(nc·nl)
+    for (int ns = 0; ns <= nl; ++ns) {
+      const int depth = ns + t - 2;
+      if ((ns == 1 && t == 1) || depth < 0 || depth > o.max_bounces) continue;
+      if (only && (ns != o.only_s || t != o.only_t)) continue;
+      const BdptVertex& pt = camera[t - 1];
+      if (t > 1 && ns != 0 && pt.infinite) continue;  // a vertex at infinity only ends a path (s = 0)
+      BdptVertex sampled;
+      Rgb c(0.f);
+      uint32_t pixel = 0;
+      if (ns == 0) {
+        if (pt.emits()) c = pt.beta * emitted(s, pt);
+      } else if (t == 1) {
+        const BdptVertex& qs = light[ns - 1];
+        if (connectible(s, qs)) c = connect_eye<F>(s, qs, sampled, pixel, count);
+      } else if (ns == 1) {
+        if (connectible(s, pt)) c = connect_light_sample<Sampler, F>(s, rng, pt, t, sampled, count);
+      } else {
+        const BdptVertex& qs = light[ns - 1];
+        if (connectible(s, qs) && connectible(s, pt)) {
+          c = qs.beta * vertex_f(s, qs, pt, true) * vertex_f(s, pt, qs, false) * pt.beta;
+          if (!is_black(c)) {
+            const Link k = link(pt, qs);
+            c *= std::abs(glm::dot(pt.it.ng, k.w)) * std::abs(glm::dot(qs.it.ng, k.w)) / k.dist2;
+            if (!unoccluded<F>(s, pt, qs, count)) c = Rgb(0.f);
+          }
+        }
+      }
+      if (is_black(c)) continue;
+      if (!only) c *= mis_weight(s, light, camera, sampled, ns, t);
+      if (t == 1) splats.push_back({pixel, c});
+      else L += c;
+    }
+  }
+  return true;
+}
+
+}  // namespace bdpt_detail
+
+template <class Sampler>
+BdptKernel<Sampler> select_bdpt_kernel(const Scene&, const RenderSettings&) {
+  return &bdpt_detail::bdpt_sample<Sampler, kAllFeatures>;
+}
+
+}  // namespace pt

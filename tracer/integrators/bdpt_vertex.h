@@ -1,0 +1,121 @@
+// A vertex of a bidirectional subpath and the densities the MIS weights are made of (Veach 1997, ch. 10;
+// pbrt-v3 §16.3, "Vertex"). Both subpaths store, per vertex, the density with which their own walk produced it
+// (pdf_fwd) and the density with which a walk in the other direction would have (pdf_rev), both per unit area
+// at the vertex (per unit solid angle at a vertex at infinity). The MIS weight of a strategy is then a product
+// of ratios pdf_rev/pdf_fwd along the path (bdpt_kernels.h, mis_weight).
+//
+// Orientation: the BSDF is always evaluated for the physical flow of light, f(eye side, light side)
+// (materials/bsdf.h takes (wo, wi) with light arriving from wi), whichever subpath the vertex is on.
+#pragma once
+#include "geometry/interaction.h"
+#include "lights/light_emission.h"
+#include "materials/bsdf.h"
+
+namespace pt {
+
+enum class VertexKind : uint8_t { Camera, Light, Surface };
+
+struct BdptVertex {
+  VertexKind kind = VertexKind::Surface;
+  bool delta = false;     // the direction sampled here was specular: no connection may end here
+  bool infinite = false;  // a light vertex at infinity: only its direction (it.ng) means anything
+  int32_t light = -1;     // light index of a Light vertex or an emitting surface (Scene::light_of_prim), else −1
+  // Position, rounding bound, normal, primitive and material. Area light vertices: the emitting side's normal.
+  // Vertices at infinity: it.ng is the direction light travels, into the scene. The camera: p is the eye.
+  Interaction it{};
+  Vec3 wo{0.f};           // unit direction towards the previous vertex of its own subpath
+  Rgb beta{1.f};          // the subpath's throughput up to and including this vertex's arrival
+  float pdf_fwd = 0.f, pdf_rev = 0.f;
+
+  bool on_surface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && !infinite); }
+  bool emits() const { return kind == VertexKind::Light || light >= 0; }
+};
+
+namespace bdpt_detail {
+
+// Unit direction from vertex a towards vertex b and their squared distance (infinite towards a vertex at
+// infinity).
+struct Link {
+  Vec3 w;
+  float dist2;
+};
+inline Link link(const BdptVertex& a, const BdptVertex& b) {
+  if (b.infinite) return {-b.it.ng, kInfinity};
+  if (a.infinite) return {a.it.ng, kInfinity};
+  const Vec3 d = b.it.p - a.it.p;
+  const float d2 = glm::dot(d, d);
+  return {d2 > 0.f ? d / std::sqrt(d2) : Vec3(0.f), d2};
+}
+
+// A solid-angle density at `from` towards `to` as a density per unit area at `to` (pbrt-v3 ConvertDensity).
+inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex& to) {
+  if (to.infinite || from.infinite) return pdf;
+  const Link l = link(from, to);
+  if (!(l.dist2 > 0.f)) return 0.f;
+  if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, l.w));
+  return pdf / l.dist2;
+}
+
+// BSDF value at surface vertex v towards `next`, for light flowing along the path. v on the camera subpath:
+// light arrives from `next`, leaves towards v.wo; on the light subpath the other way round.
+inline Rgb vertex_f(const Scene& s, const BdptVertex& v, const BdptVertex& next, bool light_subpath) {
+  const Frame frame = Frame::from_normal(v.it.ng);
+  const Vec3 a = frame.to_local(v.wo), b = frame.to_local(link(v, next).w);
+  return light_subpath ? bsdf_eval(s.materials[v.it.material], b, a) : bsdf_eval(s.materials[v.it.material], a, b);
+}
+
+// A connection may end at v: a non-specular lobe to evaluate, or a light or the camera.
+inline bool connectible(const Scene& s, const BdptVertex& v) {
+  if (v.kind != VertexKind::Surface) return !v.infinite;
+  return has_non_specular(bsdf_flags(s.materials[v.it.material]));
+}
+
+// Density per unit area at `to` with which light vertex v (or an emitting surface) emits towards it.
+inline float pdf_light(const Scene& s, const BdptVertex& v, const BdptVertex& to) {
+  if (v.infinite) {
+    const float r = emission_disk_radius(s);
+    float pdf = 1.f / (kPi * r * r);
+    if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, v.it.ng));
+    return pdf;
+  }
+  const Link l = link(v, to);
+  if (!(l.dist2 > 0.f)) return 0.f;
+  float pdf = area_emission_pdf_dir(s.lights[v.light], v.it.ng, l.w) / l.dist2;
+  if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, l.w));
+  return pdf;
+}
+
+// Density with which a light subpath starts at light vertex v (an emitting surface, or at infinity); `to` is
+// the next vertex towards the camera (pbrt-v3 PdfLightOrigin). Per unit area; per solid angle at infinity.
+inline float pdf_light_origin(const Scene& s, const BdptVertex& v) {
+  if (v.infinite) return infinite_lights_origin_pdf(s, -v.it.ng);
+  return s.light_pmf[v.light] / s.lights[v.light].area;
+}
+
+// Radiance emitted by v towards its previous vertex (s = 0: the camera subpath found a light).
+inline Rgb emitted(const Scene& s, const BdptVertex& v) {
+  if (v.infinite) {
+    Rgb Le(0.f);
+    for (const uint32_t li : s.infinite_lights) Le += infinite_light_Le(s, s.lights[li], -v.it.ng);
+    return Le;
+  }
+  return area_light_emission(s.lights[v.light], v.it.ng, v.wo);
+}
+
+// Density per unit area at `next` with which vertex v samples it, v having been reached from `prev` (pbrt-v3
+// Vertex::Pdf). prev is unused for the camera and for lights.
+inline float pdf_at(const Scene& s, const BdptVertex& v, const BdptVertex* prev, const BdptVertex& next) {
+  if (v.kind == VertexKind::Light) return pdf_light(s, v, next);
+  const Vec3 wn = link(v, next).w;
+  float pdf;
+  if (v.kind == VertexKind::Camera) {
+    pdf = s.camera.direction_pdf(wn);
+  } else {
+    const Frame frame = Frame::from_normal(v.it.ng);
+    pdf = bsdf_pdf(s.materials[v.it.material], frame.to_local(link(v, *prev).w), frame.to_local(wn));
+  }
+  return to_area_density(pdf, v, next);
+}
+
+}  // namespace bdpt_detail
+}  // namespace pt

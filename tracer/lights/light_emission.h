@@ -1,0 +1,123 @@
+// Emission sampling: where light paths start (bidirectional path tracing, integrators/bdpt_subpaths.h). A point
+// on a light and a direction leaving it, with both densities, as pbrt-v3's Light::Sample_Le / Pdf_Le (§12.3,
+// §16.1.2). light_sampling.h samples lights as seen from a receiver; this file samples them as sources.
+//
+// - Area lights (polygons, rectangles, spheres): a point uniform by area (pdf_pos = 1/A), a direction
+//   cosine-distributed about the emitting normal (pdf_dir = cos θ/π; two-sided lights pick a side first, so
+//   |cos θ|/2π).
+// - Infinite lights: a direction from the light's own density (the map's, 1/4π for a constant environment, the
+//   sun's cone), then a point uniform on the disk of radius R perpendicular to it that covers the scene's
+//   bounding sphere (pdf_pos = 1/πR²), the ray starting R outside.
+//
+// The same densities serve the MIS weights of every strategy that reaches a light (bdpt_connect.h). The
+// bidirectional estimator's light-sampling strategy (s = 1) samples infinite lights with these direction
+// densities too, rather than sample_li's cosine lobe for a constant environment: a strategy's MIS density must
+// be non-zero wherever the strategy can sample, and a cosine lobe about one side's normal cannot sample the
+// environment behind a transmissive surface.
+#pragma once
+#include "lights/light_sampling.h"
+
+namespace pt {
+
+struct EmissionSample {
+  Vec3 p;         // origin of the emitted ray (camera-relative); on the disk outside the scene for infinite lights
+  Vec3 p_error;   // bound on p's rounding error (area lights; zero for infinite lights)
+  Vec3 n;         // unit normal at p on the emitting side (area lights); the ray direction for infinite lights
+  Vec3 d;         // unit direction of the emitted ray
+  Rgb Le;         // radiance along d
+  float pdf_pos;  // per unit area
+  float pdf_dir;  // per unit solid angle
+};
+
+// Direction density of an area light's emission towards w from a point with front normal n.
+inline float area_emission_pdf_dir(const Light& l, Vec3 n, Vec3 w) {
+  const float c = glm::dot(n, w);
+  return l.two_sided ? std::abs(c) * (0.5f * kInvPi) : std::max(c, 0.f) * kInvPi;
+}
+
+// The front normal of area light l at its point p.
+inline Vec3 area_light_normal(const Scene& s, const Light& l, Vec3 p) {
+  if (l.kind == LightKind::Sphere) return glm::normalize(Vec3(DVec3(p) - s.spheres.center[l.prim - s.sphere_begin()]));
+  return s.polygons.normal[l.prim];
+}
+
+// Density with which infinite light l's emission (and the s = 1 strategy) picks w, the direction towards it.
+inline float infinite_light_direction_pdf(const Scene& s, const Light& l, Vec3 w) {
+  if (l.kind == LightKind::Sun)
+    return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
+  return s.environment.uses_map ? s.environment.map->pdf(w) : uniform_sphere_pdf();
+}
+
+// Samples w, a direction towards infinite light l, from that density; Le is its radiance along −w.
+inline bool sample_infinite_light_direction(const Scene& s, const Light& l, Vec2 u, Vec3& w, Rgb& Le, float& pdf) {
+  if (l.kind == LightKind::Sun) {
+    w = glm::normalize(Frame::from_normal(l.direction).to_world(sample_uniform_cone(u, l.one_minus_cos_max)));
+    Le = l.emission;
+    pdf = uniform_cone_pdf(l.one_minus_cos_max);
+    return true;
+  }
+  if (s.environment.uses_map) return s.environment.map->sample(u, w, pdf, Le) && pdf > 0.f && std::isfinite(pdf);
+  w = sample_uniform_sphere(u);
+  Le = s.environment.radiance;
+  pdf = uniform_sphere_pdf();
+  return true;
+}
+
+// The sum over infinite lights of choice probability × direction density: the density with which a light path
+// starts towards the scene from direction w (pbrt-v3's InfiniteLightDensity).
+inline float infinite_lights_origin_pdf(const Scene& s, Vec3 w) {
+  float p = 0.f;
+  for (const uint32_t li : s.infinite_lights) p += s.light_pmf[li] * infinite_light_direction_pdf(s, s.lights[li], w);
+  return p;
+}
+
+// Radius of the disk infinite lights emit from: the scene's bounding sphere (centred at the camera).
+inline float emission_disk_radius(const Scene& s) { return static_cast<float>(std::max(s.bounding_radius, 1e-30)); }
+
+// Samples light l's emission with u_pos (the point) and u_dir (the direction). False when nothing usable came out.
+template <uint32_t F = kAllFeatures>
+inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_dir, EmissionSample& es) {
+  if (l.infinite()) {
+    Vec3 w;
+    if (!sample_infinite_light_direction(s, l, u_dir, w, es.Le, es.pdf_dir)) return false;
+    const float r = emission_disk_radius(s);
+    const Frame f = Frame::from_normal(w);
+    const Vec2 disk = sample_uniform_disk_concentric(u_pos);
+    es.d = -w;
+    es.n = es.d;
+    es.p = r * (w + f.s * disk.x + f.t * disk.y);
+    es.p_error = Vec3(0.f);
+    es.pdf_pos = 1.f / (kPi * r * r);
+    return es.pdf_pos > 0.f && std::isfinite(es.pdf_pos);
+  }
+  if (l.kind == LightKind::Sphere) {
+    if constexpr ((F & kFeatureSpheres) == 0) return false;
+    const uint32_t i = l.prim - s.sphere_begin();
+    const Vec3 dir = sample_uniform_sphere(u_pos);
+    es.p = Vec3(s.spheres.center[i] + s.spheres.radius[i] * DVec3(dir));
+    es.p_error = gamma_bound(3) * glm::abs(es.p);
+    es.n = dir;
+  } else {
+    const PolygonSoA& P = s.polygons;
+    const uint32_t i = l.prim;
+    es.p = sample_polygon_area(P, i, u_pos);
+    es.p_error = gamma_bound(8) * (glm::abs(P.v[0][i]) + glm::abs(P.v[1][i]) + glm::abs(P.v[2][i]) + glm::abs(P.v[3][i]));
+    es.n = P.normal[i];
+  }
+  // Two-sided lights: the first half of u_dir.x emits from the front, the second from the back.
+  Vec2 u = u_dir;
+  if (l.two_sided) {
+    const bool back = u.x >= 0.5f;
+    u.x = std::min(back ? 2.f * u.x - 1.f : 2.f * u.x, kOneMinusEpsilon);
+    if (back) es.n = -es.n;
+  }
+  const Vec3 local = sample_cosine_hemisphere(u);
+  if (!(local.z > 0.f)) return false;
+  es.d = Frame::from_normal(es.n).to_world(local);
+  es.Le = l.emission;
+  es.pdf_pos = 1.f / l.area;
+  es.pdf_dir = cosine_hemisphere_pdf(local.z) * (l.two_sided ? 0.5f : 1.f);
+  return es.pdf_dir > 0.f && std::isfinite(es.pdf_pos);
+}
+
+}  // namespace pt
