@@ -347,7 +347,7 @@ TEST_CASE("furnace: Le·(1−ρ^(k+1))/(1−ρ) and Le/(1−ρ) for every estima
         // The uniform estimator's bounce weight 2ρ·cos θ has second moment (4/3)ρ²: without a bounce limit its
         // variance is infinite for ρ > √(3/4) whatever the roulette, so the film's standard error means nothing.
         if (est == Estimator::Uniform && rho > 0.866f) continue;
-        const Film f = render(transformed(furnace(Rgb(1.f), Rgb(rho), 1 << 30, 0, est), t.scale, t.offset), 256);
+        const Film f = render(transformed(furnace(Rgb(1.f), Rgb(rho), unlimited_bounces(est), 0, est), t.scale, t.offset), 256);
         const MeanSE m = film_mean(f);
         const double e = furnace_expected(1.0, rho, 0, true);
         INFO(std::string(t.name) << ", " << std::string(to_string(est)) << ", ρ " << rho << ", roulette: " << m.mean.x << " ± " << m.se.x << " vs " << e);
@@ -415,6 +415,7 @@ TEST_CASE("nan hardening: scenes that invite NaN and Inf never put a non-finite 
     for (Estimator est : kAll) {
       SceneDesc s = h.scene;
       s.render.estimator = est;
+      if (est == Estimator::Bdpt) s.render.max_bounces = std::min(s.render.max_bounces, kMaxBdptBounces);
       const Film f = render(s, 32);
       INFO(h.name << ", " << std::string(to_string(est)));
       CHECK(f.rejected() == 0);

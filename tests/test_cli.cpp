@@ -71,6 +71,20 @@ TEST_CASE("cli: errors name the file, the JSON path and the reason, with exit st
     CHECK(r.status == 2);
     CHECK(r.err.find("cornell") != std::string::npos);  // lists the built-in scenes
   }
+  {
+    // bdpt's limits and its diagnostic option are refused with the reason, before any sample.
+    const Run deep = run("render --estimator bdpt --bounces 5000 --spp 1 --png x.png");
+    CHECK(deep.status == 2);
+    CHECK(deep.err.find("render.max_bounces: bdpt traces at most 1024") != std::string::npos);
+    const Run wrong = run("render --estimator mis --bdpt-strategy 1,2 --spp 1 --png x.png");
+    CHECK(wrong.status == 2);
+    CHECK(wrong.err.find("--bdpt-strategy: needs --estimator bdpt") != std::string::npos);
+    const Run bad = run("render --estimator bdpt --bdpt-strategy 1,1 --spp 1 --png x.png");
+    CHECK(bad.status == 2);
+    CHECK(bad.err.find("not s = t = 1") != std::string::npos);
+    CHECK(run("render --estimator bdpt --bdpt-strategy 2 --spp 1 --png x.png").status == 2);
+    CHECK_FALSE(std::filesystem::exists("x.png"));
+  }
   CHECK(run("render --estimator magic").status == 2);
   CHECK(run("render --spp 0").status == 2);
   CHECK(run("frobnicate").status == 2);

@@ -212,7 +212,7 @@ const BadCase kBadCases[] = {
     {R"([[0, 0, 0], [1, 0, 0], [0, 1, 0]])", R"([[0, 0, 0], [1, 0], [0, 1, 0]])", "shapes[1].vertices[1]",
      "3 numbers"},
     // Enumerations.
-    {R"("estimator": "nee")", R"("estimator": "bdpt")", "render.estimator", "unknown estimator \"bdpt\""},
+    {R"("estimator": "nee")", R"("estimator": "photons")", "render.estimator", "unknown estimator \"photons\""},
     {R"("fov_deg": 40})", R"("fov_deg": 40, "fov_axis": "diagonal"})", "camera.fov_axis", "unknown fov_axis"},
     {R"("type": "sphere")", R"("type": "cube")", "shapes[0].type", "unknown shape type \"cube\""},
     {R"("type": "diffuse", "albedo")", R"("type": "lambert", "albedo")", "materials.white.type",

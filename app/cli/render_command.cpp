@@ -70,6 +70,12 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
                     "(same image; auto: the wavefront where polygons are few enough for brute force)")
       ->check(CLI::IsMember(enum_name_list<PathLoop>()))
       ->capture_default_str();
+  r->add_option("--bdpt-strategy", o.bdpt_strategy,
+                "Diagnostic for --estimator bdpt: S,T renders only the strategy with S light and T camera vertices, "
+                "without MIS weights (one term of the path sum: paths of S+T-2 bounces)")
+      ->delimiter(',')
+      ->expected(2)
+      ->check(CLI::NonNegativeNumber);
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
@@ -183,6 +189,14 @@ int run_render(const RenderOptions& o) {
   if (o.sampler) parse_enum(*o.sampler, desc.render.sampler);
   desc.render.generic_kernel = o.generic_kernel;
   parse_enum(o.path_loop, desc.render.path_loop);
+  if (!o.bdpt_strategy.empty()) {
+    if (desc.render.estimator != Estimator::Bdpt) {
+      std::fprintf(stderr, "error: --bdpt-strategy: needs --estimator bdpt (the scene's estimator is %s)\n",
+                   to_string(desc.render.estimator));
+      return 2;
+    }
+    desc.render.bdpt_only = {o.bdpt_strategy[0], o.bdpt_strategy[1]};
+  }
   if (std::string err = validate_scene(desc); !err.empty()) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;

@@ -2,6 +2,7 @@
 #pragma once
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -24,6 +25,7 @@ struct RenderOptions {
   bool adaptive = false;
   bool generic_kernel = false;
   std::string path_loop = "auto";
+  std::vector<int> bdpt_strategy;  // s,t: only that strategy, unweighted (diagnostic)
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

@@ -69,7 +69,11 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
-// Known tracer bugs the matrix exercises get a Kind::KnownBug row and a constant naming them here (none open).
+// Known tracer bugs the matrix exercises get a Kind::KnownBug row and a constant naming them here.
+// bdpt in the furnace room of huge spheres: its mean is 1.6e-4 above the series (23 of its small standard
+// errors); mis's mean is as high but within its 40× larger error bars. Not found yet (a leak at the spheres'
+// seams, or a density that loses precision on spheres of radius 1e5): docs/estimators.md, "Limits".
+const char* const kBugBdptHugeSphereRoom = "known bug: bdpt 1.6e-4 high in the huge-sphere room";
 
 struct Row {
   std::string scenario, parameter, measured, expected;
@@ -176,10 +180,11 @@ std::vector<Transform> required_transforms(bool quick, bool with_identity) {
   return t;
 }
 
-const Estimator kEstimators[] = {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis};
+const Estimator kEstimators[] = {Estimator::Uniform, Estimator::Cosine, Estimator::Nee, Estimator::Mis,
+                                 Estimator::Bdpt};
 
 std::vector<Estimator> estimators(bool quick) {
-  if (quick) return {Estimator::Cosine, Estimator::Mis};
+  if (quick) return {Estimator::Cosine, Estimator::Mis, Estimator::Bdpt};
   return {std::begin(kEstimators), std::end(kEstimators)};
 }
 
@@ -300,7 +305,9 @@ void huge_spheres(Report& r, const StressOptions& o) {
         measured += fmt(", %d inexact px", bad);
         ok = ok && bad <= measure_zero_allowance(double(f.total_count()) * k);
       }
-      r.add("huge spheres: furnace room (k=5, ρ=0.5)", p + ", " + to_string(est), measured, expected_text(e), ok, kind);
+      const bool known_bug = est == Estimator::Bdpt && kind == Kind::Required;
+      r.add("huge spheres: furnace room (k=5, ρ=0.5)", p + ", " + to_string(est), measured, expected_text(e), ok,
+            known_bug ? Kind::KnownBug : kind, known_bug ? kBugBdptHugeSphereRoom : "");
     }
   }
   // The control: the same furnace room built of six parallelograms.
@@ -394,7 +401,8 @@ void furnaces(Report& r, const StressOptions& o) {
             // The uniform estimator's bounce weight 2ρ·cos θ has second moment (4/3)ρ²: without a bounce limit its
             // variance is infinite for ρ > √(3/4) whatever the roulette, so no variance-based check applies.
             if (unbounded && est == Estimator::Uniform && rho > 0.866f) continue;
-            const SceneDesc s = transformed(furnace(Rgb(1.f), Rgb(rho), unbounded ? (1 << 30) : k,
+            if (unbounded && est == Estimator::Bdpt && rho > 0.9f) continue;  // see unlimited_bounces
+            const SceneDesc s = transformed(furnace(Rgb(1.f), Rgb(rho), unbounded ? unlimited_bounces(est) : k,
                                                     unbounded ? 0 : -1, est),
                                             t.scale, t.offset);
             const Film f = render(s, o.quick ? 128 : 256, o.threads);
@@ -438,6 +446,7 @@ void furnaces(Report& r, const StressOptions& o) {
     for (float rho : {0.99f, 0.999f}) {
       for (Estimator est : estimators(o.quick)) {
         if (est == Estimator::Uniform) continue;  // infinite variance for ρ > 0.866 (see above)
+        if (est == Estimator::Bdpt) continue;     // no bounce limit: beyond bdpt's kMaxBdptBounces
         SceneDesc s = furnace(Rgb(1.f), Rgb(rho), 1 << 30, 0, est);
         if (o.quick) s.width = s.height = 4;
         const Film f = render(s, 256, o.threads);
@@ -483,6 +492,7 @@ void hazards(Report& r, const StressOptions& o) {
     for (Estimator est : kEstimators) {
       SceneDesc s = h.scene;
       s.render.estimator = est;
+      if (est == Estimator::Bdpt) s.render.max_bounces = std::min(s.render.max_bounces, kMaxBdptBounces);
       const Film f = render(s, spp, o.threads);
       const int bad = nonfinite_pixels(f);
       r.add("nan-hardening", h.name + ", " + to_string(est),

@@ -23,6 +23,10 @@ SceneDesc transformed(SceneDesc s, double scale, DVec3 offset);
 // A built-in scene (cornell, cornell-spheres, shadertoy) at width × height pixels.
 SceneDesc builtin_at(const std::string& name, int width, int height);
 
+// "No bounce limit" for a furnace: 1 << 30, or bdpt's kMaxBdptBounces (it stores its subpaths), where a series
+// of ratio ρ ≤ 0.9 loses below 1e-46 of its sum.
+inline int unlimited_bounces(Estimator est) { return est == Estimator::Bdpt ? kMaxBdptBounces : 1 << 30; }
+
 // The furnace: a closed sphere of radius 1 with uniform two-sided emission Le and albedo rho, the camera inside
 // (off-centre so cosines vary). Every path sees Le at every vertex: L = Le·(1−ρ^(k+1))/(1−ρ) after k bounces,
 // Le/(1−ρ) with Russian roulette and no bounce limit.

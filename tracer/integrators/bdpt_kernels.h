@@ -18,14 +18,9 @@ constexpr float kConnectShorten = 1.f - 0x1p-12f;
 // Roulette's survival probability cap, the path tracer's (integrator_kernels.h explains the value).
 constexpr float kMaxSurvival = 1.f - 0x1p-10f;
 
-// Subpaths keep their vertices in memory and connect every pair, so their length is capped: paths of more
-// scattering events than this are not counted (with Russian roulette they never occur; without it only rooms
-// of albedo 1 reach them). docs/estimators.md states the limit.
-constexpr int kMaxBounces = 1024;
-
 struct Options {
   Options(const Scene& s, const RenderSettings& r)
-      : max_bounces(std::min(r.max_bounces, kMaxBounces)),
+      : max_bounces(std::min(r.max_bounces, kMaxBdptBounces)),  // validated; the clamp guards memory
         rr_depth(r.russian_roulette_depth),
         only_s(r.bdpt_only.s),
         only_t(r.bdpt_only.t),

@@ -94,7 +94,9 @@ inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_d
     if constexpr ((F & kFeatureSpheres) == 0) return false;
     const uint32_t i = l.prim - s.sphere_begin();
     const Vec3 dir = sample_uniform_sphere(u_pos);
-    es.p = Vec3(s.spheres.center[i] + s.spheres.radius[i] * DVec3(dir));
+    // Normalised in double: a float direction is unit only to ~1e-7, which on a sphere of radius 1e5 puts the
+    // point 1e-2 off the surface, through the walls of a room built of huge spheres.
+    es.p = Vec3(s.spheres.center[i] + s.spheres.radius[i] * glm::normalize(DVec3(dir)));
     es.p_error = gamma_bound(3) * glm::abs(es.p);
     es.n = dir;
   } else {

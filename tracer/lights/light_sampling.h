@@ -206,7 +206,7 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       }
       // Inside: uniform over the sphere's area.
       const Vec3 dir = sample_uniform_sphere(u);
-      ls.p = Vec3(center + r * DVec3(dir));
+      ls.p = Vec3(center + r * glm::normalize(DVec3(dir)));  // on the surface to double precision (light_emission.h)
       n = dir;
       break;
     }

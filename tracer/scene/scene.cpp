@@ -127,6 +127,9 @@ std::string validate_material(const MaterialDesc& m) {
 std::string validate_render_settings(const RenderSettings& r) {
   if (r.max_bounces < 0) return "render.max_bounces: must be >= 0";
   if (r.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  if (r.estimator == Estimator::Bdpt && r.max_bounces > kMaxBdptBounces)
+    return "render.max_bounces: bdpt traces at most " + std::to_string(kMaxBdptBounces) +
+           " bounces (it stores both subpaths and connects every pair of vertices); use mis for longer paths";
   if (r.bdpt_only.s >= 0 && (r.bdpt_only.t < 1 || r.bdpt_only.s + r.bdpt_only.t < 2 ||
                              (r.bdpt_only.s == 1 && r.bdpt_only.t == 1)))
     return "bdpt strategy: needs t >= 1, s + t >= 2 and not s = t = 1 (s light and t camera vertices)";

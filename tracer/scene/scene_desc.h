@@ -113,6 +113,10 @@ struct CameraDesc {
   FovAxis fov_axis = FovAxis::Vertical;
 };
 
+// The bidirectional estimator stores both subpaths and connects every pair of their vertices (O(n²) shadow rays
+// per sample), so it traces at most this many bounces; render settings asking for more are refused.
+inline constexpr int kMaxBdptBounces = 1024;
+
 struct RenderSettings {
   int max_bounces = 8;             // scattering events after the camera ray's first hit (0 = emitters only)
   Estimator estimator = Estimator::Mis;
