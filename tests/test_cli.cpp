@@ -132,7 +132,7 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
     CHECK(rel > 0);
     CHECK(rm > 0);
   }
-  CHECK(per_series.size() == 60);  // 5 scenes × 4 estimators × 3 samplers
+  CHECK(per_series.size() == 75);  // 5 scenes × 5 estimators × 3 samplers
   for (const auto& [name, n] : per_series) CHECK(n == 4);  // budgets 1/16, 1/8, 1/4, 1/2 s
   const std::string summary = slurp("bench_quick/summary.md");
   CHECK(summary.find("time to 1e-3") != std::string::npos);

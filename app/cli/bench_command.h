@@ -15,7 +15,7 @@ struct BenchOptions {
   std::string cache_dir = "bench-cache";
   std::string reference_dir = "../shared/reference";
   std::vector<std::string> scenes{"cornell", "cornell-spheres", "shadertoy", "materials", "sky"};
-  std::vector<std::string> estimators{"uniform", "cosine", "nee", "mis"};
+  std::vector<std::string> estimators{"uniform", "cosine", "nee", "mis", "bdpt"};
   std::vector<std::string> samplers{"independent", "sobol", "sobol+adaptive"};
   double max_seconds = 64.0;
   int threads = 0;
