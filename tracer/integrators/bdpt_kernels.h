@@ -12,12 +12,6 @@ namespace bdpt_detail {
 
 using D = BdptDimensions;
 
-// Shadow rays stop this fraction short of their end point (relative, so scale-independent), as the path
-// tracer's (integrator_kernels.h); both ends are also pushed off their surfaces by their rounding bounds.
-constexpr float kConnectShorten = 1.f - 0x1p-12f;
-// Roulette's survival probability cap, the path tracer's (integrator_kernels.h explains the value).
-constexpr float kMaxSurvival = 1.f - 0x1p-10f;
-
 struct Options {
   Options(const Scene& s, const RenderSettings& r)
       : max_bounces(std::min(r.max_bounces, kMaxBdptBounces)),  // validated; the clamp guards memory
@@ -95,7 +89,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     path[prev].pdf_rev = to_area_density(pdf_rev, path[cur], path[prev]);
     if (!light_subpath && is_transmissive(bs.flags)) eta_scale *= sqr(bs.eta);
     if (o.rr_depth >= 0 && static_cast<int>(bounce) >= o.rr_depth) {
-      const float q = std::min(kMaxSurvival, max_component(beta) * eta_scale / beta_scale);
+      const float q = std::min(kMaxRouletteSurvival, max_component(beta) * eta_scale / beta_scale);
       const uint32_t dim = light_subpath ? D::light_roulette(bounce) : D::camera_roulette(bounce);
       if (!(rng.get_1d(dim) < q)) return true;
       beta /= q;
@@ -242,7 +236,7 @@ bool unoccluded(const Scene& s, const BdptVertex& a, const BdptVertex& b, RayCou
   if (!(dist > 0.f)) return false;
   const uint32_t skip_a = a.kind == VertexKind::Camera ? ~0u : skip_on_leave(a.it);
   const uint32_t skip_b = b.kind == VertexKind::Camera ? ~0u : skip_on_leave(b.it);
-  return !occluded_scene<F>(s, {from, d / dist}, dist * kConnectShorten, skip_a, skip_b);
+  return !occluded_scene<F>(s, {from, d / dist}, dist * kShadowRayShorten, skip_a, skip_b);
 }
 
 // Strategy s = 1: a light sampled from camera vertex pt (its index t − 1; bounce t − 2). Fills `sampled`.
@@ -290,7 +284,7 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
     const float dist = glm::length(to_light);
     if (!(dist > 0.f)) return Rgb(0.f);
     dir = to_light / dist;
-    t_max = dist * kConnectShorten;
+    t_max = dist * kShadowRayShorten;
   }
   if (occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(pt.it), l.prim)) return Rgb(0.f);
   return L;

@@ -8,6 +8,13 @@
 
 namespace pt {
 
+// Shadow rays stop just short of the light point: the light's own primitive is skipped too, so this factor
+// only has to guard against geometry coplanar with the light (relative, so scale-independent). Shared by the
+// path tracer's light samples and the bidirectional estimator's connections.
+inline constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
+// Russian roulette's survival probability cap (integrator_kernels.h explains the value; bdpt uses it too).
+inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
+
 struct RayCount {
   uint64_t rays = 0;  // every ray cast: camera, bounce (closest hit) and shadow (any hit)
 };

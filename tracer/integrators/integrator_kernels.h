@@ -32,9 +32,6 @@ namespace pt {
 
 namespace integrator_detail {
 
-// Shadow rays stop just short of the light point: the light's own primitive is skipped too, so this factor
-// only has to guard against geometry coplanar with the light (relative, so scale-independent).
-constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
 
 // MIS weight and contribution of the infinite lights along an escaping ray (pbrt-v4 loops over its infinite
 // lights the same way: each is its own sampling strategy with its own density).
@@ -194,7 +191,7 @@ template <class Sampler, uint32_t F>
   // rooms of albedo ρ < 1 keep finite variance under cosine sampling (a cap c needs ρ² < c: 0.95 would not do
   // for ρ = 0.999).
   if (o.rr_depth >= 0 && depth >= o.rr_depth) {
-    const float q = std::min(1.f - 0x1p-10f, max_component(p.beta) * p.eta_scale);
+    const float q = std::min(kMaxRouletteSurvival, max_component(p.beta) * p.eta_scale);
     if (!(rng.get_1d(o.dims.roulette(depth)) < q)) return result;
     p.beta /= q;
   }
