@@ -12,7 +12,8 @@ PACKAGES=(
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
   libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)
   gnuplot-nox                               # the convergence plots of `pathtracer bench`
-  libopenexr-dev                            # HDR environment maps (.exr)
+  libopenexr-dev                            # HDR environment maps, multi-layer film output (.exr)
+  openexr                                   # exrheader: the tests check the layers other tools will see
   libtinyobjloader-dev                      # OBJ meshes
 )
 

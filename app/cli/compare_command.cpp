@@ -9,9 +9,9 @@
 namespace pt {
 
 void add_compare_command(CLI::App& app, CompareOptions& o) {
-  CLI::App* c = app.add_subcommand("compare", "Print RMSE, relMSE and mean radiance of IMAGE against REFERENCE (PFM files)");
-  c->add_option("image", o.image, "Image to judge (PFM)")->required();
-  c->add_option("reference", o.reference, "Reference image (PFM), same size, or larger by --downsample")->required();
+  CLI::App* c = app.add_subcommand("compare", "Print RMSE, relMSE and mean radiance of IMAGE against REFERENCE (PFM or OpenEXR files)");
+  c->add_option("image", o.image, "Image to judge (PFM, or EXR: its R, G, B beauty channels)")->required();
+  c->add_option("reference", o.reference, "Reference image (PFM or EXR), same size, or larger by --downsample")->required();
   c->add_option("--downsample", o.downsample,
                 "Block-average the reference by this integer factor first (for references stored at higher resolution)")
       ->check(whole_in(1, 64))
@@ -20,8 +20,8 @@ void add_compare_command(CLI::App& app, CompareOptions& o) {
 
 int run_compare(const CompareOptions& o) {
   try {
-    const Image img = read_pfm(o.image);
-    Image ref = read_pfm(o.reference);
+    const Image img = read_image(o.image);
+    Image ref = read_image(o.reference);
     if (o.downsample > 1) ref = block_average(ref, o.downsample);
     if (img.width != ref.width || img.height != ref.height) {
       std::fprintf(stderr, "error: %s is %dx%d but the reference is %dx%d\n", o.image.c_str(), img.width, img.height,

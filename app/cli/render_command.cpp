@@ -1,6 +1,7 @@
 #include "cli/render_command.h"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <csignal>
@@ -17,6 +18,8 @@
 #include "io/safe_file.h"
 
 #include "render/film.h"
+#include "denoise/denoiser.h"
+#include "io/film_exr.h"
 #include "io/image_io.h"
 #include "cli/progress.h"
 #include "render/progressive.h"
@@ -55,6 +58,19 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->capture_default_str();
   r->add_option("--png", o.png, "Write the tone-mapped 8-bit sRGB image here");
   r->add_option("--pfm", o.pfm, "Write the linear mean radiance (float PFM) here");
+  r->add_option("--exr", o.exr,
+                "Write one multi-layer OpenEXR file here: the beauty (R, G, B) and the layers of --aov "
+                "(docs/denoising.md lists the channel names)");
+  r->add_option("--aov", o.aovs,
+                "Layers of --exr, comma-separated: " + enum_names_joined<Aov>(", ") +
+                    " (default: all; denoised only with --denoise)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(enum_name_list<Aov>()));
+  r->add_flag("--exr-half", o.exr_half, "Store the --exr channels as 16-bit half floats (default 32-bit float)");
+  r->add_flag("--denoise", o.denoise,
+              "Denoise (feature-guided à-trous filter, docs/denoising.md): the PNG shows the denoised image; the "
+              "PFM stays the raw, unbiased estimate");
+  r->add_option("--denoised-pfm", o.denoised_pfm, "With --denoise: write the denoised linear radiance (PFM) here");
   r->add_option("--exposure", o.exposure, "PNG exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
   r->add_option("--tonemap", o.tonemap, "PNG tone map: clamp | reinhard | aces")
       ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
@@ -132,16 +148,18 @@ bool check_outputs(const std::vector<OutputFile>& outputs, const std::string& sc
 }
 
 // The film and the output images, estimated before anything is allocated.
-bool check_film_memory(int width, int height) {
-  constexpr uint64_t kOutputBytesPerPixel = 12 + 12 + 3 + 3;  // mean image, PFM bytes, PNG pixels and bytes
+bool check_film_memory(int width, int height, bool features, bool layers) {
+  // Mean image, PFM bytes, PNG pixels and bytes; with layers or denoising up to ~26 more float planes.
+  const uint64_t output_bytes = 12 + 12 + 3 + 3 + (layers ? 26 * 4 : 0);
+  const uint64_t film_bytes = Film::kBytesPerPixel + (features ? Film::kFeatureBytesPerPixel : 0);
   const uint64_t pixels = static_cast<uint64_t>(width) * static_cast<uint64_t>(height);
-  const uint64_t need = pixels * (Film::kBytesPerPixel + kOutputBytesPerPixel), budget = memory_budget_bytes();
+  const uint64_t need = pixels * (film_bytes + output_bytes), budget = memory_budget_bytes();
   if (need <= budget) return true;
   std::fprintf(stderr,
                "error: a %dx%d render needs about %s (%llu bytes per pixel); this machine allows %s (3/4 of its "
                "memory, or of ulimit -v); render a smaller image\n",
                width, height, format_bytes(need).c_str(),
-               static_cast<unsigned long long>(Film::kBytesPerPixel + kOutputBytesPerPixel), format_bytes(budget).c_str());
+               static_cast<unsigned long long>(film_bytes + output_bytes), format_bytes(budget).c_str());
   return false;
 }
 
@@ -202,16 +220,46 @@ int run_render(const RenderOptions& o) {
     return 2;
   }
 
+  // Layers and denoising: which options need which, refused before any work.
+  if (!o.aovs.empty() && o.exr.empty()) {
+    std::fprintf(stderr, "error: --aov: needs --exr (the layers are written into that file)\n");
+    return 2;
+  }
+  if (!o.denoised_pfm.empty() && !o.denoise) {
+    std::fprintf(stderr, "error: --denoised-pfm: needs --denoise\n");
+    return 2;
+  }
+  std::vector<Aov> aovs;
+  if (!o.exr.empty()) {
+    if (o.aovs.empty()) {
+      for (const auto& entry : enum_entries<Aov>())
+        if (entry.value != Aov::Denoised || o.denoise) aovs.push_back(entry.value);
+    }
+    for (const std::string& name : o.aovs) {
+      Aov a = Aov::Albedo;
+      parse_enum(name, a);
+      if (std::find(aovs.begin(), aovs.end(), a) != aovs.end()) continue;
+      if (a == Aov::Denoised && !o.denoise) {
+        std::fprintf(stderr, "error: --aov denoised: needs --denoise\n");
+        return 2;
+      }
+      aovs.push_back(a);
+    }
+  }
+  const bool features = o.denoise || std::any_of(aovs.begin(), aovs.end(), aov_needs_features);
+
   // Every output is checked before the first sample: a long render must not be lost to a typo.
   std::vector<OutputFile> outputs;
   if (!o.png.empty()) outputs.push_back({"--png", o.png});
   if (!o.pfm.empty()) outputs.push_back({"--pfm", o.pfm});
-  if (outputs.empty()) {
+  if (outputs.empty() && o.exr.empty()) {
     outputs.push_back({"--png", scene_stem(o.scene) + ".png"});
     outputs.push_back({"--pfm", scene_stem(o.scene) + ".pfm"});
   }
+  if (!o.exr.empty()) outputs.push_back({"--exr", o.exr});
+  if (!o.denoised_pfm.empty()) outputs.push_back({"--denoised-pfm", o.denoised_pfm});
   if (!check_outputs(outputs, o.scene)) return 2;
-  if (!check_film_memory(desc.width, desc.height)) return 2;
+  if (!check_film_memory(desc.width, desc.height, features, features || !o.exr.empty())) return 2;
 
   const auto scene = compile_scene(desc);
   StopConditions stop;
@@ -221,6 +269,7 @@ int run_render(const RenderOptions& o) {
   if (!stop.any()) stop.spp = 64;
 
   Film film(desc.width, desc.height);
+  film.enable_features(features);
   Renderer renderer(o.threads);
   if (!renderer.thread_start_error().empty())
     std::fprintf(stderr, "warning: %s; rendering with %d\n", renderer.thread_start_error().c_str(), renderer.threads());
@@ -276,6 +325,17 @@ int run_render(const RenderOptions& o) {
     std::fprintf(stderr, "warning: some pixels have no sample yet (they are written black)\n");
 
   const Image img{desc.width, desc.height, film.mean_image()};
+  // The denoised image (on the renderer's threads), shown by the PNG; the PFM stays the raw estimate.
+  std::vector<float> denoised;
+  if (o.denoise) {
+    const auto denoise_start = clock::now();
+    const std::vector<float> variance = film.variance_image(), albedo = film.albedo_image(),
+                             normal = film.normal_image(), depth = film.depth_image(),
+                             emission = film.emission_image();
+    denoised = pt::denoise({desc.width, desc.height, &img.rgb, &variance, &albedo, &normal, &depth, &emission},
+                           DenoiseSettings{}, renderer.pool());
+    std::printf("denoised in %.1f ms\n", std::chrono::duration<double, std::milli>(clock::now() - denoise_start).count());
+  }
   DisplaySettings display;
   display.exposure_ev = o.exposure;
   display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
@@ -285,8 +345,11 @@ int run_render(const RenderOptions& o) {
   int failed = 0;
   for (const OutputFile& out : outputs) {
     try {
-      if (out.flag == std::string("--png")) write_png(out.path, img, display);
-      else write_pfm(out.path, img);
+      const std::string flag = out.flag;
+      if (flag == "--png") write_png(out.path, o.denoise ? Image{img.width, img.height, denoised} : img, display);
+      else if (flag == "--pfm") write_pfm(out.path, img);
+      else if (flag == "--denoised-pfm") write_pfm(out.path, Image{img.width, img.height, denoised});
+      else write_film_exr(out.path, film, {aovs, o.exr_half, o.denoise ? &denoised : nullptr});
       std::printf("wrote %s\n", std::filesystem::absolute(out.path).c_str());
     } catch (const ImageError& e) {
       std::fprintf(stderr, "error: %s: %s\n", out.flag, e.what());

@@ -19,6 +19,11 @@ struct RenderOptions {
   std::optional<unsigned long long> seed;
   int threads = 0;
   std::string png, pfm;
+  std::string exr;                 // multi-layer OpenEXR (io/film_exr.h)
+  std::vector<std::string> aovs;   // its layers; empty = all
+  bool exr_half = false;
+  bool denoise = false;
+  std::string denoised_pfm;
   float exposure = 0.f;
   std::string tonemap = "clamp";
   bool quiet = false;

@@ -37,11 +37,12 @@ struct BdptScratch {
 };
 
 // Estimates the radiance along camera_ray (t ≥ 2 strategies, returned in L) and appends the light-traced
-// contributions of the sample's light subpath to `splats`. Returns false if `cancel` was set (polled every
-// kCancelPollBounces vertices): L and the splats appended are then to be dropped.
+// contributions of the sample's light subpath to `splats`; `features` (may be null) receives the camera
+// subpath's feature buffers (features.h). Returns false if `cancel` was set (polled every kCancelPollBounces
+// vertices): L and the splats appended are then to be dropped.
 template <class Sampler>
 using BdptKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler&, const Ray& camera_ray,
-                            BdptScratch&, std::vector<Splat>& splats, Rgb& L, RayCount&,
+                            BdptScratch&, std::vector<Splat>& splats, Rgb& L, PixelFeatures* features, RayCount&,
                             const std::atomic<bool>* cancel);
 
 template <class Sampler>

@@ -25,14 +25,17 @@ struct Options {
 
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
 // absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
-// a miss adds a vertex at infinity when the scene has infinite lights. Returns false if cancelled.
+// a miss adds a vertex at infinity when the scene has infinite lights; `features` (camera subpath only; may be
+// null) receives the sample's feature buffers (features.h). Returns false if cancelled.
 template <class Sampler, uint32_t F>
 bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, uint32_t skip, Rgb beta,
                  float pdf_dir, bool light_subpath, std::vector<BdptVertex>& path, size_t max_vertices,
-                 RayCount& count, const std::atomic<bool>* cancel) {
+                 PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel) {
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   const float beta_scale = max_component(beta);  // roulette judges the throughput relative to the start
   float eta_scale = 1.f;
+  FeatureTrace feature_trace{features};
+  Rgb chain_emission(0.f);  // emission the camera subpath found through its specular chain (features.h)
   for (uint32_t bounce = 0;; ++bounce) {
     if (path.size() >= max_vertices) return true;
     if (bounce % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
@@ -51,6 +54,9 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
         v.beta = beta;
         v.pdf_fwd = pdf_dir;
         path.push_back(v);
+        // Seen directly or through specular vertices only: no other strategy makes this path, its weight is 1.
+        if (feature_trace.out) [[unlikely]]
+          feature_trace.escaped(chain_emission + beta * emitted(s, v));
       }
       return true;
     }
@@ -61,10 +67,15 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     v.light = s.light_of_prim[v.it.prim];
     v.pdf_fwd = to_area_density(pdf_dir, path[prev], v);
     path.push_back(v);
+    const Material& m = s.materials[v.it.material];
+    if (feature_trace.out) [[unlikely]] {
+      if (v.emits()) chain_emission += beta * emitted(s, v);
+      feature_trace.at_vertex<kM>(static_cast<int>(bounce), ray.o, v.it, v.wo, m, path.size() >= max_vertices,
+                                  chain_emission);
+    }
     if (path.size() >= max_vertices) return true;
 
     const size_t cur = prev + 1;
-    const Material& m = s.materials[v.it.material];
     const Frame frame = Frame::from_normal(v.it.ng);
     const Vec3 wo = frame.to_local(v.wo);
     const float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
@@ -79,6 +90,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       if (light_subpath && is_transmissive(bs.flags)) f *= sqr(bs.eta);
       path[cur].delta = true;
       pdf_dir = 0.f;
+      if (feature_trace.out) [[unlikely]]
+        feature_trace.through_specular(bs);
     } else {
       // Light subpath: the light arrives from wo and leaves along wi, the reverse of what bsdf_sample assumed.
       if (light_subpath) f = bsdf_eval<kM>(m, bs.wi, wo);
@@ -104,7 +117,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
 // The camera subpath: the eye, then up to max_bounces + 1 surface vertices (the last only to find emission).
 template <class Sampler, uint32_t F>
 bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const Ray& ray,
-                    std::vector<BdptVertex>& path, RayCount& count, const std::atomic<bool>* cancel) {
+                    std::vector<BdptVertex>& path, PixelFeatures* features, RayCount& count,
+                    const std::atomic<bool>* cancel) {
   path.clear();
   BdptVertex eye;
   eye.kind = VertexKind::Camera;
@@ -112,7 +126,7 @@ bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const 
   eye.it.ng = Vec3(0.f);
   path.push_back(eye);
   return random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
-                                 static_cast<size_t>(o.max_bounces) + 2, count, cancel);
+                                 static_cast<size_t>(o.max_bounces) + 2, features, count, cancel);
 }
 
 // The light subpath: a point on a light chosen ∝ power, then up to max_bounces surface vertices.
@@ -144,7 +158,7 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
   const Ray ray{v.infinite ? es.p : offset_ray_origin(v.it, es.d), es.d};
   const uint32_t skip = v.infinite ? ~0u : skip_on_leave(v.it);
   if (!random_walk<Sampler, F>(s, o, rng, ray, skip, beta, es.pdf_dir, true, path,
-                               static_cast<size_t>(o.max_bounces) + 1, count, cancel))
+                               static_cast<size_t>(o.max_bounces) + 1, nullptr, count, cancel))
     return false;
   if (v.infinite) {
     // At infinity the origin density is over directions and the first vertex's over the disk's area
@@ -317,13 +331,13 @@ Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint3
 // One camera sample: both subpaths, every strategy.
 template <class Sampler, uint32_t F>
 bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& rng, const Ray& camera_ray,
-                 BdptScratch& scratch, std::vector<Splat>& splats, Rgb& L, RayCount& count,
-                 const std::atomic<bool>* cancel) {
+                 BdptScratch& scratch, std::vector<Splat>& splats, Rgb& L, PixelFeatures* features,
+                 RayCount& count, const std::atomic<bool>* cancel) {
   const Options o(s, settings);
   std::vector<BdptVertex>& camera = scratch.camera;
   std::vector<BdptVertex>& light = scratch.light;
   L = Rgb(0.f);
-  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, count, cancel)) return false;
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, features, count, cancel)) return false;
   if (!light_subpath<Sampler, F>(s, o, rng, light, count, cancel)) return false;
   const int nc = static_cast<int>(camera.size()), nl = static_cast<int>(light.size());
   const bool only = o.only_s >= 0;

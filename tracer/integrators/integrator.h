@@ -2,6 +2,7 @@
 #pragma once
 #include <atomic>
 
+#include "integrators/features.h"
 #include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 #include "scene/scene.h"
@@ -25,12 +26,14 @@ template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
                       RayCount& count);
 
-// A radiance estimator compiled for one geometry set (KernelFeature in scene.h).
+// A radiance estimator compiled for one geometry set (KernelFeature in scene.h). `features` (may be null: then
+// none are gathered, at the cost of one test per vertex) receives the sample's feature buffers (features.h); the
+// caller initialises it. `cancel` (may be null) is polled every kCancelPollBounces bounces, so that even a path
+// that never ends (albedo 1, no roulette, no bounce limit) returns once it is set; the caller must then drop the
+// sample.
 template <class Sampler>
-// `cancel` (may be null) is polled every kCancelPollBounces bounces, so that even a path that never ends (albedo
-// 1, no roulette, no bounce limit) returns once it is set; the caller must then drop the sample.
 using RadianceKernel = Rgb (*)(const Scene&, const RenderSettings&, const Ray&, Sampler&, RayCount&,
-                               const std::atomic<bool>* cancel);
+                               PixelFeatures* features, const std::atomic<bool>* cancel);
 inline constexpr int kCancelPollBounces = 256;
 
 // The kernel compiled for exactly the scene's geometry, or with `generic` the one compiled for all features

@@ -19,6 +19,7 @@
 // unit.
 #pragma once
 #include "integrators/integrator.h"
+#include "integrators/features.h"
 
 #include <array>
 #include <utility>
@@ -62,6 +63,7 @@ struct PathState {
   bool count_emission = true; // camera ray or a specular bounce: no light sample covered this direction
   float prev_bsdf_pdf = 0.f;  // solid-angle pdf of the non-specular sample that produced `ray` (for MIS)
   Vec3 prev_p{0.f}, prev_n{0.f};  // the last non-specular vertex (for MIS weights of emission found from it)
+  FeatureTrace features;          // the sample's feature buffers while they are pending (features.h)
 };
 
 // A light sample's shadow ray, and what it adds to the path's L if nothing blocks it.
@@ -89,9 +91,12 @@ struct PathOptions {
 // A ray that left the scene: infinite lights are lights like any other, so with light sampling they are counted
 // here only where no light sample covered them (camera, specular bounce), or MIS-weighted.
 inline void add_escaped_radiance(const Scene& s, const PathOptions& o, PathState& p) {
-  if (s.infinite_lights.empty()) return;
-  if (!o.light_sampling || p.count_emission) p.L += p.beta * escaped_radiance<false>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
-  else if (o.mis) p.L += p.beta * escaped_radiance<true>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
+  if (!s.infinite_lights.empty()) {
+    if (!o.light_sampling || p.count_emission) p.L += p.beta * escaped_radiance<false>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
+    else if (o.mis) p.L += p.beta * escaped_radiance<true>(s, p.ray.d, p.prev_n, p.prev_bsdf_pdf);
+  }
+  if (p.features.out) [[unlikely]]
+    p.features.escaped(p.L);
 }
 
 // One vertex of the path at hit `h` of p.ray: adds the emission found there, prepares the light sample's shadow
@@ -124,6 +129,8 @@ template <class Sampler, uint32_t F>
       p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, it.p, it.ng));
     }
   }
+  if (p.features.out) [[unlikely]]
+    p.features.at_vertex<kM>(depth, p.ray.o, it, wo, m, depth >= o.max_bounces, p.L);
   if (depth >= o.max_bounces) return result;
 
   // The shading frame: z is the front geometric normal; `n` faces the viewer (the side lights are sampled on,
@@ -175,6 +182,8 @@ template <class Sampler, uint32_t F>
   }
   if (!(bs.pdf > 0.f) || bs.wi.z == 0.f) return result;  // grazing sample of measure zero
   p.beta *= bs.f * (std::abs(bs.wi.z) / bs.pdf);
+  if (p.features.out) [[unlikely]]
+    p.features.through_specular(bs);
   if (is_specular(bs.flags)) {
     p.count_emission = true;
   } else {
@@ -206,10 +215,11 @@ template <class Sampler, uint32_t F>
 // The scalar path loop: one path per call, the reference the wavefront loop (wavefront.h) must agree with.
 template <class Sampler, uint32_t F>
 Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count,
-          const std::atomic<bool>* cancel) {
+          PixelFeatures* features, const std::atomic<bool>* cancel) {
   const PathOptions o(settings);
   PathState p;
   p.ray = camera_ray;
+  p.features.out = features;
   for (;;) {
     if (p.depth % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
       break;
@@ -267,7 +277,8 @@ RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic) {
 template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
                       RayCount& count) {
-  return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count, nullptr);
+  return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count, nullptr,
+                                                                 nullptr);
 }
 
 }  // namespace pt

@@ -19,11 +19,12 @@ namespace pt {
 inline constexpr int kWavefrontBatch = 256;
 
 // Radiance of n ≤ kWavefrontBatch camera samples: path i starts along camera_rays[i] and draws its random
-// numbers from samplers[i]; its estimate goes to L[i]. Returns false, leaving L unspecified, if `cancel` was set
-// (polled once per bounce): the whole batch must then be dropped.
+// numbers from samplers[i]; its estimate goes to L[i], and its feature buffers to features[i] unless `features`
+// is null (the caller initialises them). Returns false, leaving L unspecified, if `cancel` was set (polled once
+// per bounce): the whole batch must then be dropped.
 template <class Sampler>
 using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler* samplers, const Ray* camera_rays,
-                             int n, Rgb* L, RayCount& count, const std::atomic<bool>* cancel);
+                             int n, Rgb* L, PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel);
 
 // The batch kernel compiled for the scene's feature set (or all features with settings.generic_kernel), or null
 // where settings.path_loop asks for the scalar loop (PathLoop::Auto: the wavefront only where polygons are

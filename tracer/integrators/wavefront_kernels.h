@@ -10,7 +10,7 @@ namespace integrator_detail {
 
 template <class Sampler, uint32_t F>
 bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* samplers, const Ray* camera_rays,
-                 int n, Rgb* L, RayCount& count, const std::atomic<bool>* cancel) {
+                 int n, Rgb* L, PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel) {
   const PathOptions o(settings);
   // The batch's state (~64 KB of stack): paths by index, the queue of live paths for this bounce and the next,
   // and the shadow rays this bounce's vertices asked for.
@@ -19,6 +19,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   ShadowRay shadows[kWavefrontBatch];
   for (int i = 0; i < n; ++i) {
     paths[i].ray = camera_rays[i];
+    if (features) paths[i].features.out = &features[i];
     live[i] = static_cast<uint16_t>(i);
   }
   int live_count = n;

@@ -240,48 +240,68 @@ Image read_radiance_hdr(const std::string& path) {
 
 }  // namespace
 
-void write_exr(const std::string& path, const Image& img, const ExrWriteOptions& options) {
-  check_size(img, path);
+void write_exr_channels(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
+                        bool half_float) {
+  if (width <= 0 || height <= 0 || channels.empty()) throw ImageError(path + ": nothing to write (empty image)");
   std::string encoded;
   try {
-    Imf::Header header(img.width, img.height);
+    Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;
-    const Imf::PixelType type = options.half_float ? Imf::HALF : Imf::FLOAT;
-    const char* names[] = {"R", "G", "B", "A"};
-    const int nc = options.alpha ? 4 : 3;
-    for (int c = 0; c < nc; ++c) header.channels().insert(names[c], Imf::Channel(type));
-    // OpenEXR converts pixel types when reading but not when writing: the frame buffer must match the file.
-    const size_t n = static_cast<size_t>(img.width) * img.height;
-    std::vector<float> f32;
-    std::vector<half> f16;
-    if (options.half_float)
-      f16.resize(n * nc);
-    else
-      f32.resize(n * nc);
-    for (size_t i = 0; i < n; ++i)
-      for (int c = 0; c < nc; ++c) {
-        const float v = c < 3 ? img.rgb[3 * i + c] : 1.f;
-        if (options.half_float)
-          f16[i * nc + c] = half(v);
-        else
-          f32[i * nc + c] = v;
-      }
-    char* base = options.half_float ? reinterpret_cast<char*>(f16.data()) : reinterpret_cast<char*>(f32.data());
-    const size_t bytes = options.half_float ? sizeof(half) : sizeof(float);
-    const size_t xs = nc * bytes, ys = xs * static_cast<size_t>(img.width);
+    const Imf::PixelType type = half_float ? Imf::HALF : Imf::FLOAT;
+    // OpenEXR converts pixel types when reading but not when writing: each channel gets a plane of the file's
+    // type (and of its own, so channels of different strides need no common layout).
+    const size_t n = static_cast<size_t>(width) * height;
+    std::vector<std::vector<float>> f32(channels.size());
+    std::vector<std::vector<half>> f16(channels.size());
     Imf::FrameBuffer fb;
-    for (int c = 0; c < nc; ++c) fb.insert(names[c], Imf::Slice(type, base + c * bytes, xs, ys));
+    for (size_t k = 0; k < channels.size(); ++k) {
+      const ExrChannel& ch = channels[k];
+      header.channels().insert(ch.name, Imf::Channel(type));
+      char* base;
+      size_t bytes;
+      if (half_float) {
+        f16[k].resize(n);
+        for (size_t i = 0; i < n; ++i) f16[k][i] = half(ch.data[i * ch.stride]);
+        base = reinterpret_cast<char*>(f16[k].data());
+        bytes = sizeof(half);
+      } else {
+        f32[k].resize(n);
+        for (size_t i = 0; i < n; ++i) f32[k][i] = ch.data[i * ch.stride];
+        base = reinterpret_cast<char*>(f32[k].data());
+        bytes = sizeof(float);
+      }
+      fb.insert(ch.name, Imf::Slice(type, base, bytes, bytes * static_cast<size_t>(width)));
+    }
     Imf::StdOSStream stream;
     {
       Imf::OutputFile file(stream, header);
       file.setFrameBuffer(fb);
-      file.writePixels(img.height);
+      file.writePixels(height);
     }  // the file is complete once closed
     encoded = stream.str();
   } catch (const std::exception& e) {
     throw ImageError(path + ": cannot encode EXR (" + e.what() + ")");
   }
   commit_file(path, encoded);
+}
+
+void write_exr(const std::string& path, const Image& img, const ExrWriteOptions& options) {
+  check_size(img, path);
+  std::vector<ExrChannel> channels = {{"R", &img.rgb[0], 3}, {"G", &img.rgb[1], 3}, {"B", &img.rgb[2], 3}};
+  const std::vector<float> ones(options.alpha ? static_cast<size_t>(img.width) * img.height : 0, 1.f);
+  if (options.alpha) channels.push_back({"A", ones.data(), 1});
+  write_exr_channels(path, img.width, img.height, channels, options.half_float);
+}
+
+Image read_image(const std::string& path) {
+  if (lower_extension(path) != ".exr") return read_pfm(path);
+  try {
+    return read_exr(path);
+  } catch (const ImageError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ImageError(path + ": cannot read EXR (" + e.what() + ")");
+  }
 }
 
 HdrImageResult read_hdr_image(const std::string& path) noexcept {

@@ -41,6 +41,22 @@ struct ExrWriteOptions {
 };
 void write_exr(const std::string& path, const Image& img, const ExrWriteOptions& options = {});
 
+// One channel of a multi-channel OpenEXR file: its name as stored ("R", "albedo.R", "depth.Z": layer.channel,
+// the convention Blender, Nuke and OpenImageIO read as layers) and pixel i's value at data[i·stride].
+struct ExrChannel {
+  std::string name;
+  const float* data;
+  size_t stride;
+};
+// A scan-line file with these channels (ZIP-compressed, data window = display window = width×height), stored as
+// 16-bit half or 32-bit float; written like every output (complete or not at all).
+void write_exr_channels(const std::string& path, int width, int height, const std::vector<ExrChannel>& channels,
+                        bool half_float);
+
+// A linear RGB image by extension: .exr (the R, G, B channels of the first part: a multi-layer file's beauty,
+// read_hdr_image's rules) or else PFM. Throws ImageError naming the file and the reason.
+Image read_image(const std::string& path);
+
 // Largest HDR image read_hdr_image accepts (texels); larger headers are rejected before any allocation.
 inline constexpr long long kMaxHdrImagePixels = 1ll << 28;
 

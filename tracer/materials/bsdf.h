@@ -154,4 +154,26 @@ inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample
   return ok;
 }
 
+// The denoising albedo (integrators/features.h): the colour a denoiser divides out and a compositor multiplies
+// back, after Cycles' and Open Image Denoise's convention: the diffuse reflectance of diffuse, plastic (its base)
+// and subsurface materials (R_d, the multiple-scattering reflectance); the hemispherical-average Fresnel
+// reflectance of conductors (m.f_avg, Kulla & Conty 2017) and the tint of mirrors; 1 for colourless glass.
+template <MaterialSet S = MaterialSet::Any>
+inline Rgb bsdf_albedo(const Material& m) {
+  if constexpr (S == MaterialSet::Lambert) return m.albedo;
+  switch (m.type) {
+    case MaterialType::Diffuse:
+    case MaterialType::Mirror:
+    case MaterialType::Plastic:
+      return m.albedo;
+    case MaterialType::Conductor:
+      return m.f_avg;
+    case MaterialType::Dielectric:
+      return Rgb(1.f);
+    case MaterialType::Subsurface:
+      return m.rd;
+  }
+  return Rgb(0.f);
+}
+
 }  // namespace pt

@@ -26,10 +26,9 @@ void prepare_material(Material& m) {
         m.k = ior.k;
         m.complex_ior = true;
       }
-      if (!smooth) {
-        m.energy = ggx_energy_table(m.alpha);
-        m.f_avg = m.complex_ior ? fresnel_complex_avg(m.eta, m.k) : fresnel_schlick_avg(m.albedo);
-      }
+      // F_avg: the rough lobe's energy compensation, and every conductor's denoising albedo (bsdf_albedo).
+      m.f_avg = m.complex_ior ? fresnel_complex_avg(m.eta, m.k) : fresnel_schlick_avg(m.albedo);
+      if (!smooth) m.energy = ggx_energy_table(m.alpha);
       break;
     case MaterialType::Plastic:
       m.energy = smooth ? fresnel_dielectric_table(m.ior) : ggx_dielectric_energy_table(m.alpha, m.ior);

@@ -12,7 +12,16 @@ void Film::reset(int width, int height) {
   attempts_.assign(n, 0);
   mean_.assign(3 * n, 0.0);
   m2_.assign(3 * n, 0.0);
+  feature_.assign(features_enabled_ ? kFeatureStride * n : 0, 0.0);
+  half_count_.assign(features_enabled_ ? n : 0, 0);
+  half_mean_.assign(features_enabled_ ? 3 * n : 0, 0.0);
   rejected_.store(0);
+}
+
+void Film::enable_features(bool on) {
+  if (on == features_enabled_) return;
+  features_enabled_ = on;
+  reset(width_, height_);
 }
 
 glm::dvec3 Film::variance_of_mean(size_t i) const {
@@ -51,6 +60,44 @@ uint64_t Film::total_count() const {
 std::vector<float> Film::mean_image() const {
   std::vector<float> img(mean_.size());
   for (size_t k = 0; k < mean_.size(); ++k) img[k] = static_cast<float>(mean_[k]);
+  return img;
+}
+
+std::vector<float> Film::feature_image(size_t first, size_t channels) const {
+  std::vector<float> img(channels * count_.size(), 0.f);
+  if (!features_enabled_) return img;
+  for (size_t i = 0; i < count_.size(); ++i)
+    for (size_t c = 0; c < channels; ++c) img[channels * i + c] = static_cast<float>(feature_[kFeatureStride * i + first + c]);
+  return img;
+}
+
+std::vector<float> Film::variance_image() const {
+  std::vector<float> img(3 * count_.size());
+  for (size_t i = 0; i < count_.size(); ++i) {
+    const glm::dvec3 v = variance_of_mean(i);
+    for (int c = 0; c < 3; ++c) img[3 * i + c] = static_cast<float>(v[c]);
+  }
+  return img;
+}
+
+std::vector<float> Film::count_image() const {
+  std::vector<float> img(count_.size());
+  for (size_t i = 0; i < count_.size(); ++i) img[i] = static_cast<float>(count_[i]);
+  return img;
+}
+
+std::vector<float> Film::half_image(int half) const {
+  std::vector<float> img(3 * count_.size(), 0.f);
+  if (!features_enabled_) return img;
+  for (size_t i = 0; i < count_.size(); ++i) {
+    const double n = count_[i], na = half_count_[i];
+    for (int c = 0; c < 3; ++c) {
+      const double a = half_mean_[3 * i + c];
+      // Half B's mean from the total: (n·mean − n_A·mean_A)/(n − n_A).
+      const double value = half == 0 ? (na > 0 ? a : 0.0) : (n > na ? (n * mean_[3 * i + c] - na * a) / (n - na) : 0.0);
+      img[3 * i + c] = static_cast<float>(value);
+    }
+  }
   return img;
 }
 

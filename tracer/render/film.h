@@ -6,12 +6,19 @@
 // its rounding errors accumulate as a random walk. A double mean updated by mean += (x − mean)/n keeps ~16
 // digits, so 10^8 samples still leave the mean exact to ~1e-12 relative. The second moment gives the
 // per-pixel variance of the mean, from which the image's relMSE is estimated without a reference.
+//
+// With features enabled (enable_features) the film also keeps, per pixel and with the same running mean, the
+// feature buffers of integrators/features.h (albedo, normal, depth) and the mean of "half A", one of two halves
+// into which the samples are split (the other half's mean follows from the total), for denoisers that estimate
+// their own error from two independent half images (Bitterli et al. 2016, §4).
 #pragma once
 #include <atomic>
 #include <cstdint>
 #include <vector>
 
 #include "core/math.h"
+#include "core/rng.h"
+#include "integrators/features.h"
 
 namespace pt {
 
@@ -19,6 +26,8 @@ class Film {
  public:
   // Memory per pixel (counts, mean and second moment): what a film of w×h costs, to check before allocating.
   static constexpr size_t kBytesPerPixel = 2 * sizeof(uint32_t) + 6 * sizeof(double);
+  // What the feature buffers and the half buffer add per pixel when enabled.
+  static constexpr size_t kFeatureBytesPerPixel = sizeof(uint32_t) + 13 * sizeof(double);
 
   Film() = default;
   Film(int width, int height) { reset(width, height); }
@@ -30,12 +39,20 @@ class Film {
     attempts_ = std::move(o.attempts_);
     mean_ = std::move(o.mean_);
     m2_ = std::move(o.m2_);
+    features_enabled_ = o.features_enabled_;
+    feature_ = std::move(o.feature_);
+    half_count_ = std::move(o.half_count_);
+    half_mean_ = std::move(o.half_mean_);
     rejected_.store(o.rejected_.load());
     return *this;
   }
 
-  void reset(int width, int height);
+  void reset(int width, int height);  // keeps whether features are enabled
   void clear() { reset(width_, height_); }
+
+  // Keep the feature buffers and the half buffer from now on (clears the film when the setting changes).
+  void enable_features(bool on);
+  bool has_features() const { return features_enabled_; }
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -58,6 +75,32 @@ class Film {
       m2[c] += delta * (x - mean[c]);
     }
     return true;
+  }
+  // The same with the sample's features, for a film with features enabled. `sample_index` (the pixel's
+  // next_sample_index before note_attempt) decides which half the sample belongs to (in_half_a).
+  bool add_sample(size_t i, Rgb v, const PixelFeatures& f, uint32_t sample_index) {
+    if (!add_sample(i, v)) return false;
+    const double n = static_cast<double>(count_[i]);
+    double* x = &feature_[kFeatureStride * i];
+    const float values[kFeatureStride] = {f.albedo.x, f.albedo.y, f.albedo.z, f.normal.x,   f.normal.y,
+                                          f.normal.z, f.depth,    f.emission.x, f.emission.y, f.emission.z};
+    for (size_t c = 0; c < kFeatureStride; ++c) x[c] += (values[c] - x[c]) / n;
+    if (in_half_a(i, sample_index)) {
+      const double na = static_cast<double>(++half_count_[i]);
+      double* h = &half_mean_[3 * i];
+      for (int c = 0; c < 3; ++c) h[c] += (v[c] - h[c]) / na;
+    }
+    return true;
+  }
+  // Which half a sample belongs to: one member of each pair (2k, 2k+1), chosen by a hash of (pixel, k), so the
+  // halves' counts differ by at most one. Not simply by parity: in an unshuffled Sobol sequence 2k and 2k+1 are
+  // a stratified pair (the second is the first with the leading bit of each coordinate flipped), and the even
+  // samples alone would cover only half of the pixel; the hash keeps each half spread over the whole domain
+  // whatever order a sampler gives its points in.
+  static bool in_half_a(size_t pixel, uint32_t sample_index) {
+    const uint64_t pair = sample_index >> 1;
+    const uint32_t bit = static_cast<uint32_t>(mix64(pixel * 0x9e3779b97f4a7c15ULL ^ (pair + 0x7f4a7c15ULL))) & 1u;
+    return (sample_index & 1u) == bit;
   }
 
   uint32_t count(size_t i) const { return count_[i]; }
@@ -83,8 +126,28 @@ class Film {
   // Row-major RGB float image of the means (3 floats per pixel, top row first).
   std::vector<float> mean_image() const;
 
+  // Feature buffers (features enabled), row-major: albedo, normal and emission 3 floats per pixel, depth 1.
+  std::vector<float> albedo_image() const { return feature_image(0, 3); }
+  std::vector<float> normal_image() const { return feature_image(3, 3); }
+  std::vector<float> depth_image() const { return feature_image(6, 1); }
+  std::vector<float> emission_image() const { return feature_image(7, 3); }
+  // Variance of each pixel's mean per channel (variance_of_mean; infinite below 2 samples), 3 floats per pixel.
+  std::vector<float> variance_image() const;
+  // Sample count per pixel, 1 float per pixel.
+  std::vector<float> count_image() const;
+  // Mean of half A (half = 0) or half B (1), 3 floats per pixel; 0 where the half has no sample.
+  std::vector<float> half_image(int half) const;
+  uint32_t half_a_count(size_t i) const { return half_count_[i]; }
+
  private:
+  static constexpr size_t kFeatureStride = 10;  // albedo rgb, normal xyz, depth, emission rgb
+  std::vector<float> feature_image(size_t first, size_t channels) const;
+
   int width_ = 0, height_ = 0;
+  bool features_enabled_ = false;
+  std::vector<double> feature_;      // kFeatureStride per pixel (features enabled)
+  std::vector<uint32_t> half_count_;  // samples in half A
+  std::vector<double> half_mean_;    // mean of half A, 3 per pixel
   std::vector<uint32_t> count_, attempts_;
   std::vector<double> mean_, m2_;
   std::atomic<uint64_t> rejected_{0};

@@ -27,15 +27,20 @@ bool render_tile_scalar(RadianceKernel<Sampler> radiance, const Scene& scene, co
                         Film& film, int x0, int y0, int x1, int y1, int spp, RayCount& count, uint64_t& samples,
                         const std::atomic<bool>* cancel) {
   const int w = film.width();
+  const bool features = film.has_features();
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
       const size_t pixel = static_cast<size_t>(y) * w + x;
       for (int s = 0; s < spp; ++s) {
-        Sampler sampler(pixel, film.next_sample_index(pixel), settings.seed);
-        const Rgb L = radiance(scene, settings, camera_ray(scene, sampler, x, y), sampler, count, cancel);
+        const uint32_t index = film.next_sample_index(pixel);
+        Sampler sampler(pixel, index, settings.seed);
+        PixelFeatures f;
+        const Rgb L = radiance(scene, settings, camera_ray(scene, sampler, x, y), sampler, count,
+                               features ? &f : nullptr, cancel);
         if (cancel && cancel->load(std::memory_order_relaxed)) return false;
         film.note_attempt(pixel);
-        film.add_sample(pixel, L);
+        if (features) film.add_sample(pixel, L, f, index);
+        else film.add_sample(pixel, L);
         ++samples;
       }
     }
@@ -53,23 +58,29 @@ bool render_tile_wavefront(BatchKernel<Sampler> batch, const Scene& scene, const
   Sampler samplers[kWavefrontBatch];
   Ray rays[kWavefrontBatch];
   Rgb L[kWavefrontBatch];
+  PixelFeatures f[kWavefrontBatch];
+  uint32_t index[kWavefrontBatch];
   const int w = film.width();
+  const bool features = film.has_features();
   for (int s = 0; s < spp; ++s) {
     int n = 0;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x, ++n) {
         const size_t pixel = static_cast<size_t>(y) * w + x;
-        samplers[n] = Sampler(pixel, film.next_sample_index(pixel), settings.seed);
+        index[n] = film.next_sample_index(pixel);
+        samplers[n] = Sampler(pixel, index[n], settings.seed);
         rays[n] = camera_ray(scene, samplers[n], x, y);
+        if (features) f[n] = PixelFeatures{};
       }
     }
-    if (!batch(scene, settings, samplers, rays, n, L, count, cancel)) return false;
+    if (!batch(scene, settings, samplers, rays, n, L, features ? f : nullptr, count, cancel)) return false;
     n = 0;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x, ++n) {
         const size_t pixel = static_cast<size_t>(y) * w + x;
         film.note_attempt(pixel);
-        film.add_sample(pixel, L[n]);
+        if (features) film.add_sample(pixel, L[n], f[n], index[n]);
+        else film.add_sample(pixel, L[n]);
       }
     }
     samples += static_cast<uint64_t>(n);
@@ -91,16 +102,20 @@ bool render_tile(const Scene& scene, const RenderSettings& settings, Film& film,
 // `splats`. False when cancelled.
 template <class Sampler>
 bool render_tile_bdpt(const Scene& scene, const RenderSettings& settings, const Film& film, int x0, int y0, int x1,
-                      int y1, BdptScratch& scratch, std::vector<glm::dvec3>& estimate, std::vector<Splat>& splats,
-                      RayCount& count, const std::atomic<bool>* cancel) {
+                      int y1, BdptScratch& scratch, std::vector<glm::dvec3>& estimate,
+                      std::vector<PixelFeatures>& features, std::vector<Splat>& splats, RayCount& count,
+                      const std::atomic<bool>* cancel) {
   const BdptKernel<Sampler> kernel = select_bdpt_kernel<Sampler>(scene, settings);
   const int w = film.width();
+  const bool gather = film.has_features();
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
       const size_t pixel = static_cast<size_t>(y) * w + x;
       const Sampler sampler(pixel, film.next_sample_index(pixel), settings.seed);
       Rgb L;
-      if (!kernel(scene, settings, sampler, camera_ray(scene, sampler, x, y), scratch, splats, L, count, cancel))
+      PixelFeatures* f = nullptr;
+      if (gather) *(f = &features[pixel]) = PixelFeatures{};
+      if (!kernel(scene, settings, sampler, camera_ray(scene, sampler, x, y), scratch, splats, L, f, count, cancel))
         return false;
       estimate[pixel] = glm::dvec3(L);
     }
@@ -121,6 +136,7 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
   const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   round_estimate_.resize(film.pixel_count());
+  round_features_.resize(film.has_features() ? film.pixel_count() : 0);
   tile_splats_.resize(static_cast<size_t>(tiles_x) * tiles_y);
   bdpt_scratch_.resize(static_cast<size_t>(pool_.size()));
   PassStats stats;
@@ -140,9 +156,9 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
       const bool complete =
           settings.sampler == SamplerType::Sobol
               ? render_tile_bdpt<SobolSampler>(scene, settings, film, x0, y0, x1, y1, bdpt_scratch_[thread],
-                                               round_estimate_, splats, count, cancel)
+                                               round_estimate_, round_features_, splats, count, cancel)
               : render_tile_bdpt<IndependentSampler>(scene, settings, film, x0, y0, x1, y1, bdpt_scratch_[thread],
-                                                     round_estimate_, splats, count, cancel);
+                                                     round_estimate_, round_features_, splats, count, cancel);
       if (!complete) cancelled.store(true, std::memory_order_relaxed);
       rays.fetch_add(count.rays, std::memory_order_relaxed);
     });
@@ -158,8 +174,10 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
       }
     }
     for (size_t pixel = 0; pixel < film.pixel_count(); ++pixel) {
+      const uint32_t index = film.next_sample_index(pixel);
       film.note_attempt(pixel);
-      film.add_sample(pixel, Rgb(round_estimate_[pixel]));
+      if (film.has_features()) film.add_sample(pixel, Rgb(round_estimate_[pixel]), round_features_[pixel], index);
+      else film.add_sample(pixel, Rgb(round_estimate_[pixel]));
     }
     stats.samples += film.pixel_count();
   }

@@ -24,6 +24,8 @@ class Renderer {
   explicit Renderer(int threads = 0);  // 0 = all hardware threads
   int threads() const { return pool_.size(); }
   const std::string& thread_start_error() const { return pool_.start_error(); }
+  // The render threads, for work between passes (denoising).
+  ThreadPool& pool() { return pool_; }
 
   // Adds spp samples to each pixel of `film` (which must match the scene's size), traced with `settings`
   // (estimator, sampler, bounces, seed: not part of the compiled scene, so changing them rebuilds nothing). If
@@ -50,6 +52,7 @@ class Renderer {
                                const std::atomic<bool>* cancel);
   ThreadPool pool_;
   std::vector<glm::dvec3> round_estimate_;           // per pixel: the round's camera-subpath estimate
+  std::vector<PixelFeatures> round_features_;        // per pixel: its features this round (film with features)
   std::vector<std::vector<Splat>> tile_splats_;     // per tile: its light-traced contributions this round
   std::vector<BdptScratch> bdpt_scratch_;           // per thread: subpath vertices
 };

@@ -1,0 +1,270 @@
+// The denoiser (denoise/denoiser.h) and the multi-layer OpenEXR output (io/film_exr.h).
+#include <doctest/doctest.h>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <unistd.h>
+
+#include "denoise/denoiser.h"
+#include "io/film_exr.h"
+#include "io/image_io.h"
+#include "render/metrics.h"
+#include "run_command.h"
+#include "scene/scene_json.h"
+#include "test_helpers.h"
+
+namespace pt {
+namespace {
+
+Film render_features(const SceneDesc& desc, int spp, uint64_t seed = 1) {
+  SceneDesc d = desc;
+  d.render.seed = seed;
+  const auto scene = compile_scene(d);
+  Film film(d.width, d.height);
+  film.enable_features(true);
+  Renderer renderer(2);
+  renderer.render_pass(*scene, d.render, film, spp);
+  return film;
+}
+
+std::vector<float> denoise_film(const Film& film) {
+  const std::vector<float> color = film.mean_image(), variance = film.variance_image(), albedo = film.albedo_image(),
+                           normal = film.normal_image(), depth = film.depth_image(),
+                           emission = film.emission_image();
+  ThreadPool pool(2);
+  return denoise({film.width(), film.height(), &color, &variance, &albedo, &normal, &depth, &emission},
+                 DenoiseSettings{}, pool);
+}
+
+double relmse_of(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
+  return relmse(Image{w, h, a}, Image{w, h, b});
+}
+
+float luminance_at(const std::vector<float>& img, size_t i) {
+  return 0.2126f * img[3 * i] + 0.7152f * img[3 * i + 1] + 0.0722f * img[3 * i + 2];
+}
+
+ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int material) {
+  ShapeDesc q;
+  q.type = ShapeType::Quad;
+  q.vertices = {a, b, c, d};
+  q.material = material;
+  return q;
+}
+
+// 64×64 pixels looking down −z at x, y ∈ [−2, 2] of the plane z = −2, lit by a large lamp behind the camera.
+SceneDesc plane_view() {
+  SceneDesc s;
+  s.camera.position = DVec3(0.0);
+  s.camera.look_at = DVec3(0, 0, -1);
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_deg = 90;
+  s.width = s.height = 64;
+  s.render.max_bounces = 2;
+  MaterialDesc lamp;
+  lamp.name = "lamp";
+  lamp.albedo = Rgb(0.f);
+  lamp.emission = Rgb(2.f);
+  s.materials = {lamp};
+  // Facing −z, behind the camera and to the upper left (so that differently oriented faces differ in light).
+  s.shapes.push_back(quad({-3, 0, 1.5}, {-3, 3, 1.5}, {0, 3, 1.5}, {0, 0, 1.5}, 0));
+  return s;
+}
+
+// Sum over the rows of |ΔL| across the vertical pixel boundary before column `x`.
+double gradient_across_column(const std::vector<float>& img, int w, int h, int x, int y0, int y1) {
+  double g = 0.0;
+  for (int y = y0; y < y1; ++y) {
+    const size_t i = static_cast<size_t>(y) * w + x;
+    g += std::abs(luminance_at(img, i) - luminance_at(img, i - 1));
+  }
+  (void)h;
+  return g;
+}
+
+}  // namespace
+
+TEST_CASE("denoiser: a constant image stays constant") {
+  const int w = 40, h = 30;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n), normal(3 * n), depth(n, 2.f);
+  for (size_t i = 0; i < n; ++i) {
+    color[3 * i] = 0.25f, color[3 * i + 1] = 0.5f, color[3 * i + 2] = 1.5f;
+    albedo[3 * i] = 0.3f, albedo[3 * i + 1] = 0.6f, albedo[3 * i + 2] = 0.9f;
+    normal[3 * i + 2] = 1.f;
+  }
+  ThreadPool pool(2);
+  const std::vector<float> out = denoise({w, h, &color, &variance, &albedo, &normal, &depth}, {}, pool);
+  REQUIRE(out.size() == color.size());
+  for (size_t k = 0; k < out.size(); ++k) CHECK(out[k] == doctest::Approx(color[k]).epsilon(1e-5));
+}
+
+TEST_CASE("denoiser: a converged image stays as it is, a noisy one comes close to the converged one") {
+  SceneDesc desc = load_scene("cornell");
+  desc.width = desc.height = 64;
+  const Film converged = render_features(desc, 1024, 7);
+  const std::vector<float> clean = converged.mean_image(), variance = converged.variance_image(),
+                           albedo = converged.albedo_image(), normal = converged.normal_image(),
+                           depth = converged.depth_image(), emission = converged.emission_image();
+  ThreadPool pool(2);
+  // Clean input stays clean: the image of 1024 samples per pixel with the variance of ~10^6 (the film's
+  // variance / 1024), as a converged film would report it. The luminance weights tighten with the variance.
+  std::vector<float> converged_variance = variance;
+  for (float& v : converged_variance) v /= 1024.f;
+  const std::vector<float> out = denoise(
+      {desc.width, desc.height, &clean, &converged_variance, &albedo, &normal, &depth, &emission}, {}, pool);
+  const double changed = relmse_of(out, clean, desc.width, desc.height);
+  MESSAGE("converged image, relMSE of the denoised against the input: " << changed);
+  CHECK(changed < 1e-4);
+  // 16 samples per pixel: the denoised image is much closer to the converged one than the raw image is. At
+  // 64×64 the lamp's edge pixels, whose emission the filter leaves alone, keep a good part of the error
+  // (docs/denoising.md has the 512×512 figures).
+  const Film noisy = render_features(desc, 16, 1);
+  const double raw = relmse_of(noisy.mean_image(), clean, desc.width, desc.height);
+  const double denoised = relmse_of(denoise_film(noisy), clean, desc.width, desc.height);
+  MESSAGE("16 spp: raw relMSE " << raw << ", denoised " << denoised);
+  CHECK(denoised < 0.5 * raw);
+}
+
+TEST_CASE("denoiser: checker edges survive (>= 90 % of the converged image's gradient at 4 spp)") {
+  // The plane as 8×8 squares of alternating albedo, each 8 pixels wide, their edges on pixel boundaries.
+  SceneDesc s = plane_view();
+  MaterialDesc dark, light;
+  dark.name = "dark";
+  dark.albedo = Rgb(0.15f);
+  light.name = "light";
+  light.albedo = Rgb(0.8f, 0.7f, 0.6f);
+  s.materials.push_back(dark);
+  s.materials.push_back(light);
+  for (int j = 0; j < 8; ++j)
+    for (int i = 0; i < 8; ++i) {
+      const double x0 = -2 + 0.5 * i, y0 = -2 + 0.5 * j;
+      s.shapes.push_back(quad({x0, y0, -2}, {x0 + 0.5, y0, -2}, {x0 + 0.5, y0 + 0.5, -2}, {x0, y0 + 0.5, -2},
+                              1 + (i + j) % 2));
+    }
+  const std::vector<float> reference = render_features(s, 1024, 3).mean_image();
+  const std::vector<float> denoised = denoise_film(render_features(s, 4, 1));
+  for (int edge = 1; edge < 8; ++edge) {
+    CAPTURE(edge);
+    const double g_ref = gradient_across_column(reference, s.width, s.height, 8 * edge, 0, s.height);
+    const double g_den = gradient_across_column(denoised, s.width, s.height, 8 * edge, 0, s.height);
+    CHECK(g_den >= 0.9 * g_ref);
+  }
+}
+
+TEST_CASE("denoiser: a normal discontinuity survives (a ridge, >= 90 % of the converged gradient at 4 spp)") {
+  // Two faces of one albedo meeting in a ridge at x = 0 (the boundary before column 32), turned ±45° about y:
+  // the lamp on the left lights them differently.
+  SceneDesc s = plane_view();
+  MaterialDesc grey;
+  grey.name = "grey";
+  grey.albedo = Rgb(0.6f);
+  s.materials.push_back(grey);
+  s.shapes.push_back(quad({-3, -3, -4}, {0, -3, -1}, {0, 3, -1}, {-3, 3, -4}, 1));
+  s.shapes.push_back(quad({0, -3, -1}, {3, -3, -4}, {3, 3, -4}, {0, 3, -1}, 1));
+  const std::vector<float> reference = render_features(s, 1024, 3).mean_image();
+  const std::vector<float> denoised = denoise_film(render_features(s, 4, 1));
+  const double g_ref = gradient_across_column(reference, s.width, s.height, 32, 0, s.height);
+  const double g_den = gradient_across_column(denoised, s.width, s.height, 32, 0, s.height);
+  MESSAGE("ridge gradient: converged " << g_ref << ", denoised " << g_den);
+  CHECK(g_ref > 1.0);  // the ridge is an edge worth keeping
+  CHECK(g_den >= 0.9 * g_ref);
+}
+
+TEST_CASE("exr: every layer round-trips bit for bit in float mode, and the beauty reads back as an image") {
+  SceneDesc desc = load_scene("cornell");
+  desc.width = 24;
+  desc.height = 16;
+  const Film film = render_features(desc, 4, 1);
+  const std::vector<float> denoised = denoise_film(film);
+  std::vector<Aov> all;
+  for (const auto& e : enum_entries<Aov>()) all.push_back(e.value);
+  const std::string path = "test_exr_roundtrip_" + std::to_string(getpid()) + ".exr";
+  write_film_exr(path, film, {all, false, &denoised});
+
+  Imf::InputFile file(path.c_str());
+  const Imf::ChannelList& channels = file.header().channels();
+  struct Expect {
+    const char* name;
+    std::vector<float> plane;
+    size_t stride, offset;
+  };
+  const std::vector<Expect> expected = {
+      {"R", film.mean_image(), 3, 0},         {"G", film.mean_image(), 3, 1},       {"B", film.mean_image(), 3, 2},
+      {"albedo.R", film.albedo_image(), 3, 0}, {"albedo.B", film.albedo_image(), 3, 2},
+      {"normal.X", film.normal_image(), 3, 0}, {"normal.Y", film.normal_image(), 3, 1},
+      {"normal.Z", film.normal_image(), 3, 2}, {"depth.Z", film.depth_image(), 1, 0},
+      {"emission.G", film.emission_image(), 3, 1},
+      {"variance.G", film.variance_image(), 3, 1}, {"spp.Y", film.count_image(), 1, 0},
+      {"denoised.R", denoised, 3, 0},          {"denoised.B", denoised, 3, 2}};
+  int count = 0;
+  for (auto it = channels.begin(); it != channels.end(); ++it) ++count;
+  CHECK(count == 3 + 3 + 3 + 1 + 3 + 3 + 1 + 3);
+  const size_t n = film.pixel_count();
+  for (const Expect& e : expected) {
+    CAPTURE(e.name);
+    REQUIRE(channels.findChannel(e.name));
+    CHECK(channels.findChannel(e.name)->type == Imf::FLOAT);
+    std::vector<float> back(n, -1.f);
+    Imf::FrameBuffer fb;
+    fb.insert(e.name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(back.data()), sizeof(float),
+                                 sizeof(float) * desc.width));
+    file.setFrameBuffer(fb);
+    file.readPixels(0, desc.height - 1);
+    bool exact = true;
+    for (size_t i = 0; i < n; ++i) exact = exact && std::bit_cast<uint32_t>(back[i]) == std::bit_cast<uint32_t>(e.plane[e.stride * i + e.offset]);
+    CHECK(exact);
+  }
+  CHECK(read_image(path).rgb == film.mean_image());
+  std::filesystem::remove(path);
+}
+
+TEST_CASE("cli: render --exr writes the layers exrheader lists, --exr-half halves them, bad combinations refused") {
+  const std::string stem = "test_cli_exr_" + std::to_string(getpid());
+  const auto r = test::run_pathtracer("", "render -q --scene cornell --width 32 --height 24 --spp 4 --denoise --exr " +
+                                              stem + ".exr --pfm " + stem + ".pfm");
+  REQUIRE(r.status == 0);
+  CHECK(r.out.find("denoised in") != std::string::npos);
+  const std::string listing = stem + ".txt";
+  REQUIRE(std::system(("exrheader " + stem + ".exr > " + listing).c_str()) == 0);
+  const std::string header = test::slurp(listing);
+  for (const char* name : {"R, 32-bit floating-point", "albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y",
+                           "normal.Z", "depth.Z", "emission.R", "variance.R", "variance.G", "variance.B", "spp.Y", "denoised.R",
+                           "denoised.G", "denoised.B"}) {
+    CAPTURE(name);
+    CHECK(header.find(name) != std::string::npos);
+  }
+  // compare reads the EXR's beauty: identical to the PFM written from the same film.
+  const auto c = test::run_pathtracer("", "compare " + stem + ".exr " + stem + ".pfm");
+  CHECK(c.status == 0);
+  CHECK(c.out.find("RMSE 0 ") != std::string::npos);
+
+  const auto half = test::run_pathtracer("", "render -q --scene cornell --width 8 --height 8 --spp 1 --exr-half --aov depth,spp --exr " + stem + "_h.exr");
+  REQUIRE(half.status == 0);
+  REQUIRE(std::system(("exrheader " + stem + "_h.exr > " + listing).c_str()) == 0);
+  const std::string half_header = test::slurp(listing);
+  CHECK(half_header.find("depth.Z, 16-bit floating-point") != std::string::npos);
+  CHECK(half_header.find("spp.Y, 16-bit floating-point") != std::string::npos);
+  CHECK(half_header.find("albedo") == std::string::npos);
+
+  const auto no_exr = test::run_pathtracer("", "render -q --scene cornell --spp 1 --aov depth");
+  CHECK(no_exr.status == 2);
+  CHECK(no_exr.err.find("--aov: needs --exr") != std::string::npos);
+  const auto no_denoise = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoised-pfm x.pfm");
+  CHECK(no_denoise.status == 2);
+  CHECK(no_denoise.err.find("--denoised-pfm: needs --denoise") != std::string::npos);
+  const auto layer_without = test::run_pathtracer("", "render -q --scene cornell --spp 1 --exr " + stem + "_x.exr --aov denoised");
+  CHECK(layer_without.status == 2);
+  CHECK(layer_without.err.find("--aov denoised: needs --denoise") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(stem + "_x.exr"));
+  for (const char* suffix : {".exr", ".pfm", ".txt", "_h.exr"}) std::filesystem::remove(stem + suffix);
+}
+
+}  // namespace pt

@@ -1,0 +1,41 @@
+// The denoiser: a feature-guided, variance-aware edge-avoiding à-trous wavelet filter (Dammertz et al. 2010,
+// "Edge-Avoiding À-Trous Wavelet Transform for fast Global Illumination Filtering"), with the luminance
+// edge-stopping function scaled by the filtered per-pixel standard deviation as in SVGF (Schied et al. 2017,
+// "Spatiotemporal Variance-Guided Filtering", §4.3–4.4). docs/denoising.md gives the equations, the parameters
+// and where the filter fails.
+//
+// It filters the illumination, not the image: the emission seen directly (or through mirrors and glass) is set
+// aside, the rest is divided by the denoising albedo first and multiplied by it afterwards, so lights, texture
+// and material edges stay as sharp as the feature buffers, and only the smooth irradiance is blurred. The film's variance of each pixel's mean decides how different a neighbour's
+// illumination may be before it is treated as another feature (a shadow edge, a caustic) rather than noise.
+#pragma once
+#include <vector>
+
+#include "core/thread_pool.h"
+
+namespace pt {
+
+// The inputs, row-major planes of the film (Film::*_image): 3 floats per pixel except depth (1).
+struct DenoiseInput {
+  int width = 0, height = 0;
+  const std::vector<float>* color = nullptr;     // mean radiance
+  const std::vector<float>* variance = nullptr;  // variance of each pixel's mean, per channel
+  const std::vector<float>* albedo = nullptr;    // denoising albedo (integrators/features.h)
+  const std::vector<float>* normal = nullptr;    // world-space normal, towards the viewer
+  const std::vector<float>* depth = nullptr;     // distance to the first hit
+  const std::vector<float>* emission = nullptr;  // emission seen directly, per channel (features.h); null = none
+};
+
+struct DenoiseSettings {
+  int iterations = 5;          // à-trous levels: the footprint is 4·(2^iterations − 1) + 1 pixels wide
+  float sigma_luminance = 4.f; // σ_l: luminance differences up to ~σ_l standard deviations count as noise
+  float sigma_normal = 128.f;  // σ_n: exponent of max(0, n_p·n_q)
+  float sigma_depth = 1.f;     // σ_z: depth differences in units of the local depth gradient × distance
+  float sigma_albedo = 0.1f;   // σ_a: albedo differences (Euclidean, RGB)
+};
+
+// Returns the denoised RGB image (3 floats per pixel). Runs its rows on `pool`. Throws std::invalid_argument
+// when an input is missing or of the wrong size.
+std::vector<float> denoise(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool);
+
+}  // namespace pt
