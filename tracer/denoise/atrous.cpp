@@ -6,7 +6,7 @@
 //   w_l = exp(−|l_p − l_q| / (σ_l·σ̂_l(p) + ε))        luminance, σ̂_l the 3×3-blurred standard deviation of
 //                                                         l_p (SVGF, Schied et al. 2017, eq. 3–5)
 //   w_z = exp(−|z_p − z_q| / (σ_z·|∇z_p·(q − p)| + ε_z)) depth, with the local depth gradient (SVGF eq. 4)
-//   w_n = max(0, n_p·n_q)^σ_n                            normals (SVGF eq. 5)
+//   w_n = max(0, n_p·n_q)^128                            normals (SVGF eq. 5, σ_n = 128: seven squarings)
 //   w_a = exp(−‖a_p − a_q‖² / σ_a²)                     denoising albedo
 // and the variance of the result is propagated as Var = Σ w² Var_q / (Σ w)² (SVGF eq. 6), so the next level's
 // luminance weight knows how much noise is left. The five weights are one exponential of a sum.
@@ -17,24 +17,28 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <experimental/simd>
 #include <stdexcept>
 
 namespace pt {
 
 namespace {
 
-// exp(−x) for x ≥ 0 to ~2e-4 relative error: 2^t = 2^⌊t⌋·2^f with a degree-4 polynomial for 2^f on [0, 1)
-// (a least-squares fit; weights need no more). Clamped below 2^−126.
-inline float exp_neg(float x) {
-  const float t = std::max(-x * 1.44269504f, -126.f);
-  const float fl = std::floor(t);
-  const float f = t - fl;
-  const float p = 1.f + f * (0.69314718f + f * (0.24022652f + f * (0.05550411f + f * 0.00961813f)));
-  const int32_t e = static_cast<int32_t>(fl) + 127;
-  return p * std::bit_cast<float>(e << 23);
+namespace stdx = std::experimental;
+
+// exp(−x) for x ≥ 0, to ~1e-3 relative error (weights need no more), in plain arithmetic so that it runs on SIMD
+// lanes as on scalars: exp(−x) = exp(−x/64)^64 with x clamped to 40 (e^−40 ≈ 4e−18 is as good as 0), a degree-5
+// Taylor polynomial for exp(−y) on y ∈ [0, 0.625] (error ≤ y⁶/720 ≈ 1e-4 there) and six squarings.
+template <class V>
+inline V exp_neg(V x) {
+  using std::min;
+  using stdx::min;
+  const V y = min(x, V(40.f)) * (1.f / 64.f);
+  V r = 1.f - y * (1.f - y * (0.5f - y * (1.f / 6.f - y * (1.f / 24.f - y * (1.f / 120.f)))));
+  r *= r, r *= r, r *= r, r *= r, r *= r, r *= r;
+  return r;
 }
 
 constexpr float kB3[5] = {1.f / 16, 1.f / 4, 3.f / 8, 1.f / 4, 1.f / 16};
@@ -63,6 +67,81 @@ void check_input(const DenoiseInput& in) {
     if (!p || p->size() != 3 * n) throw std::invalid_argument("denoise: a 3-channel input is missing or mis-sized");
   if (!in.depth || in.depth->size() != n) throw std::invalid_argument("denoise: depth is missing or mis-sized");
   if (in.emission && in.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
+}
+
+// One tap (dx, dy) for a run of n pixels of a row: pixel p + k meets neighbour q + k. Straight-line float code
+// over restrict pointers, so the loop vectorises.
+struct TapRow {
+  float kernel, zx, zy, inv_sigma_a2;
+};
+
+[[gnu::noinline]] void accumulate_tap_row(const TapRow& t, const Guides& g, const Plane3& e, const Plane3& v, const float* luma,
+                        const float* inv_sd, size_t p, size_t q, int n, float* acc, size_t stride) {
+  const float* __restrict lp = luma + p;
+  const float* __restrict lq = luma + q;
+  const float* __restrict sp = inv_sd + p;
+  const float* __restrict zp = g.depth.data() + p;
+  const float* __restrict zq = g.depth.data() + q;
+  const float* __restrict gx = g.grad_x.data() + p;
+  const float* __restrict gy = g.grad_y.data() + p;
+  const float* __restrict a0p = g.albedo.c[0].data() + p;
+  const float* __restrict a1p = g.albedo.c[1].data() + p;
+  const float* __restrict a2p = g.albedo.c[2].data() + p;
+  const float* __restrict a0q = g.albedo.c[0].data() + q;
+  const float* __restrict a1q = g.albedo.c[1].data() + q;
+  const float* __restrict a2q = g.albedo.c[2].data() + q;
+  const float* __restrict n0p = g.normal.c[0].data() + p;
+  const float* __restrict n1p = g.normal.c[1].data() + p;
+  const float* __restrict n2p = g.normal.c[2].data() + p;
+  const float* __restrict n0q = g.normal.c[0].data() + q;
+  const float* __restrict n1q = g.normal.c[1].data() + q;
+  const float* __restrict n2q = g.normal.c[2].data() + q;
+  const float* __restrict e0 = e.c[0].data() + q;
+  const float* __restrict e1 = e.c[1].data() + q;
+  const float* __restrict e2 = e.c[2].data() + q;
+  const float* __restrict v0 = v.c[0].data() + q;
+  const float* __restrict v1 = v.c[1].data() + q;
+  const float* __restrict v2 = v.c[2].data() + q;
+  float* __restrict ae0 = acc;
+  float* __restrict ae1 = acc + stride;
+  float* __restrict ae2 = acc + 2 * stride;
+  float* __restrict av0 = acc + 3 * stride;
+  float* __restrict av1 = acc + 4 * stride;
+  float* __restrict av2 = acc + 5 * stride;
+  float* __restrict aw = acc + 6 * stride;
+  const float kernel = t.kernel, zx = t.zx, zy = t.zy, inv_sigma_a2 = t.inv_sigma_a2;
+  // The same body on native SIMD lanes, then on one lane for the tail.
+  auto body = [&]<class V>(int k, V) {
+    using stdx::abs, stdx::max, std::abs, std::max;
+    auto ld = [k](const float* ptr) { return V(ptr + k, stdx::element_aligned); };
+    auto acc_add = [k](float* ptr, V x) { (V(ptr + k, stdx::element_aligned) + x).copy_to(ptr + k, stdx::element_aligned); };
+    const V dl = abs(ld(lp) - ld(lq)) * ld(sp);
+    const V z = ld(zp);
+    const V dz = abs(z - ld(zq)) / (zx * ld(gx) + zy * ld(gy) + 1e-3f * z + 1e-8f);
+    const V da0 = ld(a0p) - ld(a0q), da1 = ld(a1p) - ld(a1q), da2 = ld(a2p) - ld(a2q);
+    const V da = (da0 * da0 + da1 * da1 + da2 * da2) * inv_sigma_a2;
+    const V p0 = ld(n0p), p1 = ld(n1p), p2 = ld(n2p), q0 = ld(n0q), q1 = ld(n1q), q2 = ld(n2q);
+    V wn = max(V(0.f), p0 * q0 + p1 * q1 + p2 * q2);
+    wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;  // σ_n = 128 = 2^7
+    // Both without a surface (escaped rays): alike.
+    const V both_empty = p0 * p0 + p1 * p1 + p2 * p2 + q0 * q0 + q1 * q1 + q2 * q2;
+    where(both_empty < 0.5f, wn) = V(1.f);
+    const V wt = kernel * wn * exp_neg(dl + dz + da);
+    acc_add(ae0, wt * ld(e0));
+    acc_add(ae1, wt * ld(e1));
+    acc_add(ae2, wt * ld(e2));
+    const V wt2 = wt * wt;
+    acc_add(av0, wt2 * ld(v0));
+    acc_add(av1, wt2 * ld(v1));
+    acc_add(av2, wt2 * ld(v2));
+    acc_add(aw, wt);
+  };
+  using Wide = stdx::native_simd<float>;
+  using One = stdx::simd<float, stdx::simd_abi::scalar>;
+  constexpr int kWide = static_cast<int>(Wide::size());
+  int k = 0;
+  for (; k + kWide <= n; k += kWide) body(k, Wide());
+  for (; k < n; ++k) body(k, One());
 }
 
 }  // namespace
@@ -147,10 +226,6 @@ std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, Th
       const int y_end = std::min(h, (task + 1) * rows_per_task);
       for (int y = task * rows_per_task; y < y_end; ++y) {
         std::fill(acc.begin(), acc.end(), 0.f);
-        float* acc_e[3] = {&acc[0], &acc[w], &acc[2 * static_cast<size_t>(w)]};
-        float* acc_v[3] = {&acc[3 * static_cast<size_t>(w)], &acc[4 * static_cast<size_t>(w)],
-                           &acc[5 * static_cast<size_t>(w)]};
-        float* acc_w = &acc[6 * static_cast<size_t>(w)];
         const size_t row = static_cast<size_t>(y) * w;
         for (int dy = -2; dy <= 2; ++dy) {
           const int qy = y + dy * step;
@@ -159,46 +234,22 @@ std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, Th
             const int off = dx * step;
             const int x_begin = std::max(0, -off), x_end = std::min(w, w - off);
             if (x_begin >= x_end) continue;
-            const float kernel = kB3[dx + 2] * kB3[dy + 2];
-            const float zx = st.sigma_depth * static_cast<float>(std::abs(off)),
-                        zy = st.sigma_depth * static_cast<float>(std::abs(dy * step));
-            const size_t qrow = static_cast<size_t>(qy) * w + static_cast<size_t>(off);
-            for (int x = x_begin; x < x_end; ++x) {
-              const size_t p = row + x, q = qrow + x;
-              const float dl = std::abs(luma[p] - luma[q]) * inv_sd[p];
-              const float zp = g.depth[p];
-              const float dz = std::abs(zp - g.depth[q]) / (zx * g.grad_x[p] + zy * g.grad_y[p] + 1e-3f * zp + 1e-8f);
-              const float da0 = g.albedo.c[0][p] - g.albedo.c[0][q], da1 = g.albedo.c[1][p] - g.albedo.c[1][q],
-                          da2 = g.albedo.c[2][p] - g.albedo.c[2][q];
-              const float da = (da0 * da0 + da1 * da1 + da2 * da2) * inv_sigma_a2;
-              const float np0 = g.normal.c[0][p], np1 = g.normal.c[1][p], np2 = g.normal.c[2][p];
-              const float nq0 = g.normal.c[0][q], nq1 = g.normal.c[1][q], nq2 = g.normal.c[2][q];
-              float wn = std::max(0.f, np0 * nq0 + np1 * nq1 + np2 * nq2);
-              // σ_n = 128 = 2^7 by default: repeated squaring; other exponents through pow.
-              if (st.sigma_normal == 128.f) {
-                for (int k = 0; k < 7; ++k) wn *= wn;
-              } else {
-                wn = std::pow(wn, st.sigma_normal);
-              }
-              // Both without a surface (escaped rays): alike.
-              const bool no_p = np0 * np0 + np1 * np1 + np2 * np2 < 0.25f;
-              const bool no_q = nq0 * nq0 + nq1 * nq1 + nq2 * nq2 < 0.25f;
-              wn = no_p && no_q ? 1.f : wn;
-              const float wt = kernel * wn * exp_neg(dl + dz + da);
-              for (int c = 0; c < 3; ++c) {
-                acc_e[c][x] += wt * e.c[c][q];
-                acc_v[c][x] += wt * wt * v.c[c][q];
-              }
-              acc_w[x] += wt;
-            }
+            TapRow t;
+            t.kernel = kB3[dx + 2] * kB3[dy + 2];
+            t.zx = st.sigma_depth * static_cast<float>(std::abs(off));
+            t.zy = st.sigma_depth * static_cast<float>(std::abs(dy * step));
+            t.inv_sigma_a2 = inv_sigma_a2;
+            const size_t p = row + x_begin, q = static_cast<size_t>(qy) * w + static_cast<size_t>(x_begin + off);
+            accumulate_tap_row(t, g, e, v, luma.data(), inv_sd.data(), p, q, x_end - x_begin, &acc[x_begin],
+                               static_cast<size_t>(w));
           }
         }
         for (int x = 0; x < w; ++x) {
           // The centre tap always has weight ≥ 9/64 · w_n(p, p) = 9/64, so the sum is positive.
-          const float inv = 1.f / acc_w[x];
+          const float inv = 1.f / acc[6 * static_cast<size_t>(w) + x];
           for (int c = 0; c < 3; ++c) {
-            e_next.c[c][row + x] = acc_e[c][x] * inv;
-            v_next.c[c][row + x] = acc_v[c][x] * inv * inv;
+            e_next.c[c][row + x] = acc[c * static_cast<size_t>(w) + x] * inv;
+            v_next.c[c][row + x] = acc[(3 + c) * static_cast<size_t>(w) + x] * inv * inv;
           }
         }
       }

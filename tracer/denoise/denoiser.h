@@ -29,7 +29,6 @@ struct DenoiseInput {
 struct DenoiseSettings {
   int iterations = 5;          // à-trous levels: the footprint is 4·(2^iterations − 1) + 1 pixels wide
   float sigma_luminance = 4.f; // σ_l: luminance differences up to ~σ_l standard deviations count as noise
-  float sigma_normal = 128.f;  // σ_n: exponent of max(0, n_p·n_q)
   float sigma_depth = 1.f;     // σ_z: depth differences in units of the local depth gradient × distance
   float sigma_albedo = 0.1f;   // σ_a: albedo differences (Euclidean, RGB)
 };
