@@ -11,8 +11,9 @@
 // and the variance of the result is propagated as Var = Σ w² Var_q / (Σ w)² (SVGF eq. 6), so the next level's
 // luminance weight knows how much noise is left. The five weights are one exponential of a sum.
 //
-// Data layout: one plane per channel, and the taps in the outer loop: for a fixed tap the loop over a row's
-// pixels is straight-line float arithmetic the compiler vectorises (the exponential is a polynomial, below).
+// Data layout: one plane per channel, each row padded on both sides by the widest tap offset (pads have
+// valid = 0, so they weigh nothing and every load is in bounds). A row is processed in chunks of SIMD lanes: a
+// chunk's own guides and its seven sums stay in registers while its 25 taps stream past.
 #include "denoise/denoiser.h"
 
 #include <algorithm>
@@ -47,17 +48,17 @@ constexpr float kLuma[3] = {0.2126f, 0.7152f, 0.0722f};
 // texture to protect, and dividing by ~0 would amplify their noise.
 constexpr float kMinDemodulateAlbedo = 1e-2f;
 
-struct Plane3 {
-  std::vector<float> c[3];
-  void resize(size_t n) {
-    for (auto& p : c) p.assign(n, 0.f);
-  }
+// Row-padded planes: pixel (x, y) at y·stride + pad + x.
+struct Layout {
+  int w, h, pad;
+  size_t stride;
+  size_t at(int x, int y) const { return static_cast<size_t>(y) * stride + static_cast<size_t>(pad + x); }
+  size_t size() const { return stride * static_cast<size_t>(h); }
 };
 
-// What stays fixed across levels: the guides, pre-arranged as planes.
-struct Guides {
-  Plane3 normal, albedo, modulation;
-  std::vector<float> depth, grad_x, grad_y;
+struct Planes {
+  // Guides (fixed over the levels) and the illumination with its variance (per level).
+  std::vector<float> n0, n1, n2, a0, a1, a2, z, gx, gy, valid, e0, e1, e2, v0, v1, v2, luma, inv_sd;
 };
 
 void check_input(const DenoiseInput& in) {
@@ -69,140 +70,124 @@ void check_input(const DenoiseInput& in) {
   if (in.emission && in.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
 }
 
-// One tap (dx, dy) for a run of n pixels of a row: pixel p + k meets neighbour q + k. Straight-line float code
-// over restrict pointers, so the loop vectorises.
-struct TapRow {
-  float kernel, zx, zy, inv_sigma_a2;
-};
-
-[[gnu::noinline]] void accumulate_tap_row(const TapRow& t, const Guides& g, const Plane3& e, const Plane3& v, const float* luma,
-                        const float* inv_sd, size_t p, size_t q, int n, float* acc, size_t stride) {
-  const float* __restrict lp = luma + p;
-  const float* __restrict lq = luma + q;
-  const float* __restrict sp = inv_sd + p;
-  const float* __restrict zp = g.depth.data() + p;
-  const float* __restrict zq = g.depth.data() + q;
-  const float* __restrict gx = g.grad_x.data() + p;
-  const float* __restrict gy = g.grad_y.data() + p;
-  const float* __restrict a0p = g.albedo.c[0].data() + p;
-  const float* __restrict a1p = g.albedo.c[1].data() + p;
-  const float* __restrict a2p = g.albedo.c[2].data() + p;
-  const float* __restrict a0q = g.albedo.c[0].data() + q;
-  const float* __restrict a1q = g.albedo.c[1].data() + q;
-  const float* __restrict a2q = g.albedo.c[2].data() + q;
-  const float* __restrict n0p = g.normal.c[0].data() + p;
-  const float* __restrict n1p = g.normal.c[1].data() + p;
-  const float* __restrict n2p = g.normal.c[2].data() + p;
-  const float* __restrict n0q = g.normal.c[0].data() + q;
-  const float* __restrict n1q = g.normal.c[1].data() + q;
-  const float* __restrict n2q = g.normal.c[2].data() + q;
-  const float* __restrict e0 = e.c[0].data() + q;
-  const float* __restrict e1 = e.c[1].data() + q;
-  const float* __restrict e2 = e.c[2].data() + q;
-  const float* __restrict v0 = v.c[0].data() + q;
-  const float* __restrict v1 = v.c[1].data() + q;
-  const float* __restrict v2 = v.c[2].data() + q;
-  float* __restrict ae0 = acc;
-  float* __restrict ae1 = acc + stride;
-  float* __restrict ae2 = acc + 2 * stride;
-  float* __restrict av0 = acc + 3 * stride;
-  float* __restrict av1 = acc + 4 * stride;
-  float* __restrict av2 = acc + 5 * stride;
-  float* __restrict aw = acc + 6 * stride;
-  const float kernel = t.kernel, zx = t.zx, zy = t.zy, inv_sigma_a2 = t.inv_sigma_a2;
-  // The same body on native SIMD lanes, then on one lane for the tail.
-  auto body = [&]<class V>(int k, V) {
-    using stdx::abs, stdx::max, std::abs, std::max;
-    auto ld = [k](const float* ptr) { return V(ptr + k, stdx::element_aligned); };
-    auto acc_add = [k](float* ptr, V x) { (V(ptr + k, stdx::element_aligned) + x).copy_to(ptr + k, stdx::element_aligned); };
-    const V dl = abs(ld(lp) - ld(lq)) * ld(sp);
-    const V z = ld(zp);
-    const V dz = abs(z - ld(zq)) / (zx * ld(gx) + zy * ld(gy) + 1e-3f * z + 1e-8f);
-    const V da0 = ld(a0p) - ld(a0q), da1 = ld(a1p) - ld(a1q), da2 = ld(a2p) - ld(a2q);
-    const V da = (da0 * da0 + da1 * da1 + da2 * da2) * inv_sigma_a2;
-    const V p0 = ld(n0p), p1 = ld(n1p), p2 = ld(n2p), q0 = ld(n0q), q1 = ld(n1q), q2 = ld(n2q);
-    V wn = max(V(0.f), p0 * q0 + p1 * q1 + p2 * q2);
-    wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;  // σ_n = 128 = 2^7
-    // Both without a surface (escaped rays): alike.
-    const V both_empty = p0 * p0 + p1 * p1 + p2 * p2 + q0 * q0 + q1 * q1 + q2 * q2;
-    where(both_empty < 0.5f, wn) = V(1.f);
-    const V wt = kernel * wn * exp_neg(dl + dz + da);
-    acc_add(ae0, wt * ld(e0));
-    acc_add(ae1, wt * ld(e1));
-    acc_add(ae2, wt * ld(e2));
-    const V wt2 = wt * wt;
-    acc_add(av0, wt2 * ld(v0));
-    acc_add(av1, wt2 * ld(v1));
-    acc_add(av2, wt2 * ld(v2));
-    acc_add(aw, wt);
-  };
-  using Wide = stdx::native_simd<float>;
-  using One = stdx::simd<float, stdx::simd_abi::scalar>;
-  constexpr int kWide = static_cast<int>(Wide::size());
-  int k = 0;
-  for (; k + kWide <= n; k += kWide) body(k, Wide());
-  for (; k < n; ++k) body(k, One());
+// One chunk of V::size() pixels starting at padded index p, all 25 taps of level `step`; writes the filtered
+// illumination and variance of the lanes inside the image (lane_ok) to the output planes.
+template <class V>
+void filter_chunk(const Planes& in, Planes& out, const Layout& L, int x, int y, int step, float inv_sigma_a2,
+                  float sigma_depth) {
+  using stdx::abs, stdx::max, std::abs, std::max;
+  const size_t p = L.at(x, y);
+  auto ld = [](const std::vector<float>& plane, size_t i) { return V(plane.data() + i, stdx::element_aligned); };
+  const V lp = ld(in.luma, p), sp = ld(in.inv_sd, p), zp = ld(in.z, p), gxp = ld(in.gx, p), gyp = ld(in.gy, p);
+  const V a0 = ld(in.a0, p), a1 = ld(in.a1, p), a2 = ld(in.a2, p);
+  const V p0 = ld(in.n0, p), p1 = ld(in.n1, p), p2 = ld(in.n2, p);
+  const V p_empty = p0 * p0 + p1 * p1 + p2 * p2;
+  const V z_eps = 1e-3f * zp + 1e-8f;
+  V s0(0.f), s1(0.f), s2(0.f), t0(0.f), t1(0.f), t2(0.f), sw(0.f);
+  for (int dy = -2; dy <= 2; ++dy) {
+    const int qy = y + dy * step;
+    if (qy < 0 || qy >= L.h) continue;
+    const V zy = sigma_depth * static_cast<float>(std::abs(dy * step)) * gyp;
+    for (int dx = -2; dx <= 2; ++dx) {
+      const int off = dx * step;
+      const size_t q = L.at(x + off, qy);
+      const V dl = abs(lp - ld(in.luma, q)) * sp;
+      const V dz = abs(zp - ld(in.z, q)) / (sigma_depth * static_cast<float>(std::abs(off)) * gxp + zy + z_eps);
+      const V da0 = a0 - ld(in.a0, q), da1 = a1 - ld(in.a1, q), da2 = a2 - ld(in.a2, q);
+      const V da = (da0 * da0 + da1 * da1 + da2 * da2) * inv_sigma_a2;
+      const V q0 = ld(in.n0, q), q1 = ld(in.n1, q), q2 = ld(in.n2, q);
+      V wn = max(V(0.f), p0 * q0 + p1 * q1 + p2 * q2);
+      wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;  // σ_n = 128 = 2^7
+      // Both without a surface (escaped rays): alike.
+      where(p_empty + q0 * q0 + q1 * q1 + q2 * q2 < 0.5f, wn) = V(1.f);
+      const V wt = (kB3[dx + 2] * kB3[dy + 2]) * ld(in.valid, q) * wn * exp_neg(dl + dz + da);
+      const V wt2 = wt * wt;
+      s0 += wt * ld(in.e0, q), s1 += wt * ld(in.e1, q), s2 += wt * ld(in.e2, q);
+      t0 += wt2 * ld(in.v0, q), t1 += wt2 * ld(in.v1, q), t2 += wt2 * ld(in.v2, q);
+      sw += wt;
+    }
+  }
+  // The centre tap always has weight 9/64 · w_n(p, p) = 9/64 inside the image, so the sum is positive there.
+  V lane_x([x](int i) { return static_cast<float>(x + i); });
+  const auto inside = lane_x < static_cast<float>(L.w);
+  const V inv = 1.f / sw;
+  auto store = [&](std::vector<float>& plane, V value) { where(inside, value).copy_to(plane.data() + p, stdx::element_aligned); };
+  store(out.e0, s0 * inv), store(out.e1, s1 * inv), store(out.e2, s2 * inv);
+  store(out.v0, t0 * inv * inv), store(out.v1, t1 * inv * inv), store(out.v2, t2 * inv * inv);
 }
 
 }  // namespace
 
 std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool& pool) {
   check_input(in);
+  using Wide = stdx::native_simd<float>;
+  constexpr int kWide = static_cast<int>(Wide::size());
   const int w = in.width, h = in.height;
-  const size_t n = static_cast<size_t>(w) * h;
+  // Padding: the widest tap offset, 2·2^(levels−1), plus a chunk's overhang past the right edge.
+  const int reach = st.iterations > 0 ? 2 << (st.iterations - 1) : 0;
+  Layout L{w, h, reach, static_cast<size_t>(w + 2 * reach + kWide)};
+  Planes a, b;
+  for (std::vector<float>* plane : {&a.n0, &a.n1, &a.n2, &a.a0, &a.a1, &a.a2, &a.z, &a.gx, &a.gy, &a.valid, &a.e0,
+                                    &a.e1, &a.e2, &a.v0, &a.v1, &a.v2, &a.luma, &a.inv_sd})
+    plane->assign(L.size(), 0.f);
+  std::vector<float> modulation(3 * static_cast<size_t>(w) * h);
 
   // Demodulate and arrange the guides.
-  Guides g;
-  g.normal.resize(n);
-  g.albedo.resize(n);
-  g.modulation.resize(n);
-  g.depth.assign(in.depth->begin(), in.depth->end());
-  g.grad_x.assign(n, 0.f);
-  g.grad_y.assign(n, 0.f);
-  Plane3 e, v, e_next, v_next;
-  e.resize(n), v.resize(n), e_next.resize(n), v_next.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const float* nrm = &(*in.normal)[3 * i];
-    const float len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
-    const float inv = len2 > 1e-12f ? 1.f / std::sqrt(len2) : 0.f;  // averaged normals are shorter than 1
-    for (int c = 0; c < 3; ++c) {
-      g.normal.c[c][i] = nrm[c] * inv;
-      const float a = (*in.albedo)[3 * i + c];
-      g.albedo.c[c][i] = a;
-      const float m = a >= kMinDemodulateAlbedo ? a : 1.f;
-      g.modulation.c[c][i] = m;
-      const float emitted = in.emission ? (*in.emission)[3 * i + c] : 0.f;
-      e.c[c][i] = ((*in.color)[3 * i + c] - emitted) / m;
-      v.c[c][i] = (*in.variance)[3 * i + c] / (m * m);
-      if (!std::isfinite(v.c[c][i])) v.c[c][i] = 0.f;  // fewer than 2 samples: no estimate, no filtering by it
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
+      const float* nrm = &(*in.normal)[3 * i];
+      const float len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
+      const float inv = len2 > 1e-12f ? 1.f / std::sqrt(len2) : 0.f;  // averaged normals are shorter than 1
+      a.n0[j] = nrm[0] * inv, a.n1[j] = nrm[1] * inv, a.n2[j] = nrm[2] * inv;
+      a.z[j] = (*in.depth)[i];
+      a.valid[j] = 1.f;
+      std::vector<float>* albedo[3] = {&a.a0, &a.a1, &a.a2};
+      std::vector<float>* illum[3] = {&a.e0, &a.e1, &a.e2};
+      std::vector<float>* var[3] = {&a.v0, &a.v1, &a.v2};
+      for (int c = 0; c < 3; ++c) {
+        const float alb = (*in.albedo)[3 * i + c];
+        (*albedo[c])[j] = alb;
+        const float m = alb >= kMinDemodulateAlbedo ? alb : 1.f;
+        modulation[3 * i + c] = m;
+        const float emitted = in.emission ? (*in.emission)[3 * i + c] : 0.f;
+        (*illum[c])[j] = ((*in.color)[3 * i + c] - emitted) / m;
+        const float vv = (*in.variance)[3 * i + c] / (m * m);
+        (*var[c])[j] = std::isfinite(vv) ? vv : 0.f;  // fewer than 2 samples: no estimate, no filtering by it
+      }
     }
-  }
   // Depth gradient: the smaller one-sided difference, so that a silhouette does not look like a steep slope.
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      const float z = g.depth[i];
+      const size_t j = L.at(x, y);
+      const float z = a.z[j];
       float gx = 1e30f, gy = 1e30f;
-      if (x > 0) gx = std::min(gx, std::abs(z - g.depth[i - 1]));
-      if (x + 1 < w) gx = std::min(gx, std::abs(g.depth[i + 1] - z));
-      if (y > 0) gy = std::min(gy, std::abs(z - g.depth[i - w]));
-      if (y + 1 < h) gy = std::min(gy, std::abs(g.depth[i + w] - z));
-      g.grad_x[i] = gx < 1e30f ? gx : 0.f;
-      g.grad_y[i] = gy < 1e30f ? gy : 0.f;
+      if (x > 0) gx = std::min(gx, std::abs(z - a.z[j - 1]));
+      if (x + 1 < w) gx = std::min(gx, std::abs(a.z[j + 1] - z));
+      if (y > 0) gy = std::min(gy, std::abs(z - a.z[j - L.stride]));
+      if (y + 1 < h) gy = std::min(gy, std::abs(a.z[j + L.stride] - z));
+      a.gx[j] = gx < 1e30f ? gx : 0.f;
+      a.gy[j] = gy < 1e30f ? gy : 0.f;
     }
+  b = a;  // the guides, and output planes of the right size
 
-  std::vector<float> luma(n), inv_sd(n), sd_raw(n);
+  std::vector<float> sd_raw(L.size(), 0.f);
   const float inv_sigma_a2 = 1.f / (st.sigma_albedo * st.sigma_albedo);
   const int rows_per_task = 8;
   const int tasks = (h + rows_per_task - 1) / rows_per_task;
+  Planes* cur = &a;
+  Planes* next = &b;
   for (int level = 0; level < st.iterations; ++level) {
     const int step = 1 << level;
+    Planes& c = *cur;
     // Luminance and its standard deviation (channels of one path are correlated: the deviations add), then the
     // 3×3 binomial blur of the variance that makes σ̂_l usable at a few samples per pixel.
-    for (size_t i = 0; i < n; ++i) {
-      luma[i] = kLuma[0] * e.c[0][i] + kLuma[1] * e.c[1][i] + kLuma[2] * e.c[2][i];
-      sd_raw[i] = kLuma[0] * std::sqrt(v.c[0][i]) + kLuma[1] * std::sqrt(v.c[1][i]) + kLuma[2] * std::sqrt(v.c[2][i]);
-    }
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t j = L.at(x, y);
+        c.luma[j] = kLuma[0] * c.e0[j] + kLuma[1] * c.e1[j] + kLuma[2] * c.e2[j];
+        sd_raw[j] = kLuma[0] * std::sqrt(c.v0[j]) + kLuma[1] * std::sqrt(c.v1[j]) + kLuma[2] * std::sqrt(c.v2[j]);
+      }
     pool.parallel_for(tasks, [&](int task, int) {
       const int y_end = std::min(h, (task + 1) * rows_per_task);
       for (int y = task * rows_per_task; y < y_end; ++y)
@@ -213,55 +198,30 @@ std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, Th
               const int qx = x + dx, qy = y + dy;
               if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
               const float k = (dx == 0 ? 0.5f : 0.25f) * (dy == 0 ? 0.5f : 0.25f);
-              const float s = sd_raw[static_cast<size_t>(qy) * w + qx];
-              sum += k * s * s;
+              const float sd = sd_raw[L.at(qx, qy)];
+              sum += k * sd * sd;
               wsum += k;
             }
-          inv_sd[static_cast<size_t>(y) * w + x] = 1.f / (st.sigma_luminance * std::sqrt(sum / wsum) + 1e-6f);
+          c.inv_sd[L.at(x, y)] = 1.f / (st.sigma_luminance * std::sqrt(sum / wsum) + 1e-6f);
         }
     });
-
     pool.parallel_for(tasks, [&](int task, int) {
-      std::vector<float> acc(7 * static_cast<size_t>(w));
       const int y_end = std::min(h, (task + 1) * rows_per_task);
-      for (int y = task * rows_per_task; y < y_end; ++y) {
-        std::fill(acc.begin(), acc.end(), 0.f);
-        const size_t row = static_cast<size_t>(y) * w;
-        for (int dy = -2; dy <= 2; ++dy) {
-          const int qy = y + dy * step;
-          if (qy < 0 || qy >= h) continue;
-          for (int dx = -2; dx <= 2; ++dx) {
-            const int off = dx * step;
-            const int x_begin = std::max(0, -off), x_end = std::min(w, w - off);
-            if (x_begin >= x_end) continue;
-            TapRow t;
-            t.kernel = kB3[dx + 2] * kB3[dy + 2];
-            t.zx = st.sigma_depth * static_cast<float>(std::abs(off));
-            t.zy = st.sigma_depth * static_cast<float>(std::abs(dy * step));
-            t.inv_sigma_a2 = inv_sigma_a2;
-            const size_t p = row + x_begin, q = static_cast<size_t>(qy) * w + static_cast<size_t>(x_begin + off);
-            accumulate_tap_row(t, g, e, v, luma.data(), inv_sd.data(), p, q, x_end - x_begin, &acc[x_begin],
-                               static_cast<size_t>(w));
-          }
-        }
-        for (int x = 0; x < w; ++x) {
-          // The centre tap always has weight ≥ 9/64 · w_n(p, p) = 9/64, so the sum is positive.
-          const float inv = 1.f / acc[6 * static_cast<size_t>(w) + x];
-          for (int c = 0; c < 3; ++c) {
-            e_next.c[c][row + x] = acc[c * static_cast<size_t>(w) + x] * inv;
-            v_next.c[c][row + x] = acc[(3 + c) * static_cast<size_t>(w) + x] * inv * inv;
-          }
-        }
-      }
+      for (int y = task * rows_per_task; y < y_end; ++y)
+        for (int x = 0; x < w; x += kWide) filter_chunk<Wide>(c, *next, L, x, y, step, inv_sigma_a2, st.sigma_depth);
     });
-    std::swap(e, e_next);
-    std::swap(v, v_next);
+    std::swap(cur, next);
   }
 
-  std::vector<float> out(3 * n);
-  for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c)
-      out[3 * i + c] = e.c[c][i] * g.modulation.c[c][i] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
+  std::vector<float> out(3 * static_cast<size_t>(w) * h);
+  const Planes& r = *cur;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
+      const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
+      for (int c = 0; c < 3; ++c)
+        out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
+    }
   return out;
 }
 
