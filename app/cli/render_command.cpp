@@ -94,7 +94,8 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->check(CLI::NonNegativeNumber);
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
-      "With neither --png nor --pfm, writes NAME.png and NAME.pfm in the current directory (NAME = scene name).\n"
+      "With none of --png, --pfm and --exr, writes NAME.png and NAME.pfm in the current directory (NAME = scene\n"
+      "name).\n"
       "Outputs are checked before rendering and written completely or not at all (an earlier file stays intact).\n"
       "Stop conditions combine: rendering stops at the first one met. Ctrl-C (SIGINT) or SIGTERM stops early and\n"
       "writes the image so far; a second one exits at once. Exit status: 0 ok, 1 an output could not be written\n"
