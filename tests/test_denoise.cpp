@@ -23,15 +23,12 @@
 namespace pt {
 namespace {
 
-Film render_features(const SceneDesc& desc, int spp, uint64_t seed = 1) {
+using stress::quad;
+
+Film render_features(const SceneDesc& desc, int spp, uint64_t seed) {
   SceneDesc d = desc;
   d.render.seed = seed;
-  const auto scene = compile_scene(d);
-  Film film(d.width, d.height);
-  film.enable_features(true);
-  Renderer renderer(2);
-  renderer.render_pass(*scene, d.render, film, spp);
-  return film;
+  return test::render_film(d, spp, 2, true);
 }
 
 std::vector<float> denoise_film(const Film& film) {
@@ -49,14 +46,6 @@ double relmse_of(const std::vector<float>& a, const std::vector<float>& b, int w
 
 float luminance_at(const std::vector<float>& img, size_t i) {
   return 0.2126f * img[3 * i] + 0.7152f * img[3 * i + 1] + 0.0722f * img[3 * i + 2];
-}
-
-ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int material) {
-  ShapeDesc q;
-  q.type = ShapeType::Quad;
-  q.vertices = {a, b, c, d};
-  q.material = material;
-  return q;
 }
 
 // 64×64 pixels looking down −z at x, y ∈ [−2, 2] of the plane z = −2, lit by a large lamp behind the camera.

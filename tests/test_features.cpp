@@ -9,19 +9,13 @@
 namespace pt {
 namespace {
 
+using stress::quad;
+
 const Rgb kRoomAlbedo(0.3f, 0.5f, 0.7f);
 const Rgb kMirrorTint(0.9f, 0.6f, 0.25f);
 const DVec3 kBallCenter(0.4, 0.45, -1.8);
 constexpr double kBallRadius = 0.4;
 constexpr double kBackWallZ = -3.0;
-
-ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int material) {
-  ShapeDesc q;
-  q.type = ShapeType::Quad;
-  q.vertices = {a, b, c, d};
-  q.material = material;
-  return q;
-}
 
 // A closed room x ∈ [−2, 2], y ∈ [−1, 3], z ∈ [−3, 3] whose six walls have one diffuse albedo, seen from the
 // origin along −z (90° field of view), with a small light and one specular object in view: a mirror ball, a
@@ -82,12 +76,7 @@ SceneDesc room_scene(Estimator est, Specular object) {
 Film render_with_features(const SceneDesc& desc, int spp, PathLoop loop = PathLoop::Auto) {
   SceneDesc d = desc;
   d.render.path_loop = loop;
-  const auto scene = compile_scene(d);
-  Film film(d.width, d.height);
-  film.enable_features(true);
-  Renderer renderer(2);
-  renderer.render_pass(*scene, d.render, film, spp);
-  return film;
+  return test::render_film(d, spp, 2, true);
 }
 
 bool ray_hits_ball(const Ray& r, DVec3 center) {

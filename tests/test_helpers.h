@@ -41,9 +41,11 @@ inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_dep
 using MeanWithError = stress::MeanSE;
 using stress::film_mean;
 
-inline Film render_film(const SceneDesc& desc, int spp, int threads = 0) {
+// `features`: the film keeps its feature buffers (Film::enable_features).
+inline Film render_film(const SceneDesc& desc, int spp, int threads = 0, bool features = false) {
   const auto scene = compile_scene(desc);
   Film film(desc.width, desc.height);
+  film.enable_features(features);
   Renderer renderer(threads);
   renderer.render_pass(*scene, desc.render, film, spp);
   return film;

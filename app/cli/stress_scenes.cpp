@@ -8,6 +8,14 @@
 
 namespace pt::stress {
 
+ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int m) {
+  ShapeDesc sh;
+  sh.type = ShapeType::Quad;
+  sh.vertices = {a, b, c, d};
+  sh.material = m;
+  return sh;
+}
+
 namespace {
 
 MaterialDesc material(std::string name, MaterialType type, Rgb albedo, Rgb emission = Rgb(0.f),
@@ -31,14 +39,6 @@ ShapeDesc triangle(DVec3 a, DVec3 b, DVec3 c, int m) {
   ShapeDesc sh;
   sh.type = ShapeType::Triangle;
   sh.vertices = {a, b, c, DVec3(0.0)};
-  sh.material = m;
-  return sh;
-}
-
-ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int m) {
-  ShapeDesc sh;
-  sh.type = ShapeType::Quad;
-  sh.vertices = {a, b, c, d};
   sh.material = m;
   return sh;
 }

@@ -14,6 +14,9 @@
 
 namespace pt::stress {
 
+// A quad shape of material m, vertices counter-clockwise seen from the front (scene builders' helper).
+ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int m);
+
 // ---------------------------------------------------------------------------------------------- scene building
 
 // Every position of the scene (camera position and look_at, vertices, sphere centres) mapped p → p·scale + offset
