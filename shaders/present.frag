@@ -9,6 +9,8 @@ out vec4 frag_colour;
 
 uniform sampler2D u_image;        // rgb: mean radiance; a: relative standard error of the mean
 uniform sampler2D u_count;        // r: samples per pixel
+uniform sampler2D u_denoised;     // rgb: the denoised mean (when u_denoised_from_u <= 1)
+uniform float u_denoised_from_u;  // the colour view shows u_denoised where uv.x >= this (display_transform.h)
 uniform int u_mode;               // 0 colour, 1 relative error, 2 sample count
 uniform float u_exposure_scale;   // 2^EV, computed on the CPU with std::exp2 as tonemap.h does
 uniform int u_tone_map;           // 0 clamp, 1 Reinhard, 2 ACES fitted (pt::ToneMap order)
@@ -45,7 +47,7 @@ void main() {
   vec2 uv = vec2(v_uv.x, 1.0 - v_uv.y);  // the film's first row is the top of the image
   vec4 texel = texture(u_image, uv);
   if (u_mode == 0) {
-    vec3 c = tone_map(texel.rgb);
+    vec3 c = tone_map(uv.x >= u_denoised_from_u ? texture(u_denoised, uv).rgb : texel.rgb);
     frag_colour = vec4(srgb_encode(c.r), srgb_encode(c.g), srgb_encode(c.b), 1.0);
   } else if (u_mode == 1) {
     float l = log2(max(texel.a, 1e-30)) * 0.30102999566;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <thread>
 
+#include "denoise/denoiser.h"
 #include "render/render_session.h"
 #include "frame_helpers.h"
 #include "scene/scene_json.h"
@@ -361,4 +362,48 @@ TEST_CASE("session: an invalid scene is reported, not rendered, and a valid one 
   session.set_scene(small_cornell());
   REQUIRE(session.wait_for([](const SessionStats& s) { return s.done; }, 60.0));
   CHECK(session.stats().error.empty());
+}
+
+TEST_CASE("session: with denoising the final frame carries the denoise of the final film, the raw mean unchanged") {
+  const SceneDesc desc = small_cornell();
+  SessionSettings s = settings_with(8);
+  s.denoise = true;
+  RenderSession session(desc, s);
+  REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  DisplayFrame f;
+  REQUIRE(session.take_frame(f));
+  CHECK(f.spp == 8);
+  // The raw mean is the film's, as without denoising; the denoised image is the denoiser's output for the
+  // final film (the last pass before the stop condition is always denoised afresh).
+  Film film = test::render_film(desc, 8, 0, true);
+  const std::vector<float> color = film.mean_image(), variance = film.variance_image(), albedo = film.albedo_image(),
+                           normal = film.normal_image(), depth = film.depth_image(),
+                           emission = film.emission_image();
+  ThreadPool pool(2);
+  const std::vector<float> want =
+      denoise({desc.width, desc.height, &color, &variance, &albedo, &normal, &depth, &emission}, {}, pool);
+  REQUIRE(f.denoised.size() == want.size());
+  int raw_mismatches = 0;
+  for (size_t i = 0; i < film.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c) raw_mismatches += f.rgba[4 * i + c] != color[3 * i + c];
+  CHECK(raw_mismatches == 0);
+  CHECK(f.denoised == want);
+  CHECK(f.denoised != color);  // it did filter
+}
+
+TEST_CASE("session: turning denoising on restarts the accumulation, and frames without it carry no denoised image") {
+  const SceneDesc desc = small_cornell();
+  RenderSession session(desc, settings_with(4));
+  REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  DisplayFrame f;
+  REQUIRE(session.take_frame(f));
+  CHECK(f.denoised.empty());
+  const uint64_t before = session.stats().generation;
+  SessionSettings s = session.settings();
+  s.denoise = true;
+  session.set_settings(s);
+  CHECK(session.stats().generation == before + 1);
+  REQUIRE(session.wait_for([&](const SessionStats& st) { return st.done && st.generation == before + 1; }, 60.0));
+  REQUIRE(wait_frame(session, f, [&](const DisplayFrame& fr) { return fr.generation == before + 1 && fr.spp == 4; }));
+  CHECK(f.denoised.size() == 3ull * desc.width * desc.height);
 }

@@ -12,9 +12,14 @@ namespace pt {
 
 enum class ViewMode { Colour, RelativeError, SampleCount };
 
+// Which estimate the colour view shows when the frame has a denoised image: the raw film mean, the denoised one,
+// or raw on the left half and denoised on the right.
+enum class DenoiseView { Raw, Denoised, Split };
+
 struct PresentSettings {
   DisplaySettings display;        // exposure and tone map of the colour view
   ViewMode mode = ViewMode::Colour;
+  DenoiseView denoise_view = DenoiseView::Denoised;
   // Relative standard errors from 10^error_log10_min to 10^error_log10_max span the colour map (clamped beyond).
   float error_log10_min = -3.f, error_log10_max = 0.f;
 };
@@ -45,7 +50,14 @@ inline float error_coordinate(float rel_error, const PresentSettings& s) {
 // Colour-map coordinate of a sample count, linear from 0 to the image's maximum.
 inline float count_coordinate(float count, float max_count) { return std::clamp(count / std::max(max_count, 1.f), 0.f, 1.f); }
 
-// The 8-bit display value the shader must produce for one pixel (the reference of the GL tests).
+// The colour view shows the denoised image at texture coordinates u ≥ this (u ∈ [0, 1) over the image's width);
+// above 1: nowhere. Only where the frame has a denoised image.
+inline float denoised_from_u(DenoiseView v) {
+  return v == DenoiseView::Denoised ? 0.f : v == DenoiseView::Split ? 0.5f : 2.f;
+}
+
+// The 8-bit display value the shader must produce for one pixel (the reference of the GL tests); `mean` is
+// whichever estimate the pixel shows (denoised_from_u).
 inline std::array<uint8_t, 3> present_pixel(Rgb mean, float rel_error, float count, float max_count,
                                            const PresentSettings& s) {
   std::array<uint8_t, 3> out{};

@@ -78,11 +78,13 @@ GlPresenter::GlPresenter() {
   loc_tone_map_ = glGetUniformLocation(program_, "u_tone_map");
   loc_error_range_ = glGetUniformLocation(program_, "u_error_log10_range");
   loc_count_max_ = glGetUniformLocation(program_, "u_count_max");
+  loc_denoised_from_u_ = glGetUniformLocation(program_, "u_denoised_from_u");
 
   // Constant uniforms are set once.
   glUseProgram(program_);
   glUniform1i(glGetUniformLocation(program_, "u_image"), 0);
   glUniform1i(glGetUniformLocation(program_, "u_count"), 1);
+  glUniform1i(glGetUniformLocation(program_, "u_denoised"), 2);
   float palette[3 * kFalseColour.size()];
   for (size_t i = 0; i < kFalseColour.size(); ++i)
     for (int c = 0; c < 3; ++c) palette[3 * i + c] = static_cast<float>(kFalseColour[i][c]) / 255.f;
@@ -92,6 +94,7 @@ GlPresenter::GlPresenter() {
   glGenVertexArrays(1, &vao_);  // core profile draws need a bound VAO, even an empty one
   image_tex_ = make_texture();
   count_tex_ = make_texture();
+  denoised_tex_ = make_texture();
   display_tex_ = make_texture();
   glBindTexture(GL_TEXTURE_2D, 0);
   glGenFramebuffers(1, &display_fbo_);
@@ -102,6 +105,7 @@ GlPresenter::~GlPresenter() {
   glDeleteTextures(1, &display_tex_);
   glDeleteTextures(1, &image_tex_);
   glDeleteTextures(1, &count_tex_);
+  glDeleteTextures(1, &denoised_tex_);
   glDeleteVertexArrays(1, &vao_);
   glDeleteProgram(program_);
 }
@@ -119,7 +123,18 @@ void GlPresenter::upload(const DisplayFrame& f) {
   glBindTexture(GL_TEXTURE_2D, count_tex_);
   if (resize) glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, f.width, f.height, 0, GL_RED, GL_FLOAT, f.count.data());
   else glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, f.width, f.height, GL_RED, GL_FLOAT, f.count.data());
-  if (resize) {  // the display image follows the film's size
+  has_denoised_ = f.denoised.size() >= 3ull * f.width * f.height;
+  if (has_denoised_) {
+    glBindTexture(GL_TEXTURE_2D, denoised_tex_);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);  // RGB rows need not be 4-byte multiples
+    if (resize || !denoised_allocated_)
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, f.width, f.height, 0, GL_RGB, GL_FLOAT, f.denoised.data());
+    else glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, f.width, f.height, GL_RGB, GL_FLOAT, f.denoised.data());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    denoised_allocated_ = true;
+  }
+  if (resize) {  // the display image follows the film's size (and so does the denoised one, when it comes)
+    if (!has_denoised_) denoised_allocated_ = false;
     glBindTexture(GL_TEXTURE_2D, display_tex_);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, nullptr);
     GLint previous_fbo = 0;
@@ -142,7 +157,8 @@ namespace {
 
 bool same(const PresentSettings& a, const PresentSettings& b) {
   return a.display.exposure_ev == b.display.exposure_ev && a.display.tone_map == b.display.tone_map &&
-         a.mode == b.mode && a.error_log10_min == b.error_log10_min && a.error_log10_max == b.error_log10_max;
+         a.mode == b.mode && a.error_log10_min == b.error_log10_min && a.error_log10_max == b.error_log10_max &&
+         a.denoise_view == b.denoise_view;
 }
 
 }  // namespace
@@ -164,10 +180,13 @@ void GlPresenter::update_display(const PresentSettings& s) {
   glUniform1i(loc_tone_map_, static_cast<int>(s.display.tone_map));
   glUniform2f(loc_error_range_, s.error_log10_min, s.error_log10_max);
   glUniform1f(loc_count_max_, max_count_);
+  glUniform1f(loc_denoised_from_u_, has_denoised_ ? denoised_from_u(s.denoise_view) : 2.f);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, image_tex_);
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, count_tex_);
+  glActiveTexture(GL_TEXTURE2);
+  glBindTexture(GL_TEXTURE_2D, denoised_tex_);
   glBindVertexArray(vao_);
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glBindVertexArray(0);

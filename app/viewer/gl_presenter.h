@@ -45,7 +45,9 @@ class GlPresenter {
  private:
   void update_display(const PresentSettings& settings);  // runs the shader if the frame or settings changed
 
-  unsigned program_ = 0, vao_ = 0, image_tex_ = 0, count_tex_ = 0;
+  unsigned program_ = 0, vao_ = 0, image_tex_ = 0, count_tex_ = 0, denoised_tex_ = 0;
+  bool has_denoised_ = false;  // the last frame uploaded had a denoised image
+  bool denoised_allocated_ = false;  // denoised_tex_ has the image's size
   unsigned display_tex_ = 0, display_fbo_ = 0;  // the shader's output, RGBA8, the image's size
   bool display_valid_ = false;
   PresentSettings display_settings_;
@@ -53,6 +55,7 @@ class GlPresenter {
   bool preview_ = false;
   float max_count_ = 0;
   int loc_mode_ = -1, loc_exposure_ = -1, loc_tone_map_ = -1, loc_error_range_ = -1, loc_count_max_ = -1;
+  int loc_denoised_from_u_ = -1;
 };
 
 }  // namespace pt

@@ -26,6 +26,11 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("--mode", o.mode, "View: colour | error (relative standard error heat map) | samples")
       ->check(CLI::IsMember({"colour", "error", "samples"}))
       ->capture_default_str();
+  v->add_flag("--denoise", o.denoise,
+              "Denoise the display (feature-guided a-trous filter on the render thread; docs/denoising.md)");
+  v->add_option("--denoise-view", o.denoise_view, "With --denoise: raw | denoised | split (raw left, denoised right)")
+      ->check(CLI::IsMember({"raw", "denoised", "split"}))
+      ->capture_default_str();
   v->add_option("--output-dir", o.output_dir, "Folder for saved images (S key)")->capture_default_str();
   v->add_option("--preview-divisor", o.preview_divisor,
                 "Resolution divisor of the first pass after each change; 0 = automatic, 1 = off")
@@ -65,6 +70,7 @@ int run_view(const ViewOptions& o) {
   SessionSettings settings;
   settings.threads = o.threads;
   settings.preview_divisor = o.preview_divisor;
+  settings.denoise = o.denoise;
   if (o.spp) settings.stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) settings.stop.seconds = *o.time_seconds;
   if (o.target_relmse) settings.stop.relmse = *o.target_relmse;

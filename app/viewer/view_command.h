@@ -19,6 +19,8 @@ struct ViewOptions {
   std::string mode = "colour";
   std::string output_dir = ".";
   int preview_divisor = 0;
+  bool denoise = false;          // start with denoising on
+  std::string denoise_view = "denoised";
   // Scripted and measured runs.
   long long frames = 0;     // quit after this many UI frames, drawn continuously (0: run until closed)
   double seconds = 0.0;     // quit after this many seconds (0: run until closed)

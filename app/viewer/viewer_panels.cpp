@@ -183,6 +183,22 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   ImGui::SameLine();
   ImGui::RadioButton("samples", &mode, 2);
   p.mode = static_cast<ViewMode>(mode);
+  // Denoising: the session gathers the feature buffers and denoises on its render thread (turning it on
+  // restarts the accumulation); the view picks the raw film, the denoised image, or both halves side by side.
+  SessionSettings ss = model.session_settings();
+  if (ImGui::Checkbox("denoise", &ss.denoise)) model.set_session_settings(ss);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("Feature-guided a-trous filter (docs/denoising.md); saved PFMs stay the raw estimate");
+  if (ss.denoise) {
+    int view = static_cast<int>(p.denoise_view);
+    ImGui::SameLine();
+    ImGui::RadioButton("raw", &view, 0);
+    ImGui::SameLine();
+    ImGui::RadioButton("denoised", &view, 1);
+    ImGui::SameLine();
+    ImGui::RadioButton("split", &view, 2);
+    p.denoise_view = static_cast<DenoiseView>(view);
+  }
   ImGui::SliderFloat("exposure", &p.display.exposure_ev, -10.f, 10.f, "%+.2f EV");
   int tone = static_cast<int>(p.display.tone_map);
   if (ImGui::Combo("tone map", &tone, "none (clamp)\0Reinhard\0ACES fitted\0"))

@@ -362,6 +362,9 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
       model.present.mode = o.mode == "error" ? ViewMode::RelativeError
                            : o.mode == "samples" ? ViewMode::SampleCount
                                                  : ViewMode::Colour;
+      model.present.denoise_view = o.denoise_view == "raw"   ? DenoiseView::Raw
+                                   : o.denoise_view == "split" ? DenoiseView::Split
+                                                               : DenoiseView::Denoised;
       model.output_dir = o.output_dir;
       model.ui_visible = !o.hide_ui;
       rc = run_loop(window, model, o, interrupts);

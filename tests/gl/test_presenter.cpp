@@ -140,6 +140,49 @@ TEST_CASE("gl: relative-error heat map and sample-count views match the CPU fals
   CHECK(compare(px, w, f, s).max <= 1);
 }
 
+TEST_CASE("gl: the denoised image shows in the denoised view, on the right half in the split view, raw otherwise") {
+  const int w = 60, h = 24;  // even width: no pixel centre on the split line
+  test::OsMesaContext ctx(w, h);
+  GlPresenter presenter;
+  DisplayFrame f = test_frame(w, h);
+  // A "denoised" image unlike the raw one: the raw radiance reversed and halved.
+  const size_t n = static_cast<size_t>(w) * h;
+  f.denoised.resize(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) f.denoised[3 * i + c] = 0.5f * std::abs(f.rgba[4 * (n - 1 - i) + c]);
+  presenter.upload(f);
+  // The frame present_pixel() must see: the raw mean where the view shows it, the denoised one elsewhere.
+  auto expected = [&](DenoiseView view) {
+    DisplayFrame e = f;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(y) * w + x;
+        if ((static_cast<float>(x) + 0.5f) / static_cast<float>(w) >= denoised_from_u(view))
+          for (int c = 0; c < 3; ++c) e.rgba[4 * i + c] = f.denoised[3 * i + c];
+      }
+    return e;
+  };
+  std::vector<uint8_t> px;
+  for (const DenoiseView view : {DenoiseView::Raw, DenoiseView::Denoised, DenoiseView::Split}) {
+    CAPTURE(static_cast<int>(view));
+    PresentSettings s;
+    s.denoise_view = view;
+    presenter.read_image(s, px);
+    const Diff d = compare(px, w, expected(view), s);
+    INFO(d.worst);
+    CHECK(d.max <= 1);
+    // The other view's image must not match: the test can tell them apart.
+    CHECK(compare(px, w, expected(view == DenoiseView::Raw ? DenoiseView::Denoised : DenoiseView::Raw), s).max > 1);
+  }
+  // A frame without a denoised image shows the raw mean in every view.
+  DisplayFrame plain = test_frame(w, h);
+  presenter.upload(plain);
+  PresentSettings s;
+  s.denoise_view = DenoiseView::Denoised;
+  presenter.read_image(s, px);
+  CHECK(compare(px, w, plain, s).max <= 1);
+}
+
 TEST_CASE("gl: new frame sizes reallocate, and a preview drawn larger is magnified smoothly") {
   test::OsMesaContext ctx(64, 64);
   GlPresenter presenter;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #endif
 
+#include "denoise/denoiser.h"
 #include "render/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
@@ -64,6 +65,11 @@ struct RenderSession::Worker {
   double full_seconds_per_spp = 0.0;  // measured cost of one full-resolution spp (kept across restarts)
   uint64_t film_spp = 0;
   DisplayFrame back;  // the triple buffer's render-side slot
+  // The last denoised image, reused for the frames in between (SessionSettings::denoise).
+  std::vector<float> denoised;
+  uint64_t denoised_generation = 0;
+  Clock::time_point next_denoise;
+  std::vector<float> planes[6];  // film planes handed to the denoiser (reused)
 };
 
 RenderSession::RenderSession(const SceneDesc& scene, const SessionSettings& settings) {
@@ -143,8 +149,10 @@ uint64_t RenderSession::restart() {
 void RenderSession::set_settings(const SessionSettings& settings) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const bool start_denoising = settings.denoise && !settings_.denoise;
     settings_ = settings;
     settings_changed_ = true;
+    if (start_denoising) request_restart_locked();  // the film must gather features from its first sample
   }
   wake_.notify_all();
 }
@@ -307,6 +315,7 @@ bool RenderSession::prepare(Worker& w, bool restart) {
     }
     w.edits.clear();
     if (restart && w.scene_ok) {
+      w.film.enable_features(w.settings.denoise);
       w.film.reset(w.desc.width, w.desc.height);
       w.film_spp = 0;
       const int divisor = w.settings.preview_divisor > 0 ? w.settings.preview_divisor
@@ -401,6 +410,8 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
   const double relmse = preview ? kInf : film.estimated_relmse();
   if (!preview) w.film_spp = min_count;
   const double seconds = std::chrono::duration<double>(Clock::now() - pass_start).count();
+  f.denoised.clear();
+  if (!preview && w.settings.denoise && film.has_features()) denoise_frame(w, f, relmse, seconds);
 
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -410,6 +421,34 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
     // else: an edit arrived meanwhile and this image is already stale.
   }
   changed_.notify_all();
+}
+
+// Fills f.denoised: a fresh denoise of the film when the last one is old enough, when it belongs to an earlier
+// accumulation, or when this pass meets a stop condition (the last image must be the film's own); else the last
+// denoised image again. Runs on the render thread, off the UI thread, using the render threads' pool.
+void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds) {
+  bool final_pass;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    final_pass = stop_reason(settings_.stop, f.spp, stats_.seconds + pass_seconds, relmse) != nullptr;
+  }
+  const Clock::time_point now = Clock::now();
+  if (final_pass || w.denoised_generation != w.generation || now >= w.next_denoise) {
+    const Film& film = w.film;
+    w.planes[0] = film.mean_image();
+    w.planes[1] = film.variance_image();
+    w.planes[2] = film.albedo_image();
+    w.planes[3] = film.normal_image();
+    w.planes[4] = film.depth_image();
+    w.planes[5] = film.emission_image();
+    w.denoised = denoise({film.width(), film.height(), &w.planes[0], &w.planes[1], &w.planes[2], &w.planes[3],
+                          &w.planes[4], &w.planes[5]},
+                         DenoiseSettings{}, w.renderer->pool());
+    w.denoised_generation = w.generation;
+    const Clock::time_point done = Clock::now();
+    w.next_denoise = done + 2 * (done - now);
+  }
+  f.denoised = w.denoised;
 }
 
 // Makes the converted frame current and accounts for its pass (mutex_ held, generation current).

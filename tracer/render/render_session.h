@@ -34,6 +34,11 @@ struct SessionSettings {
   // exceed ~20 ms, divisor chosen to make the preview take ~10 ms), 1 = never, N ≥ 2 = always 1/N.
   int preview_divisor = 0;
   bool background_priority = true;  // render threads at a lower OS priority than the (UI) owner thread
+  // Denoise the published frames (denoise/denoiser.h): the film keeps its feature buffers, and after a pass the
+  // render thread fills DisplayFrame::denoised, at most about a third of its time (a newer denoise waits until
+  // twice the last one's duration has passed; the last pass before a stop condition is always denoised).
+  // Turning it on restarts the accumulation (the film must gather features from the first sample).
+  bool denoise = false;
 };
 
 // One published image. Buffers are reused: take_frame() swaps, so steady state allocates nothing.
@@ -48,6 +53,9 @@ struct DisplayFrame {
   // estimated relMSE. Pixels with fewer than 2 samples have an unknown error, stored as kUnknownError.
   std::vector<float> rgba;
   std::vector<float> count;  // samples per pixel
+  // With SessionSettings::denoise, full-resolution frames: the denoised mean, R, G, B per pixel (empty otherwise).
+  // `rgba` stays the raw estimate.
+  std::vector<float> denoised;
   static constexpr float kUnknownError = 1e30f;
 };
 
@@ -115,6 +123,7 @@ class RenderSession {
   template <class Change>
   uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
+  void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
                       uint64_t rays);
   bool stop_met_locked(std::string& reason) const;
