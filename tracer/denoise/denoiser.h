@@ -9,6 +9,7 @@
 // and material edges stay as sharp as the feature buffers, and only the smooth irradiance is blurred. The film's variance of each pixel's mean decides how different a neighbour's
 // illumination may be before it is treated as another feature (a shadow edge, a caustic) rather than noise.
 #pragma once
+#include <memory>
 #include <vector>
 
 #include "core/thread_pool.h"
@@ -33,8 +34,24 @@ struct DenoiseSettings {
   float sigma_albedo = 0.1f;   // σ_a: albedo differences (Euclidean, RGB)
 };
 
-// Returns the denoised RGB image (3 floats per pixel). Runs its rows on `pool`. Throws std::invalid_argument
-// when an input is missing or of the wrong size.
+// The filter with its working planes (~30 float planes of the image's size), kept from one call to the next:
+// an interactive front end that denoises every few passes allocates them once.
+class Denoiser {
+ public:
+  Denoiser();
+  ~Denoiser();
+  Denoiser(Denoiser&&) noexcept;
+  Denoiser& operator=(Denoiser&&) noexcept;
+  // Writes the denoised RGB image (3 floats per pixel) to `out`. Runs its rows on `pool`. Throws
+  // std::invalid_argument when an input is missing or of the wrong size.
+  void run(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool, std::vector<float>& out);
+
+ private:
+  struct Scratch;
+  std::unique_ptr<Scratch> scratch_;
+};
+
+// One call with fresh working planes.
 std::vector<float> denoise(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool);
 
 }  // namespace pt

@@ -69,7 +69,8 @@ struct RenderSession::Worker {
   std::vector<float> denoised;
   uint64_t denoised_generation = 0;
   Clock::time_point next_denoise;
-  std::vector<float> planes[6];  // film planes handed to the denoiser (reused)
+  std::vector<float> planes[6];  // film planes handed to the denoiser
+  Denoiser denoiser;             // keeps its working planes between denoises
 };
 
 RenderSession::RenderSession(const SceneDesc& scene, const SessionSettings& settings) {
@@ -441,9 +442,9 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     w.planes[3] = film.normal_image();
     w.planes[4] = film.depth_image();
     w.planes[5] = film.emission_image();
-    w.denoised = denoise({film.width(), film.height(), &w.planes[0], &w.planes[1], &w.planes[2], &w.planes[3],
-                          &w.planes[4], &w.planes[5]},
-                         DenoiseSettings{}, w.renderer->pool());
+    w.denoiser.run({film.width(), film.height(), &w.planes[0], &w.planes[1], &w.planes[2], &w.planes[3],
+                    &w.planes[4], &w.planes[5]},
+                   DenoiseSettings{}, w.renderer->pool(), w.denoised);
     w.denoised_generation = w.generation;
     const Clock::time_point done = Clock::now();
     w.next_denoise = done + 2 * (done - now);
