@@ -116,7 +116,7 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
   std::ifstream csv("bench_quick/convergence.csv");
   std::string line;
   std::getline(csv, line);
-  CHECK(line == "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s");
+  CHECK(line == "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s,denoised relMSE,denoise seconds");
   int rows = 0;
   std::map<std::string, int> per_series;
   while (std::getline(csv, line)) {
@@ -124,18 +124,23 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
     std::vector<std::string> f;
     std::stringstream ss(line);
     for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    REQUIRE(f.size() == 9);
+    REQUIRE(f.size() == 11);
     ++per_series[f[0] + "/" + f[1] + "/" + f[2]];
-    const double seconds = std::stod(f[4]), rel = std::stod(f[6]), rm = std::stod(f[7]);
+    const double seconds = std::stod(f[4]), rel = std::stod(f[6]), rm = std::stod(f[7]), den = std::stod(f[9]),
+                 den_s = std::stod(f[10]);
     CHECK(seconds > 0);
     CHECK(std::isfinite(rel));
     CHECK(rel > 0);
     CHECK(rm > 0);
+    CHECK(std::isfinite(den));
+    CHECK(den > 0);
+    CHECK(den_s > 0);
   }
   CHECK(per_series.size() == 75);  // 5 scenes × 5 estimators × 3 samplers
   for (const auto& [name, n] : per_series) CHECK(n == 4);  // budgets 1/16, 1/8, 1/4, 1/2 s
   const std::string summary = slurp("bench_quick/summary.md");
   CHECK(summary.find("time to 1e-3") != std::string::npos);
+  CHECK(summary.find("denoised: time to 1e-3") != std::string::npos);
   CHECK(summary.find("Thread scaling") != std::string::npos);
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0)
     for (const char* scene : {"cornell", "cornell-spheres", "shadertoy", "materials", "sky"})
