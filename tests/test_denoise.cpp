@@ -50,12 +50,7 @@ float luminance_at(const std::vector<float>& img, size_t i) {
 
 // 64×64 pixels looking down −z at x, y ∈ [−2, 2] of the plane z = −2, lit by a large lamp behind the camera.
 SceneDesc plane_view() {
-  SceneDesc s;
-  s.camera.position = DVec3(0.0);
-  s.camera.look_at = DVec3(0, 0, -1);
-  s.camera.up = {0, 1, 0};
-  s.camera.fov_deg = 90;
-  s.width = s.height = 64;
+  SceneDesc s = test::origin_camera_scene(64, 64);
   s.render.max_bounces = 2;
   MaterialDesc lamp;
   lamp.name = "lamp";

@@ -25,12 +25,7 @@ enum class Specular { MirrorBall, GlassBall, GlassPane };
 constexpr double kPaneZ = -1.2;
 
 SceneDesc room_scene(Estimator est, Specular object) {
-  SceneDesc s;
-  s.camera.position = DVec3(0.0);
-  s.camera.look_at = DVec3(0, 0, -1);
-  s.camera.up = {0, 1, 0};
-  s.camera.fov_deg = 90;
-  s.width = s.height = 16;
+  SceneDesc s = test::origin_camera_scene(16, 16);
   s.render.estimator = est;
   s.render.max_bounces = 6;
   MaterialDesc wall;
@@ -172,13 +167,7 @@ TEST_CASE("features: gathering them leaves the image bit for bit, and both path 
 TEST_CASE("film halves: one sample of each pair per half, and each half covers the whole pixel") {
   // A back wall whose left half emits 1 and right half nothing, the edge through the middle column's centre:
   // each sample there is 0 or 1 depending on its camera jitter alone (uniform estimator, no bounce).
-  SceneDesc s;
-  s.camera.position = DVec3(0.0);
-  s.camera.look_at = DVec3(0, 0, -1);
-  s.camera.up = {0, 1, 0};
-  s.camera.fov_deg = 90;
-  s.width = 15;
-  s.height = 16;
+  SceneDesc s = test::origin_camera_scene(15, 16);
   s.render.estimator = Estimator::Uniform;
   s.render.max_bounces = 0;
   MaterialDesc light, dark;

@@ -37,6 +37,19 @@ inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_dep
   return s;
 }
 
+// A scene of w×h pixels seen from the origin along −z with a 90° vertical field of view, no shapes yet: the
+// camera of the analytic feature and denoiser tests.
+inline SceneDesc origin_camera_scene(int width, int height) {
+  SceneDesc s;
+  s.camera.position = DVec3(0.0);
+  s.camera.look_at = DVec3(0, 0, -1);
+  s.camera.up = {0, 1, 0};
+  s.camera.fov_deg = 90;
+  s.width = width;
+  s.height = height;
+  return s;
+}
+
 // Image mean and its standard error: the one definition shared with `pathtracer stress`.
 using MeanWithError = stress::MeanSE;
 using stress::film_mean;
