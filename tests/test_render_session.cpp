@@ -381,7 +381,8 @@ TEST_CASE("session: with denoising the final frame carries the denoise of the fi
                            emission = film.emission_image();
   ThreadPool pool(2);
   const std::vector<float> want =
-      denoise({desc.width, desc.height, &color, &variance, &albedo, &normal, &depth, &emission}, {}, pool);
+      denoise({desc.width, desc.height, &color, &variance, &albedo, &normal, &depth, &emission},
+              DenoiseSettings::viewer(), pool);
   REQUIRE(f.denoised.size() == want.size());
   int raw_mismatches = 0;
   for (size_t i = 0; i < film.pixel_count(); ++i)

@@ -32,6 +32,15 @@ struct DenoiseSettings {
   float sigma_luminance = 4.f; // σ_l: luminance differences up to ~σ_l standard deviations count as noise
   float sigma_depth = 1.f;     // σ_z: depth differences in units of the local depth gradient × distance
   float sigma_albedo = 0.1f;   // σ_a: albedo differences (Euclidean, RGB)
+
+  // The viewer's mode: four levels (61-pixel footprint) instead of five. Measured at 512², 16 spp, 2 threads
+  // (docs/denoising.md): ≈20 % less time, and relMSE within 0.3 % of five levels on cornell-spheres and materials
+  // (10 % lower on cornell).
+  static DenoiseSettings viewer() {
+    DenoiseSettings s;
+    s.iterations = 4;
+    return s;
+  }
 };
 
 // The filter with its working planes (~30 float planes of the image's size), kept from one call to the next:

@@ -444,7 +444,7 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     w.planes[5] = film.emission_image();
     w.denoiser.run({film.width(), film.height(), &w.planes[0], &w.planes[1], &w.planes[2], &w.planes[3],
                     &w.planes[4], &w.planes[5]},
-                   DenoiseSettings{}, w.renderer->pool(), w.denoised);
+                   DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);
     w.denoised_generation = w.generation;
     const Clock::time_point done = Clock::now();
     w.next_denoise = done + 2 * (done - now);
