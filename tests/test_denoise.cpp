@@ -32,12 +32,8 @@ Film render_features(const SceneDesc& desc, int spp, uint64_t seed) {
 }
 
 std::vector<float> denoise_film(const Film& film) {
-  const std::vector<float> color = film.mean_image(), variance = film.variance_image(), albedo = film.albedo_image(),
-                           normal = film.normal_image(), depth = film.depth_image(),
-                           emission = film.emission_image();
   ThreadPool pool(2);
-  return denoise({film.width(), film.height(), &color, &variance, &albedo, &normal, &depth, &emission},
-                 DenoiseSettings{}, pool);
+  return pt::denoise_film(film, DenoiseSettings{}, pool);
 }
 
 double relmse_of(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
@@ -45,7 +41,7 @@ double relmse_of(const std::vector<float>& a, const std::vector<float>& b, int w
 }
 
 float luminance_at(const std::vector<float>& img, size_t i) {
-  return 0.2126f * img[3 * i] + 0.7152f * img[3 * i + 1] + 0.0722f * img[3 * i + 2];
+  return luminance(Rgb(img[3 * i], img[3 * i + 1], img[3 * i + 2]));
 }
 
 // 64×64 pixels looking down −z at x, y ∈ [−2, 2] of the plane z = −2, lit by a large lamp behind the camera.
@@ -94,16 +90,14 @@ TEST_CASE("denoiser: a converged image stays as it is, a noisy one comes close t
   SceneDesc desc = load_scene("cornell");
   desc.width = desc.height = 64;
   const Film converged = render_features(desc, 1024, 7);
-  const std::vector<float> clean = converged.mean_image(), variance = converged.variance_image(),
-                           albedo = converged.albedo_image(), normal = converged.normal_image(),
-                           depth = converged.depth_image(), emission = converged.emission_image();
+  FilmPlanes planes;
+  planes.copy_from(converged);
+  const std::vector<float> clean = planes.color;
   ThreadPool pool(2);
   // Clean input stays clean: the image of 1024 samples per pixel with the variance of ~10^6 (the film's
   // variance / 1024), as a converged film would report it. The luminance weights tighten with the variance.
-  std::vector<float> converged_variance = variance;
-  for (float& v : converged_variance) v /= 1024.f;
-  const std::vector<float> out = denoise(
-      {desc.width, desc.height, &clean, &converged_variance, &albedo, &normal, &depth, &emission}, {}, pool);
+  for (float& v : planes.variance) v /= 1024.f;
+  const std::vector<float> out = denoise(planes.input(), {}, pool);
   const double changed = relmse_of(out, clean, desc.width, desc.height);
   MESSAGE("converged image, relMSE of the denoised against the input: " << changed);
   CHECK(changed < 1e-4);

@@ -376,13 +376,9 @@ TEST_CASE("session: with denoising the final frame carries the denoise of the fi
   // The raw mean is the film's, as without denoising; the denoised image is the denoiser's output for the
   // final film (the last pass before the stop condition is always denoised afresh).
   Film film = test::render_film(desc, 8, 0, true);
-  const std::vector<float> color = film.mean_image(), variance = film.variance_image(), albedo = film.albedo_image(),
-                           normal = film.normal_image(), depth = film.depth_image(),
-                           emission = film.emission_image();
+  const std::vector<float> color = film.mean_image();
   ThreadPool pool(2);
-  const std::vector<float> want =
-      denoise({desc.width, desc.height, &color, &variance, &albedo, &normal, &depth, &emission},
-              DenoiseSettings::viewer(), pool);
+  const std::vector<float> want = denoise_film(film, DenoiseSettings::viewer(), pool);
   REQUIRE(f.denoised.size() == want.size());
   int raw_mismatches = 0;
   for (size_t i = 0; i < film.pixel_count(); ++i)

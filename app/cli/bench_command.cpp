@@ -130,6 +130,7 @@ Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive,
   Film film(desc.width, desc.height);
   film.enable_features(true);  // for the denoised error at each budget (≈ 3 % more instructions per sample)
   Denoiser denoiser;
+  FilmPlanes planes;
   std::vector<float> denoised;
   double elapsed = 0, seconds_per_spp = 0;
   uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
@@ -149,11 +150,8 @@ Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive,
     }
     const Image img = film_image(film);
     const auto d0 = Clock::now();
-    const std::vector<float> variance = film.variance_image(), albedo = film.albedo_image(),
-                             normal = film.normal_image(), depth = film.depth_image(),
-                             emission = film.emission_image();
-    denoiser.run({film.width(), film.height(), &img.rgb, &variance, &albedo, &normal, &depth, &emission}, {},
-                 renderer.pool(), denoised);
+    planes.copy_from(film);
+    denoiser.run(planes.input(), {}, renderer.pool(), denoised);
     const double denoise_seconds = seconds_since(d0);
     s.points.push_back({elapsed, spp, relmse(img, ref), rmse(img, ref),
                         relmse(Image{img.width, img.height, denoised}, ref), denoise_seconds});

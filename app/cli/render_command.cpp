@@ -330,11 +330,7 @@ int run_render(const RenderOptions& o) {
   std::vector<float> denoised;
   if (o.denoise) {
     const auto denoise_start = clock::now();
-    const std::vector<float> variance = film.variance_image(), albedo = film.albedo_image(),
-                             normal = film.normal_image(), depth = film.depth_image(),
-                             emission = film.emission_image();
-    denoised = pt::denoise({desc.width, desc.height, &img.rgb, &variance, &albedo, &normal, &depth, &emission},
-                           DenoiseSettings{}, renderer.pool());
+    denoised = denoise_film(film, DenoiseSettings{}, renderer.pool());
     std::printf("denoised in %.1f ms\n", std::chrono::duration<double, std::milli>(clock::now() - denoise_start).count());
   }
   DisplaySettings display;

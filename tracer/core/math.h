@@ -27,7 +27,10 @@ inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
 inline float max_component(Vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
 inline float max_abs_component(Vec3 v) { return max_component(glm::abs(v)); }
 inline int max_dimension(Vec3 v) { return v.x > v.y ? (v.x > v.z ? 0 : 2) : (v.y > v.z ? 1 : 2); }
-inline float luminance(Rgb c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+inline constexpr float kLuminanceWeights[3] = {0.2126f, 0.7152f, 0.0722f};
+inline float luminance(Rgb c) {
+  return kLuminanceWeights[0] * c.x + kLuminanceWeights[1] * c.y + kLuminanceWeights[2] * c.z;
+}
 inline bool is_black(Rgb c) { return c.x == 0.f && c.y == 0.f && c.z == 0.f; }
 inline bool is_finite(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 inline float sqr(float x) { return x * x; }

@@ -21,10 +21,10 @@
 // (12 plane loads per tap).
 #include "denoise/denoiser.h"
 
+#include "core/math.h"
+
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdint>
 #include <experimental/simd>
 #include <functional>
 #include <stdexcept>
@@ -52,7 +52,7 @@ inline V exp_neg(V x) {
 }
 
 constexpr float kB3[5] = {1.f / 16, 1.f / 4, 3.f / 8, 1.f / 4, 1.f / 16};
-constexpr float kLuma[3] = {0.2126f, 0.7152f, 0.0722f};
+constexpr const float (&kLuma)[3] = kLuminanceWeights;  // Rec. 709 (core/math.h)
 // An albedo below this is treated as 1 when dividing it out: black and absent surfaces (escaped rays) have no
 // texture to protect, and dividing by ~0 would amplify their noise.
 constexpr float kMinDemodulateAlbedo = 1e-2f;

@@ -16,6 +16,8 @@
 
 namespace pt {
 
+class Film;
+
 // The inputs, row-major planes of the film (Film::*_image): 3 floats per pixel except depth (1).
 struct DenoiseInput {
   int width = 0, height = 0;
@@ -62,5 +64,16 @@ class Denoiser {
 
 // One call with fresh working planes.
 std::vector<float> denoise(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool);
+
+// A film's planes as the denoiser reads them, copied out of a film with features (Film::enable_features).
+struct FilmPlanes {
+  int width = 0, height = 0;
+  std::vector<float> color, variance, albedo, normal, depth, emission;
+  void copy_from(const Film& film);
+  DenoiseInput input() const { return {width, height, &color, &variance, &albedo, &normal, &depth, &emission}; }
+};
+
+// Denoises a film with features in one call (fresh planes).
+std::vector<float> denoise_film(const Film& film, const DenoiseSettings& settings, ThreadPool& pool);
 
 }  // namespace pt

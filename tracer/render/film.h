@@ -8,7 +8,7 @@
 // per-pixel variance of the mean, from which the image's relMSE is estimated without a reference.
 //
 // With features enabled (enable_features) the film also keeps, per pixel and with the same running mean, the
-// feature buffers of integrators/features.h (albedo, normal, depth) and the mean of "half A", one of two halves
+// feature buffers of integrators/features.h (albedo, normal, depth, emission) and the mean of "half A", one of two halves
 // into which the samples are split (the other half's mean follows from the total), for denoisers that estimate
 // their own error from two independent half images (Bitterli et al. 2016, §4).
 #pragma once

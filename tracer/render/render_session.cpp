@@ -69,7 +69,7 @@ struct RenderSession::Worker {
   std::vector<float> denoised;
   uint64_t denoised_generation = 0;
   Clock::time_point next_denoise;
-  std::vector<float> planes[6];  // film planes handed to the denoiser
+  FilmPlanes planes;             // film planes handed to the denoiser
   Denoiser denoiser;             // keeps its working planes between denoises
 };
 
@@ -435,16 +435,8 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
   }
   const Clock::time_point now = Clock::now();
   if (final_pass || w.denoised_generation != w.generation || now >= w.next_denoise) {
-    const Film& film = w.film;
-    w.planes[0] = film.mean_image();
-    w.planes[1] = film.variance_image();
-    w.planes[2] = film.albedo_image();
-    w.planes[3] = film.normal_image();
-    w.planes[4] = film.depth_image();
-    w.planes[5] = film.emission_image();
-    w.denoiser.run({film.width(), film.height(), &w.planes[0], &w.planes[1], &w.planes[2], &w.planes[3],
-                    &w.planes[4], &w.planes[5]},
-                   DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);
+    w.planes.copy_from(w.film);
+    w.denoiser.run(w.planes.input(), DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);
     w.denoised_generation = w.generation;
     const Clock::time_point done = Clock::now();
     w.next_denoise = done + 2 * (done - now);
