@@ -11,6 +11,7 @@ PACKAGES=(
   libcli11-dev doctest-dev                  # command line, tests
   libglfw3-dev libgl-dev libimgui-dev       # viewer window, GL, UI
   libosmesa6-dev xvfb xauth libgl1-mesa-dri # headless GL tests, window tests without a display (xvfb-run needs xauth)
+  xdotool x11-apps                          # window tests: unmap/map the viewer's window, capture the screen (xwd)
   gnuplot-nox                               # the convergence plots of `pathtracer bench`
   libopenexr-dev                            # HDR environment maps, multi-layer film output (.exr)
   openexr                                   # exrheader: the tests check the layers other tools will see

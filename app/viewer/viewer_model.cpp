@@ -35,7 +35,24 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
     const float s = max_component(e);
     emission_[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
   }
-  camera_.reset(scene.camera, scene_bounds(scene).radius, static_cast<double>(scene.width) / scene.height);
+  unsaved_edits_ = false;
+  pick_scene_.reset();
+  reset_camera_controller();
+}
+
+// Scenes written for a fly-through camera give a look-at point just ahead of the eye (shadertoy's is 1 unit
+// ahead in a room 25 wide): orbiting that point barely moves the camera. When the look-at point is closer than
+// a tenth of the scene's radius, the pivot moves along the view ray to the depth of the scene's bounding-box
+// centre (the view itself does not change).
+void ViewerModel::reset_camera_controller() {
+  const SceneBounds b = scene_bounds(scene_);
+  const CameraDesc& c = loaded_.camera;
+  camera_.reset(c, b.radius, static_cast<double>(scene_.width) / scene_.height);
+  const double look = glm::length(c.look_at - c.position);
+  if (look < 0.1 * b.radius) {
+    const double depth = glm::dot(b.center - c.position, (c.look_at - c.position) / look);
+    if (depth > look) camera_.set_pivot_distance(depth);
+  }
 }
 
 void ViewerModel::set_status(std::string text, bool error) {
@@ -51,6 +68,7 @@ bool ViewerModel::commit(const SceneEdit& edit) {
     return false;
   }
   apply_edit(scene_, edit);
+  if (!std::holds_alternative<CameraDesc>(edit)) unsaved_edits_ = true;
   note_edit(session_->edit(edit));
   return true;
 }
@@ -86,6 +104,7 @@ bool ViewerModel::set_render(const RenderSettings& render) {
     return false;
   }
   scene_.render = render;
+  unsaved_edits_ = true;
   note_edit(session_->set_render(render));
   return true;
 }
@@ -154,8 +173,44 @@ void ViewerModel::set_camera_target(DVec3 target) {
 }
 
 void ViewerModel::reset_camera() {
-  camera_.reset(loaded_.camera, scene_bounds(scene_).radius, static_cast<double>(scene_.width) / scene_.height);
+  reset_camera_controller();
   camera_changed();
+}
+
+std::optional<PickResult> ViewerModel::pick(double x, double y) {
+  if (!(x >= 0.0 && y >= 0.0 && x < scene_.width && y < scene_.height)) return std::nullopt;
+  if (!pick_scene_) {
+    try {
+      pick_scene_ = compile_scene(scene_);
+    } catch (const std::exception& e) {
+      set_status(std::string("cannot pick: ") + e.what(), true);
+      return std::nullopt;
+    }
+  }
+  const Scene& s = *pick_scene_;
+  const CameraDesc& c = camera_.camera();
+  const DVec3 forward = glm::normalize(c.look_at - c.position);
+  Camera cam = Camera::make(forward, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, scene_.width, scene_.height);
+  cam.origin = Vec3(c.position - s.world_origin);  // the compiled geometry is relative to its own camera
+  const Ray ray = cam.generate_ray(static_cast<float>(x), static_cast<float>(y));
+  Hit hit;
+  if (!s.intersect(ray, kInfinity, kNoPrimitive, hit)) return std::nullopt;
+  PickResult r;
+  r.distance = hit.t;
+  r.point = c.position + static_cast<double>(hit.t) * DVec3(ray.d);
+  r.material = s.material_of(hit.prim);
+  return r;
+}
+
+bool ViewerModel::set_pivot_at(double x, double y) {
+  const std::optional<PickResult> p = pick(x, y);
+  if (!p) {
+    set_status("no surface under the cursor: the pivot stays", false);
+    return false;
+  }
+  set_camera_target(p->point);
+  set_status("pivot on " + scene_.materials[p->material].name, false);
+  return true;
 }
 
 void ViewerModel::set_session_settings(const SessionSettings& settings) {
@@ -188,13 +243,27 @@ bool ViewerModel::load(const std::string& spec) {
   return true;
 }
 
-bool ViewerModel::save_scene(const std::string& path) {
+bool ViewerModel::save_scene(const std::string& path, bool replace) {
+  namespace fs = std::filesystem;
+  if (path.empty()) {
+    set_status("scene not saved: enter a file name", true);
+    return false;
+  }
+  std::error_code ec;
+  if (!replace && fs::exists(path, ec)) {
+    set_status("scene not saved: " + path + " exists (replace it, or choose another name)", true);
+    return false;
+  }
   try {
+    const fs::path parent = fs::path(path).parent_path();
+    if (!parent.empty() && !fs::exists(parent) && !fs::create_directories(parent, ec) && ec)
+      throw std::runtime_error("cannot create folder " + parent.string() + ": " + ec.message());
     write_file_safely(path, scene_to_json(scene_));
   } catch (const std::exception& e) {
     set_status(std::string("scene not saved: ") + e.what(), true);
     return false;
   }
+  unsaved_edits_ = false;
   set_status("saved scene " + path, false);
   return true;
 }
@@ -204,8 +273,13 @@ std::optional<std::string> ViewerModel::save_image(const std::vector<uint8_t>& r
     set_status("no image to save yet", true);
     return std::nullopt;
   }
-  const std::string stem = unique_output_stem(output_dir, scene_name_, {".png", ".pfm"});
+  std::string stem;
   try {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!output_dir.empty() && !fs::exists(output_dir) && !fs::create_directories(output_dir, ec) && ec)
+      throw std::runtime_error("cannot create folder " + output_dir + ": " + ec.message());
+    stem = unique_output_stem(output_dir, scene_name_, {".png", ".pfm"});
     write_png_rgba8(stem + ".png", frame.width, frame.height, rgba8);
     Image img{frame.width, frame.height, std::vector<float>(3ull * frame.width * frame.height)};
     for (size_t i = 0, n = static_cast<size_t>(frame.width) * frame.height; i < n; ++i)
@@ -225,9 +299,14 @@ void ViewerModel::shortcut(Shortcut s) {
     case Shortcut::Pause: set_paused(!paused_); break;
     case Shortcut::Save: save_requested = true; break;
     case Shortcut::Help: help_open = !help_open; break;
-    case Shortcut::Quit: quit_requested = true; break;
+    case Shortcut::Quit: request_quit(); break;
     case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
   }
+}
+
+void ViewerModel::request_quit() {
+  if (unsaved_edits_) confirm_quit = true;
+  else quit_requested = true;
 }
 
 std::optional<double> ViewerModel::note_frame_shown(uint64_t generation, std::chrono::steady_clock::time_point when) {

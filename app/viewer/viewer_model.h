@@ -33,6 +33,13 @@ struct ViewInput {
 
 enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi };
 
+// What lies under a point of the image (ViewerModel::pick).
+struct PickResult {
+  DVec3 point{0.0};     // world position of the hit
+  double distance = 0;  // from the camera
+  size_t material = 0;  // index into SceneDesc::materials
+};
+
 class ViewerModel {
  public:
   ViewerModel(const SceneDesc& scene, const std::string& scene_name, const SessionSettings& settings = {});
@@ -58,6 +65,11 @@ class ViewerModel {
   void set_camera_position(DVec3 position);
   void set_camera_target(DVec3 target);
   void reset_camera();  // back to the loaded scene's camera
+  // The surface under image point (x, y) (pixel units, (0,0) = top-left) as the current camera sees it; nullopt
+  // where the ray escapes. The first pick after a load compiles the scene's geometry for it.
+  std::optional<PickResult> pick(double x, double y);
+  // Makes the surface under image point (x, y) the orbit pivot: the camera turns to look at it (double-click).
+  bool set_pivot_at(double x, double y);
 
   // --- Session control (threads and stop conditions do not restart accumulation).
   const SessionSettings& session_settings() const { return settings_; }
@@ -68,7 +80,8 @@ class ViewerModel {
 
   // --- Files. Errors land in status(), never in an exception.
   bool load(const std::string& spec);  // a built-in name or a .json path
-  bool save_scene(const std::string& path);
+  // Never replaces an existing file unless `replace` (the panels ask the user first); creates missing folders.
+  bool save_scene(const std::string& path, bool replace = false);
   // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and
   // NAME-NNNN.pfm (the frame's linear mean). Returns the stem written, or nullopt on error.
   std::optional<std::string> save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame);
@@ -79,6 +92,11 @@ class ViewerModel {
   bool help_open = false, ui_visible = true, quit_requested = false;
   bool save_requested = false;  // the window saves (it alone can read the displayed pixels back)
   void shortcut(Shortcut s);
+  // Esc, the window's close button: quits at once, or asks first (confirm_quit) when the scene has edits that
+  // were not saved. Camera moves are views, not edits: they never make the viewer ask.
+  void request_quit();
+  bool confirm_quit = false;  // the panels show "quit without saving?" while this is set
+  bool has_unsaved_edits() const { return unsaved_edits_; }
 
   const std::string& status() const { return status_; }
   bool status_is_error() const { return status_error_; }
@@ -94,6 +112,7 @@ class ViewerModel {
     float strength = 0.f;
   };
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
+  void reset_camera_controller();  // to the loaded camera, with a pivot the orbit can use
   bool commit(const SceneEdit& edit);  // validate, apply to the model, send to the session
   void note_edit(uint64_t generation);
   void camera_changed();
@@ -105,6 +124,8 @@ class ViewerModel {
   CameraController camera_;
   SessionSettings settings_;
   bool paused_ = false;
+  bool unsaved_edits_ = false;
+  std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load
   std::unique_ptr<RenderSession> session_;
   std::string status_;
   bool status_error_ = false;

@@ -1,6 +1,9 @@
 #include "viewer/viewer_panels.h"
 
 #include <imgui.h>
+#include <imgui_internal.h>
+
+#include <filesystem>
 
 #include <cinttypes>
 #include <cmath>
@@ -15,11 +18,23 @@ namespace pt {
 
 namespace {
 
+const ImVec4 kErrorColour(1.f, 0.45f, 0.4f, 1.f);
+const ImVec4 kDimColour(0.65f, 0.65f, 0.65f, 1.f);
+
+// Tests find widgets by name (PanelState::record_items).
+void note_item(PanelState& st, const char* label) {
+  if (!st.record_items) return;
+  const ImVec2 a = ImGui::GetItemRectMin(), b = ImGui::GetItemRectMax();
+  st.item_rects[st.scope + label] = {a.x, a.y, b.x, b.y};
+}
+
 // A combo box over an enum's table (core/enum_table.h): the labels the viewer shows live with the enum.
 template <class E>
-bool enum_combo(const char* label, E& value) {
+bool enum_combo(PanelState& st, const char* label, E& value) {
   bool changed = false;
-  if (ImGui::BeginCombo(label, enum_label(value))) {
+  const bool open = ImGui::BeginCombo(label, enum_label(value));
+  note_item(st, label);
+  if (open) {
     for (const auto& entry : enum_entries<E>()) {
       const bool selected = entry.value == value;
       if (ImGui::Selectable(entry.label, selected) && !selected) {
@@ -33,9 +48,75 @@ bool enum_combo(const char* label, E& value) {
   return changed;
 }
 
+FieldMemory* find_refused(PanelState& st, ImGuiID id) {
+  for (FieldMemory& m : st.refused)
+    if (m.id == id) return &m;
+  return nullptr;
+}
 
-const ImVec4 kErrorColour(1.f, 0.45f, 0.4f, 1.f);
-const ImVec4 kDimColour(0.65f, 0.65f, 0.65f, 1.f);
+void forget_refused(PanelState& st, ImGuiID id) {
+  std::erase_if(st.refused, [&](const FieldMemory& m) { return m.id == id; });
+}
+
+template <class T, size_t N>
+void store(FieldMemory& m, ImGuiID id, const std::array<T, N>& v) {
+  static_assert(sizeof v <= sizeof m.bytes);
+  m.id = id;
+  std::memcpy(m.bytes.data(), v.data(), sizeof v);
+}
+
+template <class T, size_t N>
+void load(const FieldMemory& m, std::array<T, N>& v) {
+  std::memcpy(v.data(), m.bytes.data(), sizeof v);
+}
+
+// A numeric field: `draw(T*)` draws the widget (ImGui's "changed" as result), `apply(values)` hands a value to
+// the model and returns "" or why it was refused. Typed text (a text field, or a drag or slider turned into
+// one by Ctrl+click or double-click) applies once, on Enter or when the field loses focus, and only if it
+// differs from the model's value (Esc reverts): typing 1.5 never applies 1 first. A drag or slider moved with
+// the mouse applies live. A refused value stays in the field in red with the reason below it until the field
+// is edited again; the model keeps its last valid value, and no other field changes.
+template <class T, size_t N, class Draw, class Apply>
+void numeric_field(PanelState& st, const char* label, std::array<T, N> value, bool text_field, Draw&& draw,
+                   Apply&& apply) {
+  const ImGuiID id = ImGui::GetID(label);
+  const std::array<T, N> model_value = value;
+  const FieldMemory* refused = find_refused(st, id);
+  if (st.typing.id == id) load(st.typing, value);
+  else if (refused) load(*refused, value);
+  if (refused) ImGui::PushStyleColor(ImGuiCol_Text, kErrorColour);
+  const bool changed = draw(value.data());
+  if (refused) ImGui::PopStyleColor();
+  note_item(st, label);
+  const bool typing = text_field ? ImGui::IsItemActive() : ImGui::TempInputIsActive(ImGui::GetItemID());
+  auto commit = [&](const std::array<T, N>& v) {
+    const std::string error = apply(v);
+    forget_refused(st, id);
+    if (!error.empty()) {
+      FieldMemory m;
+      store(m, id, v);
+      m.error = error;
+      st.refused.push_back(std::move(m));
+    }
+  };
+  if (typing) {
+    if (changed || st.typing.id != id) store(st.typing, id, value);
+  } else if (st.typing.id == id) {  // typing just ended: Enter, Tab, a click elsewhere, or Esc
+    st.typing.id = 0;
+    if (std::memcmp(value.data(), model_value.data(), sizeof value) != 0) commit(value);
+    else forget_refused(st, id);
+  } else if (changed) {
+    commit(value);
+  }
+  if (const FieldMemory* r = find_refused(st, id)) {
+    ImGui::PushStyleColor(ImGuiCol_Text, kErrorColour);
+    ImGui::TextWrapped("%s", r->error.c_str());
+    ImGui::PopStyleColor();
+  }
+}
+
+// The model's answer to an edit, as numeric_field wants it.
+std::string outcome(bool applied, const ViewerModel& model) { return applied ? std::string() : model.status(); }
 
 // Opens the next header or tree node when the caller asked for everything expanded.
 void expand_if(const PanelState& state) {
@@ -126,30 +207,55 @@ void render_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Render", ImGuiTreeNodeFlags_DefaultOpen)) return;
   RenderSettings r = model.scene().render;
-  bool changed = enum_combo("estimator", r.estimator);
-  changed |= enum_combo("sampler", r.sampler);
-  changed |= ImGui::InputInt("max bounces", &r.max_bounces);
-  changed |= ImGui::InputInt("RR from bounce", &r.russian_roulette_depth);
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("Russian roulette from this bounce on; -1 = off");
-  if (changed) {
-    r.max_bounces = std::clamp(r.max_bounces, 0, 1 << 20);
-    r.russian_roulette_depth = std::max(r.russian_roulette_depth, -1);
-    model.set_render(r);
-  }
+  const bool changed = enum_combo(state, "estimator", r.estimator) | enum_combo(state, "sampler", r.sampler);
+  if (changed) model.set_render(r);
+  // Integer fields without ImGui's +/- buttons: 1.86's stepped InputScalar trips an assertion of its own
+  // (MarkItemEdited) when its typed text changes.
+  auto render_field = [&](const char* label, int RenderSettings::*field, const char* tip) {
+    numeric_field(state, label, std::array<int, 1>{model.scene().render.*field}, true,
+                  [&](int* v) { return ImGui::InputInt(label, v, 0, 0); },
+                  [&](const std::array<int, 1>& v) {
+                    RenderSettings edited = model.scene().render;
+                    edited.*field = v[0];
+                    return outcome(model.set_render(edited), model);
+                  });
+    if (tip && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", tip);
+  };
+  render_field("max bounces", &RenderSettings::max_bounces, nullptr);
+  render_field("RR from bounce", &RenderSettings::russian_roulette_depth, "Russian roulette from this bounce on; -1 = off");
 
-  SessionSettings s = model.session_settings();
-  bool settings_changed = ImGui::SliderInt("threads", &s.threads, 0, 4 * hardware_threads(),
-                                           s.threads == 0 ? "all" : "%d");
+  // Threads and stop conditions: typed values apply on Enter (a negative one is refused, never clamped).
+  auto session_field = [&](const char* label, auto SessionSettings::*group, auto member, auto draw, const char* rule) {
+    using T = std::remove_cvref_t<decltype(model.session_settings().*group.*member)>;
+    numeric_field(state, label, std::array<T, 1>{model.session_settings().*group.*member}, true, draw,
+                  [&](const std::array<T, 1>& v) {
+                    if (!(v[0] >= T(0))) return std::string(label) + ": " + rule;
+                    SessionSettings edited = model.session_settings();
+                    edited.*group.*member = v[0];
+                    model.set_session_settings(edited);
+                    return std::string();
+                  });
+  };
+  numeric_field(state, "threads", std::array<int, 1>{model.session_settings().threads}, true,
+                [](int* v) { return ImGui::InputInt("threads", v, 0, 0); },
+                [&](const std::array<int, 1>& v) {
+                  if (v[0] < 0 || v[0] > 4 * hardware_threads())
+                    return "threads: must be in [0, " + std::to_string(4 * hardware_threads()) + "] (0 = all " +
+                           std::to_string(hardware_threads()) + ")";
+                  SessionSettings edited = model.session_settings();
+                  edited.threads = v[0];
+                  model.set_session_settings(edited);
+                  return std::string();
+                });
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("render threads; 0 = all %d hardware threads", hardware_threads());
   ImGui::TextDisabled("stop at (0 = no limit):");
-  settings_changed |= ImGui::InputScalar("spp", ImGuiDataType_U64, &s.stop.spp, nullptr, nullptr, "%" PRIu64);
-  settings_changed |= ImGui::InputDouble("seconds", &s.stop.seconds, 0.0, 0.0, "%.1f");
-  settings_changed |= ImGui::InputDouble("relMSE", &s.stop.relmse, 0.0, 0.0, "%.2e");
-  if (settings_changed) {
-    s.threads = std::max(s.threads, 0);
-    s.stop.seconds = std::max(s.stop.seconds, 0.0);
-    s.stop.relmse = std::max(s.stop.relmse, 0.0);
-    model.set_session_settings(s);
-  }
+  session_field("spp", &SessionSettings::stop, &StopConditions::spp,
+                [](uint64_t* v) { return ImGui::InputScalar("spp", ImGuiDataType_U64, v, nullptr, nullptr, "%" PRIu64); },
+                "must be >= 0");
+  session_field("seconds", &SessionSettings::stop, &StopConditions::seconds,
+                [](double* v) { return ImGui::InputDouble("seconds", v, 0.0, 0.0, "%.1f"); }, "must be >= 0");
+  session_field("relMSE", &SessionSettings::stop, &StopConditions::relmse,
+                [](double* v) { return ImGui::InputDouble("relMSE", v, 0.0, 0.0, "%.2e"); }, "must be >= 0");
   if (ImGui::Button(model.paused() ? "Resume [P]" : "Pause [P]")) model.set_paused(!model.paused());
   ImGui::SameLine();
   if (ImGui::Button("Reset [R]")) model.restart();
@@ -221,30 +327,34 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   }
 }
 
-void camera_section(ViewerModel& model, const PanelState& state) {
+void camera_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Camera")) return;
   const CameraDesc& c = model.camera().camera();
   float fov = static_cast<float>(c.fov_deg);
   if (ImGui::SliderFloat(c.fov_axis == FovAxis::Vertical ? "vertical fov" : "horizontal fov", &fov, 5.f, 150.f, "%.2f°"))
     model.set_fov(fov);
-  double pos[3] = {c.position.x, c.position.y, c.position.z};
-  if (ImGui::InputScalarN("position", ImGuiDataType_Double, pos, 3, nullptr, nullptr, "%.3f",
-                          ImGuiInputTextFlags_EnterReturnsTrue))
-    model.set_camera_position({pos[0], pos[1], pos[2]});
-  double target[3] = {c.look_at.x, c.look_at.y, c.look_at.z};
-  if (ImGui::InputScalarN("target", ImGuiDataType_Double, target, 3, nullptr, nullptr, "%.3f",
-                          ImGuiInputTextFlags_EnterReturnsTrue))
-    model.set_camera_target({target[0], target[1], target[2]});
+  auto vector_field = [&](const char* label, DVec3 v, auto set) {
+    numeric_field(state, label, std::array<double, 3>{v.x, v.y, v.z}, true,
+                  [&](double* p) { return ImGui::InputScalarN(label, ImGuiDataType_Double, p, 3, nullptr, nullptr, "%.3f"); },
+                  [&](const std::array<double, 3>& p) {
+                    const DVec3 d(p[0], p[1], p[2]);
+                    if (!std::isfinite(d.x + d.y + d.z)) return std::string(label) + ": must be finite";
+                    set(d);
+                    return std::string();
+                  });
+  };
+  vector_field("position", c.position, [&](DVec3 d) { model.set_camera_position(d); });
+  vector_field("target", c.look_at, [&](DVec3 d) { model.set_camera_target(d); });
   if (ImGui::Button("Reset to scene camera")) model.reset_camera();
   ImGui::TextDisabled("fly speed %.3g units/s (shift: 4x)", model.camera().fly_speed());
 }
 
-void environment_section(ViewerModel& model, const PanelState& state) {
+void environment_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Environment")) return;
   EnvironmentDesc e = model.scene().environment;
-  bool changed = enum_combo("type", e.type);
+  bool changed = enum_combo(state, "type", e.type);
   switch (e.type) {
     case EnvironmentType::Constant:
       changed |= ImGui::ColorEdit3("radiance", &e.radiance.x, ImGuiColorEditFlags_Float | ImGuiColorEditFlags_HDR);
@@ -281,7 +391,7 @@ void environment_section(ViewerModel& model, const PanelState& state) {
   if (changed) model.set_environment(e);
 }
 
-void materials_section(ViewerModel& model, const PanelState& state) {
+void materials_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Materials")) return;
   const std::vector<MaterialDesc>& mats = model.scene().materials;
@@ -289,29 +399,42 @@ void materials_section(ViewerModel& model, const PanelState& state) {
     ImGui::PushID(static_cast<int>(i));
     expand_if(state);
     if (ImGui::TreeNode(mats[i].name.c_str())) {
+      state.scope = mats[i].name + "/";
       MaterialDesc m = mats[i];
-      bool changed = enum_combo("type", m.type);
+      bool changed = enum_combo(state, "type", m.type);
       const MaterialType t = m.type;
       const bool rough = t == MaterialType::Conductor || t == MaterialType::Dielectric || t == MaterialType::Plastic;
       const bool has_ior = t == MaterialType::Dielectric || t == MaterialType::Plastic || t == MaterialType::Subsurface;
       if (t == MaterialType::Conductor) {
-        changed |= enum_combo("metal", m.metal);
+        changed |= enum_combo(state, "metal", m.metal);
         if (m.metal != MetalPreset::None) m.complex_ior = false;
       }
       const bool uses_albedo = t != MaterialType::Dielectric && !(t == MaterialType::Conductor && (m.metal != MetalPreset::None || m.complex_ior));
       if (uses_albedo) changed |= ImGui::ColorEdit3("albedo", &m.albedo.x, ImGuiColorEditFlags_Float);
-      if (rough) changed |= ImGui::SliderFloat("roughness", &m.roughness, 0.f, 1.f, "%.3f", ImGuiSliderFlags_AlwaysClamp);
-      if (has_ior) changed |= ImGui::DragFloat("IOR", &m.ior, 0.002f, 1.0f, 4.0f, "%.3f", ImGuiSliderFlags_AlwaysClamp);
-      if (t == MaterialType::Subsurface)
-        changed |= ImGui::SliderFloat("g (anisotropy)", &m.g, -0.95f, 0.95f, "%.2f", ImGuiSliderFlags_AlwaysClamp);
       changed |= ImGui::Checkbox("two-sided emission", &m.two_sided);
       if (changed) model.set_material(i, m);
+      // One numeric property: applied on the model's current material, so no other field is ever reverted.
+      auto property = [&](const char* label, float MaterialDesc::*field, auto draw) {
+        numeric_field(state, label, std::array<float, 1>{model.scene().materials[i].*field}, false, draw,
+                      [&](const std::array<float, 1>& v) {
+                        MaterialDesc edited = model.scene().materials[i];
+                        edited.*field = v[0];
+                        return outcome(model.set_material(i, edited), model);
+                      });
+      };
+      if (rough)
+        property("roughness", &MaterialDesc::roughness, [](float* v) { return ImGui::SliderFloat("roughness", v, 0.f, 1.f, "%.3f"); });
+      if (has_ior)
+        property("IOR", &MaterialDesc::ior, [](float* v) { return ImGui::DragFloat("IOR", v, 0.002f, 1.0f, 4.0f, "%.3f"); });
+      if (t == MaterialType::Subsurface)
+        property("g (anisotropy)", &MaterialDesc::g, [](float* v) { return ImGui::SliderFloat("g (anisotropy)", v, -0.95f, 0.95f, "%.2f"); });
       Rgb colour = model.emission_colour(i);
-      float strength = model.emission_strength(i);
-      bool emission_changed = ImGui::ColorEdit3("emission", &colour.x, ImGuiColorEditFlags_Float);
-      emission_changed |= ImGui::DragFloat("strength", &strength, 0.05f, 0.f, 1e5f, "%.3f",
-                                           ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp);
-      if (emission_changed) model.set_emission(i, colour, strength);
+      if (ImGui::ColorEdit3("emission", &colour.x, ImGuiColorEditFlags_Float))
+        model.set_emission(i, colour, model.emission_strength(i));
+      numeric_field(state, "strength", std::array<float, 1>{model.emission_strength(i)}, false,
+                    [](float* v) { return ImGui::DragFloat("strength", v, 0.05f, 0.f, 1e5f, "%.3f", ImGuiSliderFlags_Logarithmic); },
+                    [&](const std::array<float, 1>& v) { return outcome(model.set_emission(i, model.emission_colour(i), v[0]), model); });
+      state.scope.clear();
       ImGui::TreePop();
     }
     ImGui::PopID();
@@ -336,8 +459,69 @@ void scene_section(ViewerModel& model, PanelState& state) {
   ImGui::SameLine();
   if (ImGui::Button("Load##file")) model.load(state.scene_path);
   ImGui::InputText("save as", state.save_scene_path, sizeof state.save_scene_path);
+  note_item(state, "save as");
   ImGui::SameLine();
-  if (ImGui::Button("Save")) model.save_scene(state.save_scene_path);
+  // An existing file is replaced only when the user says so.
+  if (ImGui::Button("Save")) {
+    std::error_code ec;
+    if (std::filesystem::exists(state.save_scene_path, ec)) state.confirm_replace = true;
+    else model.save_scene(state.save_scene_path);
+  }
+  note_item(state, "Save");
+  if (state.confirm_replace) ImGui::OpenPopup("Replace scene file?");
+  if (ImGui::BeginPopupModal("Replace scene file?", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::Text("%s already exists.", state.save_scene_path);
+    if (ImGui::Button("Replace")) {
+      model.save_scene(state.save_scene_path, true);
+      state.confirm_replace = false;
+      ImGui::CloseCurrentPopup();
+    }
+    note_item(state, "Replace");
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel")) {
+      state.confirm_replace = false;
+      ImGui::CloseCurrentPopup();
+    }
+    ImGui::EndPopup();
+  } else {
+    state.confirm_replace = false;  // closed another way (Esc)
+  }
+}
+
+// Quitting with scene edits that were not saved (model.confirm_quit): save, discard, or stay.
+void quit_question(ViewerModel& model, PanelState& state) {
+  if (!model.confirm_quit) return;
+  if (!ImGui::IsPopupOpen("Quit?")) ImGui::OpenPopup("Quit?");
+  const ImGuiIO& io = ImGui::GetIO();
+  ImGui::SetNextWindowPos(ImVec2(0.5f * io.DisplaySize.x, 0.5f * io.DisplaySize.y), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  if (!ImGui::BeginPopupModal("Quit?", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    model.confirm_quit = false;
+    return;
+  }
+  ImGui::TextUnformatted("The scene has edits that are not saved.");
+  ImGui::InputText("scene file", state.save_scene_path, sizeof state.save_scene_path);
+  std::error_code ec;
+  const bool exists = std::filesystem::exists(state.save_scene_path, ec);
+  if (exists) ImGui::TextColored(ImVec4(1.f, 0.8f, 0.3f, 1.f), "exists: saving replaces it");
+  if (ImGui::Button(exists ? "Replace and quit" : "Save and quit")) {
+    if (model.save_scene(state.save_scene_path, exists)) model.quit_requested = true;
+    model.confirm_quit = false;
+    ImGui::CloseCurrentPopup();
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Quit without saving")) {
+    model.quit_requested = true;
+    model.confirm_quit = false;
+    ImGui::CloseCurrentPopup();
+  }
+  note_item(state, "Quit without saving");
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel")) {
+    model.confirm_quit = false;
+    ImGui::CloseCurrentPopup();
+  }
+  note_item(state, "Cancel quit");
+  ImGui::EndPopup();
 }
 
 void output_section(ViewerModel& model, PanelState& state, const ShownImage& shown) {
@@ -355,12 +539,13 @@ void help_section(ViewerModel& model) {
   model.help_open = ImGui::CollapsingHeader("Help [F1]");
   if (!model.help_open) return;
   static const char* const rows[][2] = {
-      {"left drag", "orbit around the target"},    {"middle / shift+left drag", "pan"},
+      {"left drag", "orbit around the pivot"},     {"double-click", "pivot on the surface under the cursor"},
+      {"middle / shift+left drag", "pan"},
       {"wheel", "dolly towards / away"},           {"right drag", "look around"},
       {"right held + WASD QE", "fly (shift: 4x)"}, {"R", "reset accumulation"},
       {"P", "pause / resume"},                     {"S", "save image (PNG + PFM)"},
       {"Tab", "hide / show panels"},               {"F1", "this help"},
-      {"Esc", "quit"}};
+      {"Esc", "close a list / cancel typing; else quit (asks if the scene has unsaved edits)"}};
   if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingFixedFit)) {
     for (const auto& r : rows) {
       ImGui::TableNextRow();
@@ -376,6 +561,7 @@ void help_section(ViewerModel& model) {
 }  // namespace
 
 float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown) {
+  quit_question(model, state);  // also with the panels hidden
   if (!model.ui_visible) return 0.f;
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
   const ImGuiIO& io = ImGui::GetIO();
@@ -389,12 +575,17 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
   ImGui::Text("%s  %dx%d%s  %.1f ms/frame", model.scene_name().c_str(), shown.width, shown.height,
               shown.preview ? " (preview)" : "", shown.frame_ms);
   if (shown.edit_latency_ms >= 0) ImGui::TextDisabled("last edit shown after %.0f ms", shown.edit_latency_ms);
+  // The status line has room reserved (two lines), so a message never shifts the panel under the pointer.
+  ImGui::BeginChild("status", ImVec2(0.f, 2.f * ImGui::GetTextLineHeightWithSpacing()), false,
+                    ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
   if (!model.status().empty()) {
     if (model.status_is_error()) ImGui::PushStyleColor(ImGuiCol_Text, kErrorColour);
     else ImGui::PushStyleColor(ImGuiCol_Text, kDimColour);
     ImGui::TextWrapped("%s", model.status().c_str());
     ImGui::PopStyleColor();
+    if (ImGui::IsWindowHovered()) ImGui::SetTooltip("%s", model.status().c_str());
   }
+  ImGui::EndChild();
   render_section(model, state);
   display_section(model, state, shown);
   camera_section(model, state);

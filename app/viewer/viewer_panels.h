@@ -1,7 +1,9 @@
 // The viewer's Dear ImGui panels: Render, Display, Camera, Materials, Scene, Output, Help. Pure ImGui calls on
 // the ViewerModel (no GL, no GLFW), so the GL tests render them offscreen exactly as the window does.
 #pragma once
+#include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,13 @@ struct ShownImage {
   double edit_latency_ms = -1;  // last edit → first updated image; < 0 unknown
 };
 
+// A numeric field whose typed value is not applied yet (being typed), or was refused (shown red with the reason).
+struct FieldMemory {
+  unsigned id = 0;  // ImGuiID of the widget
+  std::array<unsigned char, 32> bytes{};  // the value, as the widget's T[N]
+  std::string error;  // why it was refused ("" while typing)
+};
+
 // UI-only state: text buffers and scratch vectors reused from frame to frame.
 struct PanelState {
   char scene_path[512] = "";
@@ -28,6 +37,14 @@ struct PanelState {
   char output_dir[512] = ".";
   int builtin = 0;
   bool expand_all = false;  // open every section and material (tests render all of the UI this way)
+  bool confirm_replace = false;  // "scene file exists: replace?" is open
+  FieldMemory typing;               // the field being typed into
+  std::vector<FieldMemory> refused;  // fields whose value the model refused
+  // Tests: with record_items, the screen rectangle (min x, min y, max x, max y) of each named widget, by
+  // "section/label" (materials: "material name/label"), so scripted input can click on it.
+  bool record_items = false;
+  std::map<std::string, std::array<float, 4>> item_rects;
+  std::string scope;
   std::vector<RelMsePoint> history;
   std::vector<std::string> builtin_names;
 };

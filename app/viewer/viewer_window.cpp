@@ -19,6 +19,7 @@
 #include "viewer/gl_presenter.h"
 #include "io/image_io.h"
 #include "viewer/output_files.h"
+#include "viewer/viewer_input.h"
 #include "viewer/viewer_model.h"
 #include "viewer/viewer_panels.h"
 
@@ -41,6 +42,18 @@ void on_scroll(GLFWwindow*, double, double) { ++g_input_events; }
 void on_key(GLFWwindow*, int, int, int, int) { ++g_input_events; }
 void on_char(GLFWwindow*, unsigned) { ++g_input_events; }
 void on_size(GLFWwindow*, int, int) { ++g_input_events; }
+// The window system lost the window's pixels (restored from minimised, uncovered, resized): redraw at once,
+// whatever the render is doing (a finished or paused render sends no new images).
+void on_refresh(GLFWwindow*) { ++g_input_events; }
+void on_iconify(GLFWwindow*, int) { ++g_input_events; }
+void on_focus(GLFWwindow*, int) { ++g_input_events; }
+// The close button asks the model, which may want to ask the user first (unsaved scene edits).
+std::atomic<bool> g_close_requested{false};
+void on_close(GLFWwindow* w) {
+  g_close_requested = true;
+  glfwSetWindowShouldClose(w, GLFW_FALSE);
+  ++g_input_events;
+}
 
 struct Rect {
   int x = 0, y = 0, w = 0, h = 0;  // GL convention: y from the bottom
@@ -58,39 +71,6 @@ Rect fit_image(int image_w, int image_h, int area_w, int area_h) {
   r.x = (area_w - r.w) / 2;
   r.y = (area_h - r.h) / 2;
   return r;
-}
-
-// Pointer and keys → camera input and shortcuts, honouring what ImGui claims (a drag that starts on the image
-// keeps going over the panel: ImGui does not claim it). The fly keys WASD/QE act only while the right button
-// is held, so S alone stays "save".
-void handle_input(const ImGuiIO& io, ViewerModel& model, double seconds, float image_height) {
-  ViewInput in;
-  in.viewport_height = image_height;
-  const bool right = io.MouseDown[1];
-  if (!io.WantCaptureMouse) {
-    const bool left = io.MouseDown[0], middle = io.MouseDown[2];
-    in.drag = Vec2(io.MouseDelta.x, io.MouseDelta.y);
-    in.look = right;
-    in.pan = middle || (left && io.KeyShift);
-    in.orbit = left && !io.KeyShift;
-    in.wheel = io.MouseWheel;
-  }
-  if (!io.WantCaptureKeyboard) {
-    if (in.look) {
-      auto key = [&](int k) { return io.KeysDown[k] ? 1.0 : 0.0; };
-      in.fly = DVec3(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_E) - key(GLFW_KEY_Q),
-                     key(GLFW_KEY_W) - key(GLFW_KEY_S));
-      in.fast = io.KeyShift;
-    } else if (!right) {
-      if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) model.shortcut(Shortcut::Reset);
-      if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) model.shortcut(Shortcut::Pause);
-      if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
-      if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
-    }
-    if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) model.shortcut(Shortcut::Quit);
-  }
-  if (ImGui::IsKeyPressed(GLFW_KEY_F1, false)) model.shortcut(Shortcut::Help);
-  model.apply_input(in, seconds);
 }
 
 // --bench-edits: the two kinds of edit a user makes most, alternately, to time edit → image.
@@ -146,15 +126,6 @@ struct FrameTimes {
   }
 };
 
-// Keys and buttons whose holding keeps the view changing without new events (GLFW repeats keys only after a delay).
-bool input_held(const ImGuiIO& io) {
-  for (bool down : io.MouseDown)
-    if (down) return true;
-  for (int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E})
-    if (io.KeysDown[k]) return true;
-  return false;
-}
-
 // Ctrl-C / SIGTERM: save the image so far (as the S key does), then close the window normally, so --stats still
 // prints and the session stops cleanly. A second signal exits at once (InterruptScope).
 int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const InterruptScope& interrupts) {
@@ -181,6 +152,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
   for (;;) {
     const Clock::time_point start = Clock::now();
     glfwPollEvents();
+    if (g_close_requested.exchange(false)) model.request_quit();
     // Quitting draws one last frame when a screenshot is wanted (the back buffer is undefined after a swap).
     const int sig = interrupts.signal_received();
     if (sig != 0 && !saving_on_signal) {
@@ -234,8 +206,15 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       const float panel = model.ui_visible ? std::min(kPanelWidth, io.DisplaySize.x) : 0.f;
       const Rect r = fit_image(model.scene().width, model.scene().height, fb_w - static_cast<int>(panel * scale), fb_h);
       image_height = static_cast<double>(r.h) / scale;
-      handle_input(io, model, dt, static_cast<float>(image_height));
-      held = input_held(io);
+      ImageArea area;
+      area.x = static_cast<float>(r.x) / scale;
+      area.y = static_cast<float>(fb_h - r.y - r.h) / scale;
+      area.w = static_cast<float>(r.w) / scale;
+      area.h = static_cast<float>(r.h) / scale;
+      area.image_width = model.scene().width;
+      area.image_height = model.scene().height;
+      handle_viewer_input(io, model, dt, area);
+      held = viewer_input_held(io);
 
       shown.frame_ms = smoothed_ms;
       draw_viewer_panels(model, panels, shown);
@@ -342,6 +321,10 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
   glfwSetKeyCallback(window, on_key);
   glfwSetCharCallback(window, on_char);
   glfwSetFramebufferSizeCallback(window, on_size);
+  glfwSetWindowRefreshCallback(window, on_refresh);
+  glfwSetWindowIconifyCallback(window, on_iconify);
+  glfwSetWindowFocusCallback(window, on_focus);
+  glfwSetWindowCloseCallback(window, on_close);
 
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <iterator>
+#include <vector>
 
 #include "../run_command.h"
 
@@ -109,5 +111,60 @@ TEST_CASE("view cli: Ctrl-C saves the image so far (PNG and PFM, as the S key do
   CHECK(magic == "PF");
   CHECK(pw == 512);
   CHECK(ph == 512);
+  std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+// Red-dominant pixels (the Cornell box's left wall) in the left `width` columns of an X window dump (xwd,
+// ZPixmap, 32 bits per pixel): a lost image has none (black, or the server's background).
+long red_pixels_in_xwd(const std::string& path, int width) {
+  std::ifstream f(path, std::ios::binary);
+  std::vector<unsigned char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (b.size() < 100) return -1;
+  auto card32 = [&](size_t i) {  // the header is big-endian
+    return static_cast<uint32_t>(b[4 * i]) << 24 | static_cast<uint32_t>(b[4 * i + 1]) << 16 |
+           static_cast<uint32_t>(b[4 * i + 2]) << 8 | b[4 * i + 3];
+  };
+  const uint32_t header = card32(0), w = card32(4), h = card32(5), byte_order = card32(7), bpp = card32(11),
+                 bytes_per_line = card32(12), colours = card32(19);
+  if (bpp != 32) return -1;
+  const size_t data = header + 12ull * colours;
+  if (b.size() < data + static_cast<size_t>(h) * bytes_per_line) return -1;
+  long red = 0;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < std::min<uint32_t>(w, width); ++x) {
+      const unsigned char* p = &b[data + y * bytes_per_line + 4ull * x];
+      const int r = byte_order == 0 ? p[2] : p[1], g = byte_order == 0 ? p[1] : p[2];
+      red += r > 60 && r > 2 * g;
+    }
+  return red;
+}
+
+}  // namespace
+
+TEST_CASE("view cli: a window unmapped and mapped again (restored) after the render finished shows the image again") {
+  if (!have_xvfb_run() || std::system("command -v xdotool > /dev/null && command -v xwd > /dev/null") != 0) {
+    MESSAGE("xvfb-run, xdotool or xwd not found: skipping the expose test");
+    return;
+  }
+  // Before, a finished (or paused) render drew nothing more, and a window whose pixels the X server had dropped
+  // (minimised and restored, uncovered) stayed black. The render stops at 4 spp; 7 s later the window is
+  // unmapped and mapped again, and dumped before and after.
+  const std::string dir = "view_expose_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  const std::string script =
+      "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 7; wid=$(xdotool search --name pathtracer | head -1); "
+      "xwd -id $wid -silent > " + dir + "/before.xwd; xdotool windowunmap --sync $wid; sleep 0.5; "
+      "xdotool windowmap --sync $wid; sleep 1.5; xwd -id $wid -silent > " + dir + "/after.xwd; wait $pid";
+  const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" + script + "'",
+                    "view --spp 4 --threads 2 --seconds 11");
+  INFO(r.out << r.err);
+  CHECK(r.status == 0);
+  const long before = red_pixels_in_xwd(dir + "/before.xwd", 512), after = red_pixels_in_xwd(dir + "/after.xwd", 512);
+  MESSAGE("red-wall pixels before " << before << ", after unmap/map " << after);
+  CHECK(before > 5000);  // the left wall: ~40 % of 512 × 512 × 0.1
+  CHECK(after == before);
   std::filesystem::remove_all(dir);
 }

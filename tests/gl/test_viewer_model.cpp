@@ -291,3 +291,51 @@ TEST_CASE("viewer: the environment switches between constant and sky live, a mis
   CHECK(model.session().stats().generation == g);
   CHECK(model.scene().environment.type == EnvironmentType::Sky);
 }
+
+TEST_CASE("viewer: on shadertoy (look-at 1 unit ahead in a room 25 wide) the orbit pivots about the room's centre") {
+  SceneDesc d = load_scene("shadertoy");
+  d.width = 64;
+  d.height = 36;
+  ViewerModel model(d, "shadertoy", stop_at(1));
+  // The view is the file's until the first move; the pivot is on the view ray at the bounding box centre's depth.
+  CHECK(model.camera().camera().look_at.z == -1.0);
+  CHECK(model.camera().target().z == doctest::Approx(-30.0));
+  CHECK(model.camera().distance() == doctest::Approx(30.0));
+  // A drag of a tenth of the viewport height turns by π/10 about the pivot: the camera travels ~30·π/10 ≈ 9.4
+  // units (before: ~0.3, orbiting a point 1 unit ahead), and keeps looking at the room's centre.
+  ViewInput in;
+  in.orbit = true;
+  in.drag = Vec2(10.f, 0.f);
+  in.viewport_height = 100.f;
+  model.apply_input(in, 0.0);
+  const CameraDesc& c = model.camera().camera();
+  CHECK(glm::length(c.position - DVec3(0.0)) > 9.0);
+  CHECK(glm::length(c.look_at - DVec3(0, 0, -30)) < 1e-9);
+  // Scenes whose look-at point is meaningful keep it (cornell).
+  ViewerModel cornell(small_cornell(), "cornell", stop_at(1));
+  CHECK(glm::length(cornell.camera().target() - load_scene("cornell").camera.look_at) < 1e-12);
+}
+
+TEST_CASE("viewer: pick finds the material under an image point; double-click's pivot turns the camera to the hit") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(1));
+  const size_t red = material_index(model, "red"), green = material_index(model, "green");
+  // The red wall fills the left edge of the image, the green one the right edge, at mid height.
+  const auto left = model.pick(1.0, 20.0), right = model.pick(39.0, 20.0);
+  REQUIRE(left);
+  REQUIRE(right);
+  CHECK(left->material == red);
+  CHECK(right->material == green);
+  CHECK(left->point.x == doctest::Approx(552.8).epsilon(0.01));  // the red wall's plane (x ≈ 550–556)
+  CHECK(right->point.x == doctest::Approx(0.0).scale(1.0));
+  CHECK_FALSE(model.pick(-1.0, 20.0));  // outside the image
+
+  const DVec3 eye = model.camera().camera().position;
+  REQUIRE(model.set_pivot_at(1.0, 20.0));
+  CHECK(glm::length(model.camera().target() - left->point) < 1e-9);
+  CHECK(glm::length(model.camera().camera().position - eye) < 1e-6 * glm::length(eye));  // the eye stays
+  // The pivot now sits in the image centre: a pick there finds the red wall at that point.
+  const auto centre = model.pick(20.0, 20.0);
+  REQUIRE(centre);
+  CHECK(centre->material == red);
+  CHECK(glm::length(centre->point - left->point) < 1.0);
+}

@@ -114,6 +114,12 @@ void CameraController::fly(DVec3 axes, double seconds, double speed_multiplier) 
   update();
 }
 
+void CameraController::set_pivot_distance(double d) {
+  if (!(d > 0.0 && std::isfinite(d))) return;
+  target_ = camera_.position - d * offset_direction();
+  distance_ = d;
+}
+
 void CameraController::set_fov(double fov_deg) { camera_.fov_deg = std::clamp(fov_deg, 1.0, 170.0); }
 
 void CameraController::set_position(DVec3 position) {

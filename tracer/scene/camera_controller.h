@@ -41,6 +41,9 @@ class CameraController {
   void set_position(DVec3 position);  // keeps the target
   void set_target(DVec3 target);      // keeps the position
   void set_aspect(double aspect) { aspect_ = aspect; }
+  // Moves the orbit pivot (the target) along the current view ray to distance d from the camera; the view does
+  // not change (camera() stays as it is until the next move). Ignored unless d is finite and > 0.
+  void set_pivot_distance(double d);
 
   DVec3 target() const { return target_; }
   double distance() const { return distance_; }

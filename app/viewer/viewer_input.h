@@ -1,0 +1,30 @@
+// Pointer and keys → camera moves, picks and shortcuts, honouring what ImGui claims. ImGui only, no GLFW calls:
+// the GL tests drive it with synthetic ImGuiIO input exactly as the window does. (ImGui 1.86 indexes keys by
+// the platform backend's key codes, so the key constants are GLFW's.)
+#pragma once
+#include <imgui.h>
+
+namespace pt {
+
+class ViewerModel;
+
+// Where the image is drawn, in ImGui (window) units, top-left origin, and its size in pixels.
+struct ImageArea {
+  float x = 0, y = 0, w = 0, h = 0;
+  int image_width = 0, image_height = 0;
+  bool contains(ImVec2 p) const { return p.x >= x && p.y >= y && p.x < x + w && p.y < y + h; }
+  // The image point (pixel units, (0,0) = top-left) under window point p.
+  ImVec2 to_image(ImVec2 p) const {
+    return ImVec2((p.x - x) / w * static_cast<float>(image_width), (p.y - y) / h * static_cast<float>(image_height));
+  }
+};
+
+// One UI frame's input, between ImGui::NewFrame() and drawing the panels. `seconds` is the time since the
+// last frame (fly speed).
+void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, const ImageArea& image);
+
+// Keys and buttons whose holding keeps the view changing without new events (GLFW repeats keys only after a
+// delay), so the window keeps drawing.
+bool viewer_input_held(const ImGuiIO& io);
+
+}  // namespace pt

@@ -1,0 +1,244 @@
+// The viewer's panels and input mapping driven by synthetic ImGui input (mouse, keys, typed characters), as a
+// user drives them: the bugs a new user met (Esc quitting from an open combo box, numbers applied per keystroke,
+// invalid values silently clamped, scene files silently replaced). No GL: ImGui builds its draw lists only.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>  // key codes (ImGui 1.86's key indices in the viewer)
+#include <doctest/doctest.h>
+#include <imgui.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "scene/scene_json.h"
+#include "viewer/viewer_input.h"
+#include "viewer/viewer_model.h"
+#include "viewer/viewer_panels.h"
+
+using namespace pt;
+
+namespace {
+
+SceneDesc small(const std::string& name) {
+  SceneDesc d = load_scene(name);
+  d.width = d.height = 24;
+  d.render.max_bounces = 2;
+  return d;
+}
+
+SessionSettings few_samples() {
+  SessionSettings s;
+  s.stop.spp = 2;
+  s.preview_divisor = 1;
+  s.threads = 1;
+  return s;
+}
+
+// One ImGui context with the viewer's panels on a tall display (every section open and on screen), and helpers
+// that click, type and press keys over whole frames.
+struct Ui {
+  ViewerModel& model;
+  PanelState state;
+  ShownImage shown;
+  ImageArea area;
+
+  explicit Ui(ViewerModel& m) : model(m) {
+    ImGui::CreateContext();
+    ImGuiIO& io = ImGui::GetIO();
+    io.IniFilename = nullptr;
+    io.DisplaySize = ImVec2(1200.f, 9000.f);
+    unsigned char* pixels = nullptr;
+    int w = 0, h = 0;
+    io.Fonts->GetTexDataAsRGBA32(&pixels, &w, &h);  // builds the font atlas (no renderer here)
+    io.KeyMap[ImGuiKey_Enter] = GLFW_KEY_ENTER;
+    io.KeyMap[ImGuiKey_Escape] = GLFW_KEY_ESCAPE;
+    io.KeyMap[ImGuiKey_Tab] = GLFW_KEY_TAB;
+    io.KeyMap[ImGuiKey_Backspace] = GLFW_KEY_BACKSPACE;
+    state.record_items = true;
+    state.expand_all = true;
+    shown.width = shown.height = 24;
+    frame();
+  }
+  ~Ui() { ImGui::DestroyContext(); }
+
+  void frame() {
+    ImGuiIO& io = ImGui::GetIO();
+    io.DeltaTime = 1.f / 60.f;
+    ImGui::NewFrame();
+    handle_viewer_input(io, model, 1.0 / 60.0, area);
+    draw_viewer_panels(model, state, shown);
+    popup_open = ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId | ImGuiPopupFlags_AnyPopupLevel);
+    ImGui::Render();
+  }
+  bool popup_open = false;  // after the last frame
+  ImVec2 centre(const std::string& item) {
+    const auto it = state.item_rects.find(item);
+    REQUIRE_MESSAGE(it != state.item_rects.end(), "no widget " << item);
+    const auto& r = it->second;
+    return ImVec2(0.5f * (r[0] + r[2]), 0.5f * (r[1] + r[3]));
+  }
+  void click(const std::string& item, bool ctrl = false) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.MousePos = centre(item);
+    frame();
+    io.KeyCtrl = ctrl;
+    io.MouseDown[0] = true;
+    frame();
+    io.MouseDown[0] = false;
+    frame();
+    io.KeyCtrl = false;
+    frame();
+  }
+  void type(const std::string& text) {
+    for (char c : text) {
+      ImGui::GetIO().AddInputCharacter(static_cast<unsigned>(c));
+      frame();
+    }
+  }
+  void press(int key) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.KeysDown[key] = true;
+    frame();
+    io.KeysDown[key] = false;
+    frame();
+  }
+  bool any_popup_open() const { return popup_open; }
+};
+
+size_t material_index(const ViewerModel& m, const std::string& name) {
+  for (size_t i = 0; i < m.scene().materials.size(); ++i)
+    if (m.scene().materials[i].name == name) return i;
+  FAIL("no material " << name);
+  return 0;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+TEST_CASE("viewer input: Esc with a combo box open closes the list and does not quit; a second Esc quits") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  ui.click("estimator");
+  REQUIRE(ui.any_popup_open());
+  ui.press(GLFW_KEY_ESCAPE);
+  CHECK_FALSE(model.quit_requested);  // before: Esc quit the application with the list open
+  CHECK_FALSE(model.confirm_quit);
+  CHECK_FALSE(ui.any_popup_open());
+  ui.press(GLFW_KEY_ESCAPE);
+  CHECK(model.quit_requested);  // nothing edited: no question
+}
+
+TEST_CASE("viewer input: Esc with unsaved scene edits asks first, Esc again cancels, the answer can quit") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  // Camera moves are views: no question.
+  model.set_fov(50.0);
+  CHECK_FALSE(model.has_unsaved_edits());
+  MaterialDesc m = model.scene().materials[0];
+  m.albedo = m.albedo * 0.5f;
+  REQUIRE(model.set_material(0, m));
+  CHECK(model.has_unsaved_edits());
+
+  ui.press(GLFW_KEY_ESCAPE);
+  CHECK_FALSE(model.quit_requested);
+  CHECK(model.confirm_quit);
+  ui.frame();
+  CHECK(ui.any_popup_open());
+  ui.press(GLFW_KEY_ESCAPE);  // Esc on the question: cancel
+  CHECK_FALSE(model.quit_requested);
+  CHECK_FALSE(model.confirm_quit);
+  CHECK_FALSE(ui.any_popup_open());
+
+  ui.press(GLFW_KEY_ESCAPE);
+  REQUIRE(model.confirm_quit);
+  ui.frame();
+  ui.click("Quit without saving");
+  CHECK(model.quit_requested);
+}
+
+TEST_CASE("viewer input: a typed IOR applies once, on Enter; an invalid one is refused in red and nothing else reverts") {
+  ViewerModel model(small("materials"), "materials", few_samples());
+  Ui ui(model);
+  const size_t plastic = material_index(model, "red plastic");
+  // Another edit first: it must survive the refused value below.
+  MaterialDesc m = model.scene().materials[plastic];
+  m.roughness = 0.3f;
+  REQUIRE(model.set_material(plastic, m));
+  ui.frame();
+
+  const uint64_t before = model.last_edit_generation();
+  ui.click("red plastic/IOR", /*ctrl=*/true);  // Ctrl+click turns the drag into a text field
+  ui.type("1.75");
+  CHECK(model.scene().materials[plastic].ior == 1.5f);  // before: "1" was applied at the first keystroke
+  CHECK(model.last_edit_generation() == before);
+  ui.press(GLFW_KEY_ENTER);
+  CHECK(model.scene().materials[plastic].ior == 1.75f);
+  CHECK(model.last_edit_generation() == before + 1);  // exactly one restart
+
+  ui.click("red plastic/IOR", /*ctrl=*/true);
+  ui.type("-2");
+  ui.press(GLFW_KEY_ENTER);
+  CHECK(model.scene().materials[plastic].ior == 1.75f);  // refused, not clamped (before: silently 1.0)
+  CHECK(model.scene().materials[plastic].roughness == 0.3f);
+  REQUIRE(ui.state.refused.size() == 1);
+  CHECK(ui.state.refused[0].error.find("ior") != std::string::npos);
+  float shown = 0.f;
+  std::memcpy(&shown, ui.state.refused[0].bytes.data(), sizeof shown);
+  CHECK(shown == -2.f);  // the field keeps what the user typed, in red
+  ui.frame();
+  CHECK(ui.state.refused.size() == 1);
+
+  // Typing a valid value clears the error.
+  ui.click("red plastic/IOR", /*ctrl=*/true);
+  ui.type("2");
+  ui.press(GLFW_KEY_ENTER);
+  CHECK(model.scene().materials[plastic].ior == 2.f);
+  CHECK(ui.state.refused.empty());
+}
+
+TEST_CASE("viewer input: max bounces typed as 12 restarts once, with 12") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  const uint64_t before = model.last_edit_generation();
+  ui.click("max bounces");
+  ui.type("12");  // the field's text was selected on activation: typing replaces it
+  CHECK(model.scene().render.max_bounces == 2);
+  ui.press(GLFW_KEY_ENTER);
+  CHECK(model.scene().render.max_bounces == 12);
+  CHECK(model.last_edit_generation() == before + 1);
+}
+
+TEST_CASE("viewer input: Save never replaces an existing scene file without asking, and creates missing folders") {
+  const std::filesystem::path dir = "viewer_save_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  const std::string path = (dir / "scene.json").string();
+  { std::ofstream(path) << "precious"; }
+
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  CHECK_FALSE(model.save_scene(path));
+  CHECK(model.status().find("exists") != std::string::npos);
+  CHECK(read_text(path) == "precious");
+
+  Ui ui(model);
+  std::snprintf(ui.state.save_scene_path, sizeof ui.state.save_scene_path, "%s", path.c_str());
+  ui.click("Save");
+  CHECK(read_text(path) == "precious");  // before: replaced silently
+  CHECK(ui.any_popup_open());
+  ui.frame();
+  ui.click("Replace");
+  CHECK(read_text(path).find("\"materials\"") != std::string::npos);
+  CHECK_FALSE(model.has_unsaved_edits());
+
+  const std::string nested = (dir / "new" / "folder" / "scene.json").string();
+  CHECK(model.save_scene(nested));
+  CHECK(std::filesystem::exists(nested));
+  std::filesystem::remove_all(dir);
+}
