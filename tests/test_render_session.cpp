@@ -404,3 +404,29 @@ TEST_CASE("session: turning denoising on restarts the accumulation, and frames w
   REQUIRE(wait_frame(session, f, [&](const DisplayFrame& fr) { return fr.generation == before + 1 && fr.spp == 4; }));
   CHECK(f.denoised.size() == 3ull * desc.width * desc.height);
 }
+
+TEST_CASE("progressive: stop_progress gives the fraction and time left of the condition met first") {
+  StopConditions none;
+  CHECK(stop_progress(none, 10, 1.0, 0.1).fraction < 0.0);
+  StopConditions spp;
+  spp.spp = 100;
+  const StopProgress a = stop_progress(spp, 25, 10.0, 0.1);
+  CHECK(a.fraction == doctest::Approx(0.25));
+  CHECK(a.eta_seconds == doctest::Approx(30.0));
+  CHECK(std::string(a.condition) == "target spp");
+  StopConditions both = spp;
+  both.seconds = 20.0;  // 10 s left: sooner than the spp target's 30 s
+  const StopProgress b = stop_progress(both, 25, 10.0, 0.1);
+  CHECK(b.fraction == doctest::Approx(0.5));
+  CHECK(b.eta_seconds == doctest::Approx(10.0));
+  CHECK(std::string(b.condition) == "time limit");
+  // relMSE ∝ 1/time: at 4× the target after 10 s, 30 s remain and a quarter is done.
+  StopConditions relmse;
+  relmse.relmse = 1e-3;
+  const StopProgress c = stop_progress(relmse, 32, 10.0, 4e-3);
+  CHECK(c.fraction == doctest::Approx(0.25));
+  CHECK(c.eta_seconds == doctest::Approx(30.0));
+  CHECK(std::string(c.condition) == "target relMSE");
+  CHECK(stop_progress(relmse, kRelMseStopMinSpp - 1, 10.0, 4e-3).fraction < 0.0);  // not trusted yet
+  CHECK(stop_progress(relmse, 64, 10.0, 5e-4).fraction == doctest::Approx(1.0));  // met
+}

@@ -297,10 +297,9 @@ int run_render(const RenderOptions& o) {
     spp = film.min_count();
     samples += ps.samples;
     rays += ps.rays;
-    double fraction = -1.0;
-    if (stop.spp) fraction = static_cast<double>(spp) / static_cast<double>(stop.spp);
-    if (stop.seconds > 0.0) fraction = std::max(fraction, elapsed() / stop.seconds);
-    progress.update(std::min(fraction, 1.0), elapsed(), spp, static_cast<double>(samples) / elapsed());
+    const double relmse = stop.relmse > 0.0 ? film.estimated_relmse() : 0.0;  // a pass over the film: only if asked
+    progress.update(stop_progress(stop, spp, elapsed(), relmse).fraction, elapsed(), spp,
+                    static_cast<double>(samples) / elapsed());
   }
   watchdog.finish();
   progress.finish();

@@ -1,5 +1,6 @@
 #include "viewer/viewer_model.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -302,6 +303,16 @@ void ViewerModel::shortcut(Shortcut s) {
     case Shortcut::Quit: request_quit(); break;
     case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
   }
+}
+
+std::string ViewerModel::window_title(const SessionStats& st) const {
+  char buf[160];
+  int n = std::snprintf(buf, sizeof buf, "%s%s - %llu spp, %.1f s", scene_name_.c_str(), unsaved_edits_ ? "*" : "",
+                        static_cast<unsigned long long>(st.spp), st.seconds);
+  if (st.spp >= kRelMseStopMinSpp && std::isfinite(st.estimated_relmse) && n > 0 && n < static_cast<int>(sizeof buf))
+    n += std::snprintf(buf + n, sizeof buf - n, ", relMSE %.1e", st.estimated_relmse);
+  const char* state = !st.error.empty() ? ", scene error" : st.paused ? ", paused" : st.done ? ", done" : "";
+  return std::string(buf) + state + " - pathtracer";
 }
 
 void ViewerModel::request_quit() {

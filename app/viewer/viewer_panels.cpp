@@ -168,7 +168,9 @@ void relmse_plot(const std::vector<RelMsePoint>& h) {
   ImDrawList* dl = ImGui::GetWindowDrawList();
   dl->AddRectFilled(p0, p1, ImGui::GetColorU32(ImGuiCol_FrameBg));
   if (h.size() < 2) {
-    dl->AddText(ImVec2(p0.x + 6, p0.y + 6), ImGui::GetColorU32(ImGuiCol_TextDisabled), "relMSE plot: waiting for 2 estimates");
+    char text[64];
+    std::snprintf(text, sizeof text, "relMSE plot: from %d spp on", static_cast<int>(kRelMseStopMinSpp));
+    dl->AddText(ImVec2(p0.x + 6, p0.y + 6), ImGui::GetColorU32(ImGuiCol_TextDisabled), text);
     return;
   }
   double lo = std::log10(h.front().relmse), hi = lo;
@@ -201,6 +203,27 @@ void relmse_plot(const std::vector<RelMsePoint>& h) {
   char label[32];
   std::snprintf(label, sizeof label, "%.1f s", t_max);
   dl->AddText(ImVec2(p1.x - ImGui::CalcTextSize(label).x - 3, p0.y + 2), text, label);
+}
+
+std::string format_duration(double s) {
+  char buf[32];
+  if (s < 60.0) std::snprintf(buf, sizeof buf, "%.1f s", s);
+  else if (s < 3600.0) std::snprintf(buf, sizeof buf, "%d min %02d s", static_cast<int>(s / 60.0), static_cast<int>(s) % 60);
+  else std::snprintf(buf, sizeof buf, "%d h %02d min", static_cast<int>(s / 3600.0), static_cast<int>(s / 60.0) % 60);
+  return buf;
+}
+
+// Progress towards the stop condition met first, with the time left at the current rate (render/progressive.h
+// stop_progress: for a target relMSE, from its 1/time fall).
+void progress_bar(const ViewerModel& model, const SessionStats& st) {
+  const StopConditions& stop = model.session_settings().stop;
+  if (!stop.any()) return;
+  const StopProgress p = stop_progress(stop, st.spp, st.seconds, st.estimated_relmse);
+  char overlay[96];
+  if (st.done) std::snprintf(overlay, sizeof overlay, "done: %s", st.stop_reason.c_str());
+  else if (p.fraction < 0.0) std::snprintf(overlay, sizeof overlay, "estimating the time left...");
+  else std::snprintf(overlay, sizeof overlay, "%s in %s", p.condition, format_duration(p.eta_seconds).c_str());
+  ImGui::ProgressBar(st.done ? 1.f : static_cast<float>(std::max(p.fraction, 0.0)), ImVec2(-1.f, 0.f), overlay);
 }
 
 void render_section(ViewerModel& model, PanelState& state) {
@@ -270,11 +293,15 @@ void render_section(ViewerModel& model, PanelState& state) {
               st.done ? st.stop_reason.c_str() : "");
   ImGui::Text("%ssamples/s   %srays/s   %d threads", format_rate(st.samples_per_second).c_str(),
               format_rate(st.rays_per_second).c_str(), st.threads);
-  if (std::isfinite(st.estimated_relmse)) ImGui::Text("estimated relMSE %.3e", st.estimated_relmse);
-  else ImGui::TextDisabled("estimated relMSE: from 2 spp on");
+  // Below kRelMseStopMinSpp the per-pixel variances are too noisy to mean much (the estimate rises at first on
+  // noisy scenes): the panel says "estimating" instead of a number.
+  if (st.spp >= kRelMseStopMinSpp && std::isfinite(st.estimated_relmse)) ImGui::Text("estimated relMSE %.3e", st.estimated_relmse);
+  else ImGui::TextDisabled("estimated relMSE: estimating... (from %d spp)", static_cast<int>(kRelMseStopMinSpp));
+  progress_bar(model, st);
   if (st.rejected) ImGui::TextColored(kErrorColour, "%" PRIu64 " non-finite samples rejected", st.rejected);
   if (!st.error.empty()) ImGui::TextColored(kErrorColour, "%s", st.error.c_str());
   model.session().copy_history(state.history);
+  std::erase_if(state.history, [](const RelMsePoint& q) { return q.spp < kRelMseStopMinSpp; });
   relmse_plot(state.history);
 }
 
@@ -560,12 +587,34 @@ void help_section(ViewerModel& model) {
 
 }  // namespace
 
+namespace {
+float g_ui_scale = 1.f;  // set by setup_viewer_style: one ImGui context per process
+}  // namespace
+
+void setup_viewer_style(float content_scale) {
+  const float scale = std::isfinite(content_scale) && content_scale > 0.f ? std::clamp(content_scale, 0.5f, 4.f) : 1.f;
+  g_ui_scale = scale;
+  ImGui::StyleColorsDark();
+  ImGuiStyle& style = ImGui::GetStyle();
+  style.Colors[ImGuiCol_PopupBg].w = 1.f;
+  style.Colors[ImGuiCol_WindowBg].w = 1.f;
+  style.GrabMinSize = 4.f;
+  style.ScaleAllSizes(scale);
+  ImGuiIO& io = ImGui::GetIO();
+  io.Fonts->Clear();
+  ImFontConfig font;
+  font.SizePixels = std::round(13.f * scale);
+  io.Fonts->AddFontDefault(&font);
+}
+
+float panel_width() { return kPanelWidth * g_ui_scale; }
+
 float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown) {
   quit_question(model, state);  // also with the panels hidden
   if (!model.ui_visible) return 0.f;
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
   const ImGuiIO& io = ImGui::GetIO();
-  const float width = std::min(kPanelWidth, io.DisplaySize.x);
+  const float width = std::min(panel_width(), io.DisplaySize.x);
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - width, 0.f));
   ImGui::SetNextWindowSize(ImVec2(width, io.DisplaySize.y));
   ImGui::Begin("pathtracer", nullptr,

@@ -49,7 +49,15 @@ struct PanelState {
   std::vector<std::string> builtin_names;
 };
 
-inline constexpr float kPanelWidth = 380.f;  // in ImGui (window) units
+inline constexpr float kPanelWidth = 380.f;  // in ImGui (window) units at a content scale of 1
+
+// The viewer's ImGui style at a monitor content scale (HiDPI: glfwGetWindowContentScale): the default font
+// rasterised at 13·scale pixels, every size scaled, opaque popups (a translucent combo list over the image
+// was hard to read), thin slider grabs (the handle no longer covers the value). Call once, after
+// ImGui::CreateContext() and before the renderer backend builds the font texture.
+void setup_viewer_style(float content_scale);
+// The panel's width in ImGui units at the style's scale.
+float panel_width();
 
 // Draws the side panel at the right edge of the display. Call between ImGui::NewFrame() and ImGui::Render().
 // Returns the width it covers (0 when model.ui_visible is false).

@@ -139,7 +139,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
   std::vector<uint8_t> save_pixels;
 
   const Clock::time_point t0 = Clock::now();
-  Clock::time_point last_draw = t0;
+  Clock::time_point last_draw = t0, last_title = t0 - std::chrono::seconds(1);
+  std::string title;
   bool drew_last_iteration = false, held = false;
   unsigned seen_events = g_input_events.load();
   int active_frames = 3;  // ImGui settles hover/focus state over a few frames after any input
@@ -186,6 +187,11 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     // the render threads would otherwise use; on a GPU it saves power. --continuous redraws every frame.
     const SessionStats st = model.session().stats();
     const bool rendering = !st.paused && !st.done && st.error.empty();
+    if (ms_between(last_title, start) >= 250.0) {  // the title follows spp, time and relMSE
+      last_title = start;
+      std::string t = model.window_title(st);
+      if (t != title) glfwSetWindowTitle(window, (title = std::move(t)).c_str());
+    }
     const bool draw = quitting || o.continuous || o.frames > 0 || frame == 0 || new_image || held || active_frames > 0 || model.save_requested ||
                       (rendering && ms_between(last_draw, start) >= 100.0);
     if (draw) {
@@ -203,7 +209,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(window, &fb_w, &fb_h);
       const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(fb_w) / io.DisplaySize.x : 1.f;
-      const float panel = model.ui_visible ? std::min(kPanelWidth, io.DisplaySize.x) : 0.f;
+      const float panel = model.ui_visible ? std::min(panel_width(), io.DisplaySize.x) : 0.f;
       const Rect r = fit_image(model.scene().width, model.scene().height, fb_w - static_cast<int>(panel * scale), fb_h);
       image_height = static_cast<double>(r.h) / scale;
       ImageArea area;
@@ -296,8 +302,19 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-  int width = scene.width + static_cast<int>(kPanelWidth), height = std::max(scene.height, 640);
-  if (GLFWmonitor* monitor = glfwGetPrimaryMonitor()) {
+  // The default window holds the image at 1:1 beside the panel, with a margin, and is at least 800 high (the
+  // panel is long), within 90 % of the monitor's work area. The panel grows with the monitor's content scale.
+  float content_scale = 1.f;
+  GLFWmonitor* monitor = glfwGetPrimaryMonitor();
+  if (monitor) {
+    float sx = 1.f, sy = 1.f;
+    glfwGetMonitorContentScale(monitor, &sx, &sy);
+    content_scale = std::max(sx, sy);
+  }
+  constexpr int kMargin = 16;
+  int width = scene.width + 2 * kMargin + static_cast<int>(kPanelWidth * content_scale);
+  int height = std::max(scene.height + 2 * kMargin, static_cast<int>(800 * content_scale));
+  if (monitor) {
     int mx = 0, my = 0, mw = 0, mh = 0;
     glfwGetMonitorWorkarea(monitor, &mx, &my, &mw, &mh);
     if (mw > 0 && mh > 0) {
@@ -305,7 +322,7 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
       height = std::min(height, mh * 9 / 10);
     }
   }
-  const std::string title = "pathtracer: " + o.scene;
+  const std::string title = scene_short_name(o.scene) + " - pathtracer";
   GLFWwindow* window = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
   if (!window) {
     std::fprintf(stderr, "error: cannot open a window with an OpenGL 3.3 core context (%s)\n", g_glfw_error.c_str());
@@ -329,7 +346,11 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini dropped into the user's directory
-  ImGui::StyleColorsDark();
+  {
+    float sx = 1.f, sy = 1.f;
+    glfwGetWindowContentScale(window, &sx, &sy);  // HiDPI: fonts and widgets follow the monitor's scale
+    setup_viewer_style(std::max(sx, sy));
+  }
   int rc = 2;
   const bool glfw_backend = ImGui_ImplGlfw_InitForOpenGL(window, true);
   const bool gl_backend = glfw_backend && ImGui_ImplOpenGL3_Init("#version 330 core");

@@ -242,3 +242,31 @@ TEST_CASE("viewer input: Save never replaces an existing scene file without aski
   CHECK(std::filesystem::exists(nested));
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("viewer: the window title shows the scene, unsaved edits, spp, time and (once meaningful) relMSE") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  SessionStats st;
+  st.spp = 8;
+  st.seconds = 1.25;
+  st.estimated_relmse = 0.02;
+  CHECK(model.window_title(st) == "cornell - 8 spp, 1.2 s - pathtracer");  // relMSE not shown below 16 spp
+  st.spp = 64;
+  st.done = true;
+  MaterialDesc m = model.scene().materials[0];
+  m.albedo = m.albedo * 0.5f;
+  REQUIRE(model.set_material(0, m));
+  CHECK(model.window_title(st) == "cornell* - 64 spp, 1.2 s, relMSE 2.0e-02, done - pathtracer");
+}
+
+TEST_CASE("viewer: the style scales with the monitor's content scale, popups are opaque") {
+  ImGui::CreateContext();
+  setup_viewer_style(2.f);
+  CHECK(panel_width() == doctest::Approx(2.f * kPanelWidth));
+  CHECK(ImGui::GetStyle().Colors[ImGuiCol_PopupBg].w == 1.f);
+  REQUIRE(ImGui::GetIO().Fonts->ConfigData.Size == 1);
+  CHECK(ImGui::GetIO().Fonts->ConfigData[0].SizePixels == 26.f);
+  CHECK(ImGui::GetStyle().FramePadding.y == doctest::Approx(2.f * ImGuiStyle().FramePadding.y));
+  setup_viewer_style(1.f);
+  CHECK(panel_width() == doctest::Approx(kPanelWidth));
+  ImGui::DestroyContext();
+}

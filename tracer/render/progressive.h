@@ -25,6 +25,17 @@ struct StopConditions {
 // The first stop condition met ("target spp", "time limit", "target relMSE"), or nullptr.
 const char* stop_reason(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse);
 
+// How far an accumulation is towards the stop condition it will meet first, and when, at its current rate.
+struct StopProgress {
+  double fraction = -1.0;       // in [0, 1]; < 0 when no condition is set or none can be estimated yet
+  double eta_seconds = -1.0;    // render seconds left; < 0 unknown
+  const char* condition = "";   // stop_reason's name of that condition
+};
+// spp grows linearly in render time; the relMSE of an unbiased estimate falls as 1/time, so a film at relMSE r
+// after t seconds reaches the target r* after t·r/r* (progress r*/r). The relMSE estimate counts from
+// kRelMseStopMinSpp on (before, its variance estimates are too noisy: it rises at first on noisy scenes).
+StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse);
+
 // Samples per pixel of the next pass: about `target_seconds` of work at the measured cost per spp (1 before any
 // measurement), never past the time or spp limit, at most kMaxPassSpp.
 int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,

@@ -465,7 +465,7 @@ void RenderSession::publish_locked(Worker& w, bool preview, uint32_t min_count, 
       for (size_t j = 0; j < history_.size(); j += 2) history_[k++] = history_[j];
       history_.resize(k);
     }
-    history_.push_back({s.seconds, relmse});
+    history_.push_back({s.seconds, relmse, min_count});
   }
   std::string reason;
   if (stop_met_locked(reason)) {

@@ -61,6 +61,7 @@ struct DisplayFrame {
 
 struct RelMsePoint {
   double seconds, relmse;
+  uint64_t spp;  // full-resolution samples per pixel when it was estimated
 };
 
 struct SessionStats {
