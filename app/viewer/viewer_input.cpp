@@ -6,6 +6,8 @@
 
 #include "viewer/viewer_model.h"
 
+#include <algorithm>
+
 namespace pt {
 
 namespace {
@@ -35,10 +37,14 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
     in.pan = middle || (left && io.KeyShift);
     in.orbit = left && !io.KeyShift;
     in.wheel = io.MouseWheel;
-    // Double-click on a surface: it becomes the orbit pivot (the camera turns to look at it).
+    // Double-click on a surface: it becomes the orbit pivot (the camera turns to look at it). A click (released
+    // where it was pressed: not an orbit) selects the material and object under the pointer.
     if (io.MouseDoubleClicked[0] && image.contains(io.MousePos)) {
       const ImVec2 p = image.to_image(io.MousePos);
       model.set_pivot_at(p.x, p.y);
+    } else if (io.MouseReleased[0] && io.MouseDragMaxDistanceSqr[0] < 9.f && image.contains(io.MousePos)) {
+      const ImVec2 p = image.to_image(io.MousePos);
+      model.select_at(p.x, p.y);
     }
   }
   // The fly keys WASD/QE act only while the right button is held, so S alone stays "save".
@@ -48,16 +54,47 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       in.fly = DVec3(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_E) - key(GLFW_KEY_Q),
                      key(GLFW_KEY_W) - key(GLFW_KEY_S));
       in.fast = io.KeyShift;
-    } else if (!right) {
+    } else if (!right && !io.KeyCtrl) {
       if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) model.shortcut(Shortcut::Reset);
       if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) model.shortcut(Shortcut::Pause);
       if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
       if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
     }
   }
+  // Undo / redo: Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y, unless a text field has the keys (it has its own undo).
+  if (io.KeyCtrl && !io.WantTextInput) {
+    if (ImGui::IsKeyPressed(GLFW_KEY_Z, true)) model.shortcut(io.KeyShift ? Shortcut::Redo : Shortcut::Undo);
+    if (ImGui::IsKeyPressed(GLFW_KEY_Y, true)) model.shortcut(Shortcut::Redo);
+  }
   if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) escape(model);
   if (ImGui::IsKeyPressed(GLFW_KEY_F1, false)) model.shortcut(Shortcut::Help);
   model.apply_input(in, seconds);
+}
+
+void draw_pixel_probe(ViewerModel& model, const DisplayFrame& frame, const ImageArea& image) {
+  const std::optional<Selection>& sel = model.selection();
+  if (!sel || frame.width <= 0 || image.w <= 0.f || image.image_width <= 0) return;
+  const ImGuiIO& io = ImGui::GetIO();
+  // The tooltip stays while the pointer rests near the click (a few pixels), and goes when it moves on.
+  const ImVec2 at(image.x + static_cast<float>(sel->x) / image.image_width * image.w,
+                  image.y + static_cast<float>(sel->y) / image.image_height * image.h);
+  const float dx = io.MousePos.x - at.x, dy = io.MousePos.y - at.y;
+  if (dx * dx + dy * dy > 36.f || io.WantCaptureMouse) return;
+  // The frame may be a reduced-resolution preview: scale the point to it.
+  const int px = std::clamp(static_cast<int>(sel->x * frame.width / image.image_width), 0, frame.width - 1);
+  const int py = std::clamp(static_cast<int>(sel->y * frame.height / image.image_height), 0, frame.height - 1);
+  const size_t i = static_cast<size_t>(py) * frame.width + px;
+  const float* m = &frame.rgba[4 * i];
+  ImGui::BeginTooltip();
+  ImGui::Text("pixel %d, %d%s", px, py, frame.preview ? " (preview)" : "");
+  ImGui::Text("mean  %.4g  %.4g  %.4g", m[0], m[1], m[2]);
+  if (m[3] < DisplayFrame::kUnknownError) ImGui::Text("rel. std. error  %.3g", m[3]);
+  ImGui::Text("samples  %.0f", frame.count[i]);
+  const SceneDesc& scene = model.scene();
+  if (sel->material < scene.materials.size() && sel->shape < scene.shapes.size())
+    ImGui::Text("%s, shape %zu (%s)", scene.materials[sel->material].name.c_str(), sel->shape,
+                enum_label(scene.shapes[sel->shape].type));
+  ImGui::EndTooltip();
 }
 
 bool viewer_input_held(const ImGuiIO& io) {

@@ -7,6 +7,7 @@
 namespace pt {
 
 class ViewerModel;
+struct DisplayFrame;
 
 // Where the image is drawn, in ImGui (window) units, top-left origin, and its size in pixels.
 struct ImageArea {
@@ -22,6 +23,10 @@ struct ImageArea {
 // One UI frame's input, between ImGui::NewFrame() and drawing the panels. `seconds` is the time since the
 // last frame (fly speed).
 void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, const ImageArea& image);
+
+// The pixel under the last click: its mean, error, sample count and the material and object there, in a
+// tooltip while the pointer rests near the click. Call after handle_viewer_input, within the ImGui frame.
+void draw_pixel_probe(ViewerModel& model, const DisplayFrame& frame, const ImageArea& image);
 
 // Keys and buttons whose holding keeps the view changing without new events (GLFW repeats keys only after a
 // delay), so the window keeps drawing.

@@ -30,15 +30,24 @@ ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, 
 void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   scene_ = loaded_ = scene;
   scene_name_ = name;
-  emission_.assign(scene.materials.size(), {});
-  for (size_t i = 0; i < scene.materials.size(); ++i) {
-    const Rgb e = scene.materials[i].emission;
+  unsaved_edits_ = false;
+  pick_scene_.reset();
+  selection_.reset();
+  undo_.clear();
+  redo_.clear();
+  last_undo_what_.clear();
+  refresh_emission();
+  reset_camera_controller();
+}
+
+// Emission as colour × strength, from the scene's materials.
+void ViewerModel::refresh_emission() {
+  emission_.assign(scene_.materials.size(), {});
+  for (size_t i = 0; i < scene_.materials.size(); ++i) {
+    const Rgb e = scene_.materials[i].emission;
     const float s = max_component(e);
     emission_[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
   }
-  unsaved_edits_ = false;
-  pick_scene_.reset();
-  reset_camera_controller();
 }
 
 // Scenes written for a fly-through camera give a look-at point just ahead of the eye (shadertoy's is 1 unit
@@ -68,6 +77,8 @@ bool ViewerModel::commit(const SceneEdit& edit) {
     set_status("not applied: " + err, true);
     return false;
   }
+  if (const auto* m = std::get_if<MaterialEdit>(&edit)) remember("material " + std::to_string(m->index), false);
+  else if (std::holds_alternative<EnvironmentDesc>(edit)) remember("environment", false);
   apply_edit(scene_, edit);
   if (!std::holds_alternative<CameraDesc>(edit)) unsaved_edits_ = true;
   note_edit(session_->edit(edit));
@@ -104,6 +115,7 @@ bool ViewerModel::set_render(const RenderSettings& render) {
     set_status("not applied: " + err, true);
     return false;
   }
+  remember("render", false);
   scene_.render = render;
   unsaved_edits_ = true;
   note_edit(session_->set_render(render));
@@ -183,6 +195,7 @@ std::optional<PickResult> ViewerModel::pick(double x, double y) {
   if (!pick_scene_) {
     try {
       pick_scene_ = compile_scene(scene_);
+      pick_shapes_ = primitive_shapes(scene_);
     } catch (const std::exception& e) {
       set_status(std::string("cannot pick: ") + e.what(), true);
       return std::nullopt;
@@ -197,10 +210,22 @@ std::optional<PickResult> ViewerModel::pick(double x, double y) {
   Hit hit;
   if (!s.intersect(ray, kInfinity, kNoPrimitive, hit)) return std::nullopt;
   PickResult r;
+  r.shape = hit.prim < pick_shapes_.size() ? pick_shapes_[hit.prim] : 0;
   r.distance = hit.t;
   r.point = c.position + static_cast<double>(hit.t) * DVec3(ray.d);
   r.material = s.material_of(hit.prim);
   return r;
+}
+
+bool ViewerModel::select_at(double x, double y) {
+  const std::optional<PickResult> p = pick(x, y);
+  if (!p) {
+    selection_.reset();
+    return false;
+  }
+  const uint64_t serial = selection_ ? selection_->serial + 1 : 1;
+  selection_ = Selection{p->material, p->shape, x, y, serial};
+  return true;
 }
 
 bool ViewerModel::set_pivot_at(double x, double y) {
@@ -212,6 +237,151 @@ bool ViewerModel::set_pivot_at(double x, double y) {
   set_camera_target(p->point);
   set_status("pivot on " + scene_.materials[p->material].name, false);
   return true;
+}
+
+// --- Geometry ---------------------------------------------------------------------------------------------------
+
+bool ViewerModel::set_geometry(const SceneDesc& edited, const std::string& what) {
+  if (std::string err = validate_scene(edited); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  remember(what, true);
+  scene_ = edited;
+  pick_scene_.reset();
+  unsaved_edits_ = true;
+  camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
+  note_edit(session_->set_scene(scene_));
+  return true;
+}
+
+bool ViewerModel::move_shape(size_t index, DVec3 offset) {
+  if (index >= scene_.shapes.size()) return false;
+  if (!std::isfinite(offset.x + offset.y + offset.z)) {
+    set_status("not applied: the offset must be finite", true);
+    return false;
+  }
+  SceneDesc edited = scene_;
+  ShapeDesc& sh = edited.shapes[index];
+  if (sh.type == ShapeType::Sphere) sh.center += offset;
+  else
+    for (DVec3& v : sh.vertices) v += offset;
+  return set_geometry(edited, "shape " + std::to_string(index));
+}
+
+bool ViewerModel::set_sphere_radius(size_t index, double radius) {
+  if (index >= scene_.shapes.size() || scene_.shapes[index].type != ShapeType::Sphere) return false;
+  SceneDesc edited = scene_;
+  edited.shapes[index].radius = radius;
+  return set_geometry(edited, "shape " + std::to_string(index));
+}
+
+bool ViewerModel::set_shape_material(size_t index, size_t material) {
+  if (index >= scene_.shapes.size() || material >= scene_.materials.size()) return false;
+  SceneDesc edited = scene_;
+  edited.shapes[index].material = static_cast<int>(material);
+  return set_geometry(edited, "shape " + std::to_string(index));
+}
+
+bool ViewerModel::set_resolution(int width, int height) {
+  if (width < 1 || height < 1 || width > kMaxViewerResolution || height > kMaxViewerResolution) {
+    set_status("not applied: the resolution must be 1 to " + std::to_string(kMaxViewerResolution) + " per side", true);
+    return false;
+  }
+  SceneDesc edited = scene_;
+  edited.width = width;
+  edited.height = height;
+  return set_geometry(edited, "resolution");
+}
+
+// --- Undo ---------------------------------------------------------------------------------------------------------
+
+ViewerModel::Snapshot ViewerModel::snapshot(bool geometry) const {
+  Snapshot s;
+  s.materials = scene_.materials;
+  s.emission = emission_;
+  s.environment = scene_.environment;
+  s.render = scene_.render;
+  s.width = scene_.width;
+  s.height = scene_.height;
+  if (geometry) s.shapes = std::make_shared<const std::vector<ShapeDesc>>(scene_.shapes);
+  return s;
+}
+
+void ViewerModel::remember(const std::string& what, bool geometry) {
+  if (restoring_) return;
+  const auto now = std::chrono::steady_clock::now();
+  const bool same_drag = !undo_.empty() && what == last_undo_what_ && now - last_undo_time_ < std::chrono::seconds(1) &&
+                         (!geometry || undo_.back().shapes);
+  last_undo_time_ = now;
+  redo_.clear();
+  if (same_drag) return;
+  last_undo_what_ = what;
+  undo_.push_back(snapshot(geometry));
+  constexpr size_t kMaxUndo = 256;
+  if (undo_.size() > kMaxUndo) undo_.erase(undo_.begin());
+}
+
+void ViewerModel::restore(const Snapshot& s) {
+  restoring_ = true;
+  scene_.materials = s.materials;
+  emission_ = s.emission;
+  scene_.environment = s.environment;
+  scene_.render = s.render;
+  scene_.width = s.width;
+  scene_.height = s.height;
+  if (s.shapes) {
+    scene_.shapes = *s.shapes;
+    pick_scene_.reset();
+  }
+  camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
+  unsaved_edits_ = true;
+  last_undo_what_.clear();
+  note_edit(session_->set_scene(scene_));
+  restoring_ = false;
+}
+
+bool ViewerModel::undo() {
+  if (undo_.empty()) return false;
+  redo_.push_back(snapshot(undo_.back().shapes != nullptr));
+  const Snapshot s = std::move(undo_.back());
+  undo_.pop_back();
+  restore(s);
+  set_status("undone", false);
+  return true;
+}
+
+bool ViewerModel::redo() {
+  if (redo_.empty()) return false;
+  undo_.push_back(snapshot(redo_.back().shapes != nullptr));
+  const Snapshot s = std::move(redo_.back());
+  redo_.pop_back();
+  restore(s);
+  set_status("redone", false);
+  return true;
+}
+
+void ViewerModel::revert() {
+  redo_.clear();
+  undo_.push_back(snapshot(true));
+  Snapshot file;
+  file.materials = loaded_.materials;
+  file.environment = loaded_.environment;
+  file.render = loaded_.render;
+  file.width = loaded_.width;
+  file.height = loaded_.height;
+  file.shapes = std::make_shared<const std::vector<ShapeDesc>>(loaded_.shapes);
+  {
+    const SceneDesc current = scene_;
+    scene_.materials = loaded_.materials;
+    refresh_emission();
+    file.emission = emission_;
+    scene_.materials = current.materials;
+  }
+  restore(file);
+  unsaved_edits_ = false;
+  reset_camera();
+  set_status("reverted to the scene as loaded", false);
 }
 
 void ViewerModel::set_session_settings(const SessionSettings& settings) {
@@ -302,6 +472,8 @@ void ViewerModel::shortcut(Shortcut s) {
     case Shortcut::Help: help_open = !help_open; break;
     case Shortcut::Quit: request_quit(); break;
     case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
+    case Shortcut::Undo: undo(); break;
+    case Shortcut::Redo: redo(); break;
   }
 }
 

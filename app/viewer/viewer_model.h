@@ -31,13 +31,23 @@ struct ViewInput {
   float viewport_height = 1;  // height of the image on screen (drag scaling: one height = half a turn)
 };
 
-enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi };
+enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi, Undo, Redo };
+
+inline constexpr int kMaxViewerResolution = 16384;
 
 // What lies under a point of the image (ViewerModel::pick).
 struct PickResult {
   DVec3 point{0.0};     // world position of the hit
   double distance = 0;  // from the camera
   size_t material = 0;  // index into SceneDesc::materials
+  size_t shape = 0;     // index into SceneDesc::shapes (the object)
+};
+
+// What the user clicked last: the panels open that material and show that object.
+struct Selection {
+  size_t material = 0, shape = 0;
+  double x = 0, y = 0;  // image point clicked (pixel units)
+  uint64_t serial = 0;  // bumped by every click, so the panels can scroll to it once
 };
 
 class ViewerModel {
@@ -70,6 +80,25 @@ class ViewerModel {
   std::optional<PickResult> pick(double x, double y);
   // Makes the surface under image point (x, y) the orbit pivot: the camera turns to look at it (double-click).
   bool set_pivot_at(double x, double y);
+  // A click on the image: selects the material and the object under (x, y); nothing there clears it.
+  bool select_at(double x, double y);
+  const std::optional<Selection>& selection() const { return selection_; }
+
+  // --- Geometry (a full recompile of the scene; refused with a status message when invalid).
+  bool move_shape(size_t index, DVec3 offset);  // translates a triangle, quad or sphere
+  bool set_sphere_radius(size_t index, double radius);
+  bool set_shape_material(size_t index, size_t material);
+  // The film size (the render, not the window): 1 … kMaxViewerResolution per side.
+  bool set_resolution(int width, int height);
+
+  // --- Undo / redo of scene edits (materials, emission, environment, render settings, geometry, resolution;
+  // camera moves are views and are not recorded). Consecutive edits of one thing within a second (a slider
+  // drag) are one step. revert() goes back to the scene as loaded (itself undoable).
+  bool can_undo() const { return !undo_.empty(); }
+  bool can_redo() const { return !redo_.empty(); }
+  bool undo();
+  bool redo();
+  void revert();
 
   // --- Session control (threads and stop conditions do not restart accumulation).
   const SessionSettings& session_settings() const { return settings_; }
@@ -115,6 +144,22 @@ class ViewerModel {
     Rgb colour{1.f};
     float strength = 0.f;
   };
+  // What undo restores: everything an edit may change except the camera; shapes only when geometry changed
+  // (scenes may have millions).
+  struct Snapshot {
+    std::vector<MaterialDesc> materials;
+    std::vector<Emission> emission;
+    EnvironmentDesc environment;
+    RenderSettings render;
+    int width = 0, height = 0;
+    std::shared_ptr<const std::vector<ShapeDesc>> shapes;  // null: the geometry was not changed by this step
+  };
+  // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.
+  void remember(const std::string& what, bool geometry);
+  Snapshot snapshot(bool geometry) const;
+  void restore(const Snapshot& s);
+  bool set_geometry(const SceneDesc& edited, const std::string& what);
+  void refresh_emission();
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
   void reset_camera_controller();  // to the loaded camera, with a pivot the orbit can use
   bool commit(const SceneEdit& edit);  // validate, apply to the model, send to the session
@@ -129,7 +174,13 @@ class ViewerModel {
   SessionSettings settings_;
   bool paused_ = false;
   bool unsaved_edits_ = false;
-  std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load
+  std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
+  std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
+  std::optional<Selection> selection_;
+  std::vector<Snapshot> undo_, redo_;
+  std::string last_undo_what_;
+  std::chrono::steady_clock::time_point last_undo_time_;
+  bool restoring_ = false;
   std::unique_ptr<RenderSession> session_;
   std::string status_;
   bool status_error_ = false;

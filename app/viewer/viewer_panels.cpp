@@ -420,12 +420,23 @@ void environment_section(ViewerModel& model, PanelState& state) {
 
 void materials_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
+  if (model.selection() && model.selection()->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
   if (!ImGui::CollapsingHeader("Materials")) return;
   const std::vector<MaterialDesc>& mats = model.scene().materials;
+  const std::optional<Selection>& sel = model.selection();
+  const bool new_selection = sel && sel->serial != state.shown_selection;
   for (size_t i = 0; i < mats.size(); ++i) {
     ImGui::PushID(static_cast<int>(i));
     expand_if(state);
-    if (ImGui::TreeNode(mats[i].name.c_str())) {
+    const bool selected = sel && sel->material == i;
+    if (selected && new_selection) {  // a click on the image opens its material, once, and scrolls to it
+      ImGui::SetNextItemOpen(true);
+      ImGui::SetScrollHereY(0.2f);
+    }
+    if (selected) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.f, 0.85f, 0.3f, 1.f));
+    const bool open = ImGui::TreeNode(mats[i].name.c_str());
+    if (selected) ImGui::PopStyleColor();
+    if (open) {
       state.scope = mats[i].name + "/";
       MaterialDesc m = mats[i];
       bool changed = enum_combo(state, "type", m.type);
@@ -468,12 +479,81 @@ void materials_section(ViewerModel& model, PanelState& state) {
   }
 }
 
+// The object under the last click: its material, and where it is (numeric moves; a light is an emitting
+// object, so this moves lights too).
+void object_section(ViewerModel& model, PanelState& state) {
+  const std::optional<Selection>& sel = model.selection();
+  if (!sel || sel->shape >= model.scene().shapes.size()) return;
+  if (sel->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
+  expand_if(state);
+  if (!ImGui::CollapsingHeader("Object")) return;
+  const size_t index = sel->shape;
+  const ShapeDesc& sh = model.scene().shapes[index];
+  ImGui::Text("shape %zu: %s", index, enum_label(sh.type));
+  const auto& mats = model.scene().materials;
+  const int current = std::clamp(sh.material, 0, static_cast<int>(mats.size()) - 1);
+  if (ImGui::BeginCombo("material", mats[current].name.c_str())) {
+    for (size_t i = 0; i < mats.size(); ++i)
+      if (ImGui::Selectable(mats[i].name.c_str(), static_cast<int>(i) == current) && static_cast<int>(i) != current)
+        model.set_shape_material(index, i);
+    ImGui::EndCombo();
+  }
+  // Position: the sphere's centre, or the polygon's first vertex; a typed position moves the whole shape.
+  const DVec3 at = sh.type == ShapeType::Sphere ? sh.center : sh.vertices[0];
+  numeric_field(state, "position##object", std::array<double, 3>{at.x, at.y, at.z}, true,
+                [](double* p) { return ImGui::InputScalarN("position##object", ImGuiDataType_Double, p, 3, nullptr, nullptr, "%.3f"); },
+                [&](const std::array<double, 3>& p) {
+                  return outcome(model.move_shape(index, DVec3(p[0], p[1], p[2]) - at), model);
+                });
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(sh.type == ShapeType::Sphere ? "the centre" : "the first vertex; the shape moves as a whole");
+  if (sh.type == ShapeType::Sphere)
+    numeric_field(state, "radius", std::array<double, 1>{sh.radius}, true,
+                  [](double* r) { return ImGui::InputDouble("radius", r, 0.0, 0.0, "%.4g"); },
+                  [&](const std::array<double, 1>& r) { return outcome(model.set_sphere_radius(index, r[0]), model); });
+}
+
+// Undo, redo and revert, above the sections.
+void edit_row(ViewerModel& model) {
+  ImGui::BeginDisabled(!model.can_undo());
+  if (ImGui::Button("Undo")) model.undo();
+  ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Z");
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!model.can_redo());
+  if (ImGui::Button("Redo")) model.redo();
+  ImGui::EndDisabled();
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("Ctrl+Shift+Z or Ctrl+Y");
+  ImGui::SameLine();
+  if (ImGui::Button("Revert to file")) model.revert();
+}
+
+// The film size, independent of the window: presets and typed values.
+void resolution_field(ViewerModel& model, PanelState& state) {
+  static const int kPresets[][2] = {{256, 256}, {512, 512}, {1024, 1024}, {640, 360}, {1280, 720}, {1920, 1080}};
+  char current[32];
+  std::snprintf(current, sizeof current, "%d x %d", model.scene().width, model.scene().height);
+  if (ImGui::BeginCombo("size preset", current)) {
+    for (const auto& p : kPresets) {
+      char label[32];
+      std::snprintf(label, sizeof label, "%d x %d", p[0], p[1]);
+      if (ImGui::Selectable(label, p[0] == model.scene().width && p[1] == model.scene().height))
+        model.set_resolution(p[0], p[1]);
+    }
+    ImGui::EndCombo();
+  }
+  numeric_field(state, "resolution", std::array<int, 2>{model.scene().width, model.scene().height}, true,
+                [](int* v) { return ImGui::InputInt2("resolution", v); },
+                [&](const std::array<int, 2>& v) { return outcome(model.set_resolution(v[0], v[1]), model); });
+}
+
 void scene_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Scene")) return;
   if (state.builtin_names.empty()) state.builtin_names = builtin_scene_names();
   ImGui::Text("%s: %d x %d, %zu shapes, %zu materials", model.scene_name().c_str(), model.scene().width,
               model.scene().height, model.scene().shapes.size(), model.scene().materials.size());
+  resolution_field(model, state);
   const char* current = state.builtin_names[std::clamp<size_t>(state.builtin, 0, state.builtin_names.size() - 1)].c_str();
   if (ImGui::BeginCombo("built-in", current)) {
     for (size_t i = 0; i < state.builtin_names.size(); ++i)
@@ -566,7 +646,9 @@ void help_section(ViewerModel& model) {
   model.help_open = ImGui::CollapsingHeader("Help [F1]");
   if (!model.help_open) return;
   static const char* const rows[][2] = {
-      {"left drag", "orbit around the pivot"},     {"double-click", "pivot on the surface under the cursor"},
+      {"left drag", "orbit around the pivot"},     {"click", "select the material and object; pixel values"},
+      {"double-click", "pivot on the surface under the cursor"},
+      {"Ctrl+Z / Ctrl+Shift+Z, Ctrl+Y", "undo / redo scene edits"},
       {"middle / shift+left drag", "pan"},
       {"wheel", "dolly towards / away"},           {"right drag", "look around"},
       {"right held + WASD QE", "fly (shift: 4x)"}, {"R", "reset accumulation"},
@@ -635,14 +717,17 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
     if (ImGui::IsWindowHovered()) ImGui::SetTooltip("%s", model.status().c_str());
   }
   ImGui::EndChild();
+  edit_row(model);
   render_section(model, state);
   display_section(model, state, shown);
   camera_section(model, state);
+  object_section(model, state);
   materials_section(model, state);
   environment_section(model, state);
   scene_section(model, state);
   output_section(model, state, shown);
   help_section(model);
+  if (model.selection()) state.shown_selection = model.selection()->serial;
   ImGui::PopItemWidth();
   ImGui::End();
   return width;

@@ -220,6 +220,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       area.image_width = model.scene().width;
       area.image_height = model.scene().height;
       handle_viewer_input(io, model, dt, area);
+      draw_pixel_probe(model, front, area);
       held = viewer_input_held(io);
 
       shown.frame_ms = smoothed_ms;

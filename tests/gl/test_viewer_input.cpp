@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "scene/scene_json.h"
 #include "viewer/viewer_input.h"
@@ -72,15 +73,16 @@ struct Ui {
     ImGui::Render();
   }
   bool popup_open = false;  // after the last frame
-  ImVec2 centre(const std::string& item) {
+  // A point of a widget: fraction `fx` of the way across it, halfway down.
+  ImVec2 point(const std::string& item, float fx) {
     const auto it = state.item_rects.find(item);
     REQUIRE_MESSAGE(it != state.item_rects.end(), "no widget " << item);
     const auto& r = it->second;
-    return ImVec2(0.5f * (r[0] + r[2]), 0.5f * (r[1] + r[3]));
+    return ImVec2(r[0] + fx * (r[2] - r[0]), 0.5f * (r[1] + r[3]));
   }
-  void click(const std::string& item, bool ctrl = false) {
+  void click(const std::string& item, bool ctrl = false, float fx = 0.5f) {
     ImGuiIO& io = ImGui::GetIO();
-    io.MousePos = centre(item);
+    io.MousePos = point(item, fx);
     frame();
     io.KeyCtrl = ctrl;
     io.MouseDown[0] = true;
@@ -269,4 +271,102 @@ TEST_CASE("viewer: the style scales with the monitor's content scale, popups are
   setup_viewer_style(1.f);
   CHECK(panel_width() == doctest::Approx(kPanelWidth));
   ImGui::DestroyContext();
+}
+
+TEST_CASE("viewer: undo and redo scene edits (a slider drag is one step), revert to the file; camera moves are not edits") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  const SceneDesc loaded = model.scene();
+  CHECK_FALSE(model.can_undo());
+  MaterialDesc m = model.scene().materials[0];
+  const Rgb original = m.albedo;
+  for (float f : {0.9f, 0.8f, 0.7f}) {  // a drag: three edits of one material within a second
+    m.albedo = original * f;
+    REQUIRE(model.set_material(0, m));
+  }
+  RenderSettings r = model.scene().render;
+  r.max_bounces = 5;
+  REQUIRE(model.set_render(r));
+  model.set_fov(30.0);  // a view: not recorded
+  const uint64_t generation = model.last_edit_generation();
+
+  REQUIRE(model.undo());  // the render settings
+  CHECK(model.scene().render.max_bounces == loaded.render.max_bounces);
+  CHECK(model.scene().materials[0].albedo == original * 0.7f);
+  CHECK(model.last_edit_generation() > generation);  // undo restarts the accumulation
+  REQUIRE(model.undo());  // the whole drag
+  CHECK(model.scene().materials[0].albedo == original);
+  CHECK_FALSE(model.can_undo());
+  CHECK(model.camera().camera().fov_deg == 30.0);  // the view stays
+  REQUIRE(model.redo());
+  CHECK(model.scene().materials[0].albedo == original * 0.7f);
+  REQUIRE(model.redo());
+  CHECK(model.scene().render.max_bounces == 5);
+  CHECK_FALSE(model.can_redo());
+
+  // Geometry: a moved shape comes back.
+  const DVec3 v0 = model.scene().shapes[3].vertices[0];
+  REQUIRE(model.move_shape(3, DVec3(0, 10, 0)));
+  CHECK(model.scene().shapes[3].vertices[0].y == v0.y + 10);
+  REQUIRE(model.undo());
+  CHECK(model.scene().shapes[3].vertices[0] == v0);
+  REQUIRE(model.redo());
+
+  model.revert();
+  CHECK(model.scene().materials[0].albedo == original);
+  CHECK(model.scene().render.max_bounces == loaded.render.max_bounces);
+  CHECK(model.scene().shapes[3].vertices[0] == v0);
+  CHECK(model.camera().camera().fov_deg == loaded.camera.fov_deg);
+  CHECK_FALSE(model.has_unsaved_edits());
+  REQUIRE(model.undo());  // revert is a step too
+  CHECK(model.scene().render.max_bounces == 5);
+}
+
+TEST_CASE("viewer input: a click on the image selects the material and object there; Ctrl+Z undoes an edit") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  ui.area.w = ui.area.h = 240.f;  // the 24 × 24 image drawn 10× at the top-left
+  ui.area.image_width = ui.area.image_height = 24;
+  ImGuiIO& io = ImGui::GetIO();
+  io.MousePos = ImVec2(4.f, 120.f);  // the red wall, at the left edge
+  ui.frame();
+  io.MouseDown[0] = true;
+  ui.frame();
+  io.MouseDown[0] = false;
+  ui.frame();
+  REQUIRE(model.selection());
+  CHECK(model.scene().materials[model.selection()->material].name == "red");
+  CHECK(model.scene().shapes[model.selection()->shape].material == static_cast<int>(model.selection()->material));
+  ui.frame();
+  CHECK(ui.state.item_rects.count("position##object") == 1);  // the Object section shows the clicked shape
+
+  // Move it with the Object section's position field, then Ctrl+Z.
+  const DVec3 v0 = model.scene().shapes[model.selection()->shape].vertices[0];
+  ui.click("position##object", false, 0.05f);  // the x component
+  ui.press(GLFW_KEY_BACKSPACE);
+  ui.type("600");
+  ui.press(GLFW_KEY_ENTER);
+  CHECK(model.scene().shapes[model.selection()->shape].vertices[0].x == 600.0);
+  CHECK(model.scene().shapes[model.selection()->shape].vertices[0].y == v0.y);
+  io.KeyCtrl = true;
+  ui.press(GLFW_KEY_Z);
+  io.KeyCtrl = false;
+  ui.frame();
+  CHECK(model.scene().shapes[model.selection()->shape].vertices[0] == v0);
+}
+
+TEST_CASE("viewer: the render resolution is set independently of the window, invalid sizes are refused") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  REQUIRE(model.set_resolution(32, 16));
+  REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  DisplayFrame f;
+  for (int i = 0; i < 100 && !(f.width == 32 && !f.preview); ++i) {
+    model.session().take_frame(f);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  CHECK(f.width == 32);
+  CHECK(f.height == 16);
+  CHECK_FALSE(model.set_resolution(0, 16));
+  CHECK(model.status().find("resolution") != std::string::npos);
+  CHECK_FALSE(model.set_resolution(32, kMaxViewerResolution + 1));
+  CHECK(model.scene().width == 32);
 }

@@ -466,6 +466,23 @@ constexpr double kCameraRebaseRadii = 1.0;
 
 }  // namespace
 
+std::vector<uint32_t> primitive_shapes(const SceneDesc& desc) {
+  // The order of compile_scene's loop: polygons as they come (two for a quad that is not planar and convex),
+  // then the spheres.
+  std::vector<uint32_t> polygons, spheres;
+  for (size_t i = 0; i < desc.shapes.size(); ++i) {
+    const ShapeDesc& sh = desc.shapes[i];
+    const uint32_t id = static_cast<uint32_t>(i);
+    if (sh.type == ShapeType::Sphere) spheres.push_back(id);
+    else {
+      polygons.push_back(id);
+      if (sh.type == ShapeType::Quad && !is_planar_convex_quad(sh)) polygons.push_back(id);
+    }
+  }
+  polygons.insert(polygons.end(), spheres.begin(), spheres.end());
+  return polygons;
+}
+
 bool same_geometry(const SceneDesc& a, const SceneDesc& b) {
   return a.width == b.width && a.height == b.height && same_shapes(a, b);
 }

@@ -174,6 +174,10 @@ bool degenerate_triangle(DVec3 a, DVec3 b, DVec3 c);
 // builds a SceneDesc by hand can call validate_scene). Throws std::invalid_argument on anything it cannot render.
 std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);
 
+// The SceneDesc::shapes index of every primitive id compile_scene(desc) makes (polygons, then spheres; a
+// non-planar quad is two triangles): what a pick reports as the object.
+std::vector<uint32_t> primitive_shapes(const SceneDesc& desc);
+
 // True when b has a's shapes, film size and number of materials: then the compiled geometry of a serves b, and
 // update_scene_appearance can apply the difference in place.
 bool same_geometry(const SceneDesc& a, const SceneDesc& b);
