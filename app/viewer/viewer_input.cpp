@@ -7,6 +7,7 @@
 #include "viewer/viewer_model.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace pt {
 
@@ -26,11 +27,56 @@ void escape(ViewerModel& model) {
 
 }  // namespace
 
+ImageArea place_image(const ImageZoom& zoom, int image_width, int image_height, float ax, float ay, float aw, float ah,
+                      float pixel_ratio) {
+  ImageArea a;
+  a.image_width = image_width;
+  a.image_height = image_height;
+  a.pixel_ratio = pixel_ratio > 0.f ? pixel_ratio : 1.f;
+  const float r = a.pixel_ratio;
+  if (image_width <= 0 || image_height <= 0 || aw <= 0.f || ah <= 0.f) return a;
+  float s = zoom.scale;  // framebuffer pixels per image pixel
+  if (zoom.fit) {
+    s = std::min(aw * r / image_width, ah * r / image_height);
+    if (s >= 1.f) s = std::floor(s);
+  }
+  const float w = std::max(1.f, std::floor(image_width * s)), h = std::max(1.f, std::floor(image_height * s));
+  const float pan_x = zoom.fit ? 0.f : zoom.pan_x * r, pan_y = zoom.fit ? 0.f : zoom.pan_y * r;
+  a.x = ax + std::floor((aw * r - w) * 0.5f + pan_x) / r;
+  a.y = ay + std::floor((ah * r - h) * 0.5f + pan_y) / r;
+  a.w = w / r;
+  a.h = h / r;
+  return a;
+}
+
+void zoom_image(ImageZoom& zoom, const ImageArea& now, ImVec2 cursor, float factor) {
+  if (now.w <= 0.f || now.image_width <= 0) return;
+  const float r = now.pixel_ratio;
+  const float scale = now.w * r / now.image_width;
+  const float centre_x = now.x + 0.5f * now.w - (zoom.fit ? 0.f : zoom.pan_x);  // the area's centre
+  const float centre_y = now.y + 0.5f * now.h - (zoom.fit ? 0.f : zoom.pan_y);
+  const float s = std::clamp(scale * factor, kMinZoom, kMaxZoom);
+  const float u = (cursor.x - now.x) / now.w, v = (cursor.y - now.y) / now.h;  // stays under the cursor
+  const float w = now.image_width * s / r, h = now.image_height * s / r;
+  zoom.fit = false;
+  zoom.scale = s;
+  zoom.pan_x = cursor.x - u * w + 0.5f * w - centre_x;
+  zoom.pan_y = cursor.y - v * h + 0.5f * h - centre_y;
+}
+
 void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, const ImageArea& image) {
   ViewInput in;
   in.viewport_height = image.h;
   const bool right = io.MouseDown[1];
-  if (!io.WantCaptureMouse) {
+  // Ctrl + wheel / Ctrl + left drag move the image on screen, not the camera.
+  if (!io.WantCaptureMouse && io.KeyCtrl) {
+    if (io.MouseWheel != 0.f) zoom_image(model.zoom, image, io.MousePos, std::pow(1.25f, io.MouseWheel));
+    if (io.MouseDown[0] && (io.MouseDelta.x != 0.f || io.MouseDelta.y != 0.f)) {
+      if (model.zoom.fit) zoom_image(model.zoom, image, io.MousePos, 1.f);  // the fitted scale, made explicit
+      model.zoom.pan_x += io.MouseDelta.x;
+      model.zoom.pan_y += io.MouseDelta.y;
+    }
+  } else if (!io.WantCaptureMouse) {
     const bool left = io.MouseDown[0], middle = io.MouseDown[2];
     in.drag = Vec2(io.MouseDelta.x, io.MouseDelta.y);
     in.look = right;
@@ -59,6 +105,8 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) model.shortcut(Shortcut::Pause);
       if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
       if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
+      if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) model.zoom = ImageZoom{};
+      if (ImGui::IsKeyPressed(GLFW_KEY_1, false)) model.zoom = ImageZoom{false, 1.f, 0.f, 0.f};
     }
   }
   // Undo / redo: Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y, unless a text field has the keys (it has its own undo).

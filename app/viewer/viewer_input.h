@@ -4,21 +4,31 @@
 #pragma once
 #include <imgui.h>
 
+#include "viewer/viewer_model.h"
+
 namespace pt {
 
-class ViewerModel;
 struct DisplayFrame;
 
 // Where the image is drawn, in ImGui (window) units, top-left origin, and its size in pixels.
 struct ImageArea {
   float x = 0, y = 0, w = 0, h = 0;
   int image_width = 0, image_height = 0;
+  float pixel_ratio = 1;  // framebuffer pixels per window unit (HiDPI)
   bool contains(ImVec2 p) const { return p.x >= x && p.y >= y && p.x < x + w && p.y < y + h; }
   // The image point (pixel units, (0,0) = top-left) under window point p.
   ImVec2 to_image(ImVec2 p) const {
     return ImVec2((p.x - x) / w * static_cast<float>(image_width), (p.y - y) / h * static_cast<float>(image_height));
   }
 };
+
+inline constexpr float kMinZoom = 1.f / 32.f, kMaxZoom = 64.f;
+
+// The image's place in an area of aw × ah window units at (ax, ay), whole framebuffer pixels.
+ImageArea place_image(const ImageZoom& zoom, int image_width, int image_height, float ax, float ay, float aw, float ah,
+                      float pixel_ratio);
+// Zooms by `factor` keeping the image point under `cursor` where it is.
+void zoom_image(ImageZoom& zoom, const ImageArea& now, ImVec2 cursor, float factor);
 
 // One UI frame's input, between ImGui::NewFrame() and drawing the panels. `seconds` is the time since the
 // last frame (fly speed).

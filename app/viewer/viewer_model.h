@@ -35,6 +35,13 @@ enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi, Undo, Redo };
 
 inline constexpr int kMaxViewerResolution = 16384;
 
+// How the image sits in the area beside the panel: fitted (the default), or zoomed and panned by the user
+// (Ctrl+wheel about the cursor, Ctrl+drag; F fits, 1 shows 1:1).
+struct ImageZoom {
+  bool fit = true;       // fit the area: integer magnification when the image fits (crisp), else scaled down
+  float scale = 1.f;     // otherwise: framebuffer pixels per image pixel (1 = 1:1)
+  float pan_x = 0.f, pan_y = 0.f;  // the image centre's offset from the area's centre, window units
+};
 // What lies under a point of the image (ViewerModel::pick).
 struct PickResult {
   DVec3 point{0.0};     // world position of the hit
@@ -118,6 +125,7 @@ class ViewerModel {
 
   // --- Display and UI flags.
   PresentSettings present;
+  ImageZoom zoom;
   bool help_open = false, ui_visible = true, quit_requested = false;
   bool save_requested = false;  // the window saves (it alone can read the displayed pixels back)
   void shortcut(Shortcut s);

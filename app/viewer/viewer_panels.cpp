@@ -332,6 +332,13 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
     ImGui::RadioButton("split", &view, 2);
     p.denoise_view = static_cast<DenoiseView>(view);
   }
+  // Image zoom (Ctrl+wheel, Ctrl+drag on the image; F, 1).
+  if (ImGui::Button("Fit [F]")) model.zoom = ImageZoom{};
+  ImGui::SameLine();
+  if (ImGui::Button("1:1 [1]")) model.zoom = ImageZoom{false, 1.f, 0.f, 0.f};
+  ImGui::SameLine();
+  if (model.zoom.fit) ImGui::TextDisabled("zoom: fit");
+  else ImGui::TextDisabled("zoom: %.0f %%", 100.0 * model.zoom.scale);
   ImGui::SliderFloat("exposure", &p.display.exposure_ev, -10.f, 10.f, "%+.2f EV");
   int tone = static_cast<int>(p.display.tone_map);
   if (ImGui::Combo("tone map", &tone, "none (clamp)\0Reinhard\0ACES fitted\0"))
@@ -654,6 +661,7 @@ void help_section(ViewerModel& model) {
       {"right held + WASD QE", "fly (shift: 4x)"}, {"R", "reset accumulation"},
       {"P", "pause / resume"},                     {"S", "save image (PNG + PFM)"},
       {"Tab", "hide / show panels"},               {"F1", "this help"},
+      {"Ctrl+wheel / Ctrl+drag", "zoom / pan the image"}, {"F / 1", "fit the image / 1:1"},
       {"Esc", "close a list / cancel typing; else quit (asks if the scene has unsaved edits)"}};
   if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingFixedFit)) {
     for (const auto& r : rows) {

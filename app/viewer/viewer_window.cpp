@@ -59,20 +59,6 @@ struct Rect {
   int x = 0, y = 0, w = 0, h = 0;  // GL convention: y from the bottom
 };
 
-// The image's place in the area left of the panel: aspect kept, centred, integer magnification when it fits
-// (nearest-texel display stays crisp), scaled down otherwise.
-Rect fit_image(int image_w, int image_h, int area_w, int area_h) {
-  if (image_w <= 0 || image_h <= 0 || area_w <= 0 || area_h <= 0) return {};
-  double s = std::min(static_cast<double>(area_w) / image_w, static_cast<double>(area_h) / image_h);
-  if (s >= 1.0) s = std::floor(s);
-  Rect r;
-  r.w = std::max(1, static_cast<int>(image_w * s));
-  r.h = std::max(1, static_cast<int>(image_h * s));
-  r.x = (area_w - r.w) / 2;
-  r.y = (area_h - r.h) / 2;
-  return r;
-}
-
 // --bench-edits: the two kinds of edit a user makes most, alternately, to time edit → image.
 void scripted_edit(ViewerModel& model, int index, float image_height) {
   if (index % 2 == 0) {
@@ -210,17 +196,19 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       glfwGetFramebufferSize(window, &fb_w, &fb_h);
       const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(fb_w) / io.DisplaySize.x : 1.f;
       const float panel = model.ui_visible ? std::min(panel_width(), io.DisplaySize.x) : 0.f;
-      const Rect r = fit_image(model.scene().width, model.scene().height, fb_w - static_cast<int>(panel * scale), fb_h);
-      image_height = static_cast<double>(r.h) / scale;
-      ImageArea area;
-      area.x = static_cast<float>(r.x) / scale;
-      area.y = static_cast<float>(fb_h - r.y - r.h) / scale;
-      area.w = static_cast<float>(r.w) / scale;
-      area.h = static_cast<float>(r.h) / scale;
-      area.image_width = model.scene().width;
-      area.image_height = model.scene().height;
+      const ImageArea area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
+                                         io.DisplaySize.x - panel, io.DisplaySize.y, scale);
+      image_height = area.h;
       handle_viewer_input(io, model, dt, area);
       draw_pixel_probe(model, front, area);
+      // Drawn where this frame's input left it (a zoom applies at once); GL counts y from the bottom.
+      const ImageArea shown_area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
+                                               io.DisplaySize.x - panel, io.DisplaySize.y, scale);
+      Rect r;
+      r.x = static_cast<int>(std::lround(shown_area.x * scale));
+      r.w = static_cast<int>(std::lround(shown_area.w * scale));
+      r.h = static_cast<int>(std::lround(shown_area.h * scale));
+      r.y = fb_h - static_cast<int>(std::lround(shown_area.y * scale)) - r.h;
       held = viewer_input_held(io);
 
       shown.frame_ms = smoothed_ms;

@@ -370,3 +370,60 @@ TEST_CASE("viewer: the render resolution is set independently of the window, inv
   CHECK_FALSE(model.set_resolution(32, kMaxViewerResolution + 1));
   CHECK(model.scene().width == 32);
 }
+
+TEST_CASE("viewer: the image fits the area by default; Ctrl+wheel zooms about the cursor, Ctrl+drag pans, F fits, 1 is 1:1") {
+  ImageZoom fit;
+  ImageArea a = place_image(fit, 24, 24, 0.f, 0.f, 500.f, 300.f, 1.f);
+  CHECK(a.w == 288.f);  // integer magnification 12 (300 / 24 = 12.5)
+  CHECK(a.h == 288.f);
+  CHECK(a.x == 106.f);
+  CHECK(a.y == 6.f);
+  a = place_image(fit, 1000, 500, 0.f, 0.f, 500.f, 300.f, 2.f);  // HiDPI: 2 framebuffer pixels per unit
+  CHECK(a.w == 500.f);  // scaled down to the width: 1000 framebuffer pixels
+  CHECK(a.h == 250.f);
+
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  ImGuiIO& io = ImGui::GetIO();
+  const auto area = [&] { return place_image(model.zoom, 24, 24, 0.f, 0.f, 600.f, 600.f, 1.f); };
+  ui.area = area();
+  REQUIRE(ui.area.w == 600.f);
+  const ImVec2 cursor(150.f, 450.f);
+  const ImVec2 under = ui.area.to_image(cursor);
+  const CameraDesc camera = model.camera().camera();
+  io.MousePos = cursor;
+  io.KeyCtrl = true;
+  io.MouseWheel = 2.f;  // ×1.25²
+  ui.frame();
+  io.MouseWheel = 0.f;
+  io.KeyCtrl = false;
+  CHECK_FALSE(model.zoom.fit);
+  CHECK(model.zoom.scale == doctest::Approx(25.f * 1.5625f));
+  ui.area = area();
+  CHECK(ui.area.w == doctest::Approx(24.f * 25.f * 1.5625f).epsilon(1e-3));
+  const ImVec2 still = ui.area.to_image(cursor);
+  CHECK(still.x == doctest::Approx(under.x).epsilon(0.01));  // the same image point stays under the cursor
+  CHECK(still.y == doctest::Approx(under.y).epsilon(0.01));
+  CHECK(model.camera().camera().position == camera.position);  // the camera did not dolly
+
+  // Ctrl+drag pans by the pointer's movement.
+  const float x0 = ui.area.x;
+  io.KeyCtrl = true;
+  io.MouseDown[0] = true;
+  ui.frame();
+  io.MousePos = ImVec2(cursor.x + 30.f, cursor.y);
+  ui.frame();
+  io.MouseDown[0] = false;
+  io.KeyCtrl = false;
+  ui.frame();
+  ui.area = area();
+  CHECK(ui.area.x == doctest::Approx(x0 + 30.f).epsilon(1e-3));
+  CHECK(model.camera().camera().position == camera.position);  // no orbit
+
+  io.MousePos = ImVec2(-10.f, -10.f);
+  ui.press(GLFW_KEY_1);
+  CHECK(area().w == 24.f);
+  ui.press(GLFW_KEY_F);
+  CHECK(model.zoom.fit);
+  CHECK(area().w == 600.f);
+}
