@@ -11,7 +11,9 @@ uniform sampler2D u_image;        // rgb: mean radiance; a: relative standard er
 uniform sampler2D u_count;        // r: samples per pixel
 uniform sampler2D u_denoised;     // rgb: the denoised mean (when u_denoised_from_u <= 1)
 uniform float u_denoised_from_u;  // the colour view shows u_denoised where uv.x >= this (display_transform.h)
-uniform int u_mode;               // 0 colour, 1 relative error, 2 sample count
+uniform sampler2D u_snapshot;     // rgb: a kept snapshot's mean (A/B compare)
+uniform float u_snapshot_until_u; // the colour view shows u_snapshot where uv.x < this
+uniform int u_mode;               // 0 colour, 1 relative error, 2 sample count, 3 difference to the snapshot
 uniform float u_exposure_scale;   // 2^EV, computed on the CPU with std::exp2 as tonemap.h does
 uniform int u_tone_map;           // 0 clamp, 1 Reinhard, 2 ACES fitted (pt::ToneMap order)
 uniform vec2 u_error_log10_range; // log10 relative errors mapped to the ends of the colour map
@@ -47,10 +49,17 @@ void main() {
   vec2 uv = vec2(v_uv.x, 1.0 - v_uv.y);  // the film's first row is the top of the image
   vec4 texel = texture(u_image, uv);
   if (u_mode == 0) {
-    vec3 c = tone_map(uv.x >= u_denoised_from_u ? texture(u_denoised, uv).rgb : texel.rgb);
+    vec3 m = uv.x < u_snapshot_until_u ? texture(u_snapshot, uv).rgb
+           : uv.x >= u_denoised_from_u ? texture(u_denoised, uv).rgb : texel.rgb;
+    vec3 c = tone_map(m);
     frag_colour = vec4(srgb_encode(c.r), srgb_encode(c.g), srgb_encode(c.b), 1.0);
-  } else if (u_mode == 1) {
-    float l = log2(max(texel.a, 1e-30)) * 0.30102999566;
+  } else if (u_mode == 1 || u_mode == 3) {
+    float e = texel.a;
+    if (u_mode == 3) {  // display_transform.h relative_difference
+      vec3 b = texture(u_snapshot, uv).rgb, d = texel.rgb - b;
+      e = sqrt(dot(d * d / (b * b + vec3(0.01)), vec3(1.0)) * (1.0 / 3.0));
+    }
+    float l = log2(max(e, 1e-30)) * 0.30102999566;
     float t = (l - u_error_log10_range.x) / (u_error_log10_range.y - u_error_log10_range.x);
     frag_colour = vec4(false_colour(t), 1.0);
   } else {

@@ -10,16 +10,22 @@
 
 namespace pt {
 
-enum class ViewMode { Colour, RelativeError, SampleCount };
+// Difference: the live film against a kept snapshot (A/B), as a heat map of relative_difference on the error
+// view's log scale.
+enum class ViewMode { Colour, RelativeError, SampleCount, Difference };
 
 // Which estimate the colour view shows when the frame has a denoised image: the raw film mean, the denoised one,
 // or raw on the left half and denoised on the right.
 enum class DenoiseView { Raw, Denoised, Split };
 
+// A/B compare in the colour view: the live image, the kept snapshot, or the snapshot left and live right.
+enum class SnapshotView { Off, Snapshot, Split };
+
 struct PresentSettings {
   DisplaySettings display;        // exposure and tone map of the colour view
   ViewMode mode = ViewMode::Colour;
   DenoiseView denoise_view = DenoiseView::Denoised;
+  SnapshotView snapshot_view = SnapshotView::Off;
   // Relative standard errors from 10^error_log10_min to 10^error_log10_max span the colour map (clamped beyond).
   float error_log10_min = -3.f, error_log10_max = 0.f;
 };
@@ -56,17 +62,36 @@ inline float denoised_from_u(DenoiseView v) {
   return v == DenoiseView::Denoised ? 0.f : v == DenoiseView::Split ? 0.5f : 2.f;
 }
 
+// The colour view shows the snapshot at texture coordinates u < this (u ∈ [0, 1)); below 0: nowhere.
+inline float snapshot_until_u(SnapshotView v) {
+  return v == SnapshotView::Snapshot ? 2.f : v == SnapshotView::Split ? 0.5f : -1.f;
+}
+
+// Relative difference of a live mean against a snapshot's, the relative error's form:
+// sqrt(mean over channels of (live_c − snapshot_c)² / (snapshot_c² + 0.01)).
+inline float relative_difference(Rgb live, Rgb snapshot) {
+  float sum = 0.f;
+  for (int c = 0; c < 3; ++c) {
+    const float d = live[c] - snapshot[c];
+    sum += d * d / (snapshot[c] * snapshot[c] + 0.01f);
+  }
+  return std::sqrt(sum * (1.f / 3.f));
+}
+
 // The 8-bit display value the shader must produce for one pixel (the reference of the GL tests); `mean` is
 // whichever estimate the pixel shows (denoised_from_u).
+// `snapshot` is the kept snapshot's mean at the pixel (the Difference view).
 inline std::array<uint8_t, 3> present_pixel(Rgb mean, float rel_error, float count, float max_count,
-                                           const PresentSettings& s) {
+                                           const PresentSettings& s, Rgb snapshot = Rgb(0.f)) {
   std::array<uint8_t, 3> out{};
   if (s.mode == ViewMode::Colour) {
     const Rgb c = tone_map(mean, s.display);
     for (int k = 0; k < 3; ++k) out[k] = to_srgb8(c[k]);
     return out;
   }
-  const float t = s.mode == ViewMode::RelativeError ? error_coordinate(rel_error, s) : count_coordinate(count, max_count);
+  const float t = s.mode == ViewMode::RelativeError ? error_coordinate(rel_error, s)
+                  : s.mode == ViewMode::Difference  ? error_coordinate(relative_difference(mean, snapshot), s)
+                                                    : count_coordinate(count, max_count);
   const Rgb c = false_colour(t);
   for (int k = 0; k < 3; ++k) out[k] = static_cast<uint8_t>(std::lround(c[k] * 255.f));
   return out;

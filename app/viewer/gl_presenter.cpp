@@ -79,12 +79,14 @@ GlPresenter::GlPresenter() {
   loc_error_range_ = glGetUniformLocation(program_, "u_error_log10_range");
   loc_count_max_ = glGetUniformLocation(program_, "u_count_max");
   loc_denoised_from_u_ = glGetUniformLocation(program_, "u_denoised_from_u");
+  loc_snapshot_until_u_ = glGetUniformLocation(program_, "u_snapshot_until_u");
 
   // Constant uniforms are set once.
   glUseProgram(program_);
   glUniform1i(glGetUniformLocation(program_, "u_image"), 0);
   glUniform1i(glGetUniformLocation(program_, "u_count"), 1);
   glUniform1i(glGetUniformLocation(program_, "u_denoised"), 2);
+  glUniform1i(glGetUniformLocation(program_, "u_snapshot"), 3);
   float palette[3 * kFalseColour.size()];
   for (size_t i = 0; i < kFalseColour.size(); ++i)
     for (int c = 0; c < 3; ++c) palette[3 * i + c] = static_cast<float>(kFalseColour[i][c]) / 255.f;
@@ -95,6 +97,7 @@ GlPresenter::GlPresenter() {
   image_tex_ = make_texture();
   count_tex_ = make_texture();
   denoised_tex_ = make_texture();
+  snapshot_tex_ = make_texture();
   display_tex_ = make_texture();
   glBindTexture(GL_TEXTURE_2D, 0);
   glGenFramebuffers(1, &display_fbo_);
@@ -106,6 +109,7 @@ GlPresenter::~GlPresenter() {
   glDeleteTextures(1, &image_tex_);
   glDeleteTextures(1, &count_tex_);
   glDeleteTextures(1, &denoised_tex_);
+  glDeleteTextures(1, &snapshot_tex_);
   glDeleteVertexArrays(1, &vao_);
   glDeleteProgram(program_);
 }
@@ -153,12 +157,23 @@ void GlPresenter::upload(const DisplayFrame& f) {
   display_valid_ = false;
 }
 
+void GlPresenter::upload_snapshot(const DisplayFrame& f) {
+  if (f.width <= 0 || f.height <= 0 || f.rgba.size() < 4ull * f.width * f.height) return;
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glBindTexture(GL_TEXTURE_2D, snapshot_tex_);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, f.width, f.height, 0, GL_RGBA, GL_FLOAT, f.rgba.data());
+  glBindTexture(GL_TEXTURE_2D, 0);
+  snapshot_width_ = f.width;
+  snapshot_height_ = f.height;
+  display_valid_ = false;
+}
+
 namespace {
 
 bool same(const PresentSettings& a, const PresentSettings& b) {
   return a.display.exposure_ev == b.display.exposure_ev && a.display.tone_map == b.display.tone_map &&
          a.mode == b.mode && a.error_log10_min == b.error_log10_min && a.error_log10_max == b.error_log10_max &&
-         a.denoise_view == b.denoise_view;
+         a.denoise_view == b.denoise_view && a.snapshot_view == b.snapshot_view;
 }
 
 }  // namespace
@@ -175,7 +190,10 @@ void GlPresenter::update_display(const PresentSettings& s) {
   glDisable(GL_SCISSOR_TEST);
   glDisable(GL_FRAMEBUFFER_SRGB);  // the shader encodes sRGB itself, as tonemap.h does
   glUseProgram(program_);
-  glUniform1i(loc_mode_, static_cast<int>(s.mode));
+  // Without a snapshot of this image's size, the A/B views fall back to the live colour view.
+  const bool snapshot = has_snapshot();
+  glUniform1i(loc_mode_, static_cast<int>(!snapshot && s.mode == ViewMode::Difference ? ViewMode::Colour : s.mode));
+  glUniform1f(loc_snapshot_until_u_, snapshot ? snapshot_until_u(s.snapshot_view) : -1.f);
   glUniform1f(loc_exposure_, std::exp2(s.display.exposure_ev));
   glUniform1i(loc_tone_map_, static_cast<int>(s.display.tone_map));
   glUniform2f(loc_error_range_, s.error_log10_min, s.error_log10_max);
@@ -187,6 +205,8 @@ void GlPresenter::update_display(const PresentSettings& s) {
   glBindTexture(GL_TEXTURE_2D, count_tex_);
   glActiveTexture(GL_TEXTURE2);
   glBindTexture(GL_TEXTURE_2D, denoised_tex_);
+  glActiveTexture(GL_TEXTURE3);
+  glBindTexture(GL_TEXTURE_2D, snapshot_tex_);
   glBindVertexArray(vao_);
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glBindVertexArray(0);

@@ -30,6 +30,10 @@ class GlPresenter {
   // Copies the frame into the textures, reallocated only when the size changes.
   void upload(const DisplayFrame& frame);
   bool has_image() const { return width_ > 0; }
+  // A/B compare: keeps this frame's mean as the snapshot. It is shown (SnapshotView, ViewMode::Difference) only
+  // while the image has the snapshot's size; otherwise the colour view shows the live image.
+  void upload_snapshot(const DisplayFrame& frame);
+  bool has_snapshot() const { return snapshot_width_ > 0 && snapshot_width_ == width_ && snapshot_height_ == height_; }
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -55,7 +59,9 @@ class GlPresenter {
   bool preview_ = false;
   float max_count_ = 0;
   int loc_mode_ = -1, loc_exposure_ = -1, loc_tone_map_ = -1, loc_error_range_ = -1, loc_count_max_ = -1;
-  int loc_denoised_from_u_ = -1;
+  int loc_denoised_from_u_ = -1, loc_snapshot_until_u_ = -1;
+  unsigned snapshot_tex_ = 0;
+  int snapshot_width_ = 0, snapshot_height_ = 0;
 };
 
 }  // namespace pt

@@ -106,6 +106,8 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
       if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
       if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) model.zoom = ImageZoom{};
+      if (ImGui::IsKeyPressed(GLFW_KEY_K, false)) model.shortcut(Shortcut::KeepSnapshot);
+      if (ImGui::IsKeyPressed(GLFW_KEY_B, false)) model.shortcut(Shortcut::FlipSnapshot);
       if (ImGui::IsKeyPressed(GLFW_KEY_1, false)) model.zoom = ImageZoom{false, 1.f, 0.f, 0.f};
     }
   }

@@ -296,8 +296,8 @@ bool ViewerModel::set_resolution(int width, int height) {
 
 // --- Undo ---------------------------------------------------------------------------------------------------------
 
-ViewerModel::Snapshot ViewerModel::snapshot(bool geometry) const {
-  Snapshot s;
+ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const {
+  UndoStep s;
   s.materials = scene_.materials;
   s.emission = emission_;
   s.environment = scene_.environment;
@@ -317,12 +317,12 @@ void ViewerModel::remember(const std::string& what, bool geometry) {
   redo_.clear();
   if (same_drag) return;
   last_undo_what_ = what;
-  undo_.push_back(snapshot(geometry));
+  undo_.push_back(undo_step(geometry));
   constexpr size_t kMaxUndo = 256;
   if (undo_.size() > kMaxUndo) undo_.erase(undo_.begin());
 }
 
-void ViewerModel::restore(const Snapshot& s) {
+void ViewerModel::restore(const UndoStep& s) {
   restoring_ = true;
   scene_.materials = s.materials;
   emission_ = s.emission;
@@ -343,8 +343,8 @@ void ViewerModel::restore(const Snapshot& s) {
 
 bool ViewerModel::undo() {
   if (undo_.empty()) return false;
-  redo_.push_back(snapshot(undo_.back().shapes != nullptr));
-  const Snapshot s = std::move(undo_.back());
+  redo_.push_back(undo_step(undo_.back().shapes != nullptr));
+  const UndoStep s = std::move(undo_.back());
   undo_.pop_back();
   restore(s);
   set_status("undone", false);
@@ -353,8 +353,8 @@ bool ViewerModel::undo() {
 
 bool ViewerModel::redo() {
   if (redo_.empty()) return false;
-  undo_.push_back(snapshot(redo_.back().shapes != nullptr));
-  const Snapshot s = std::move(redo_.back());
+  undo_.push_back(undo_step(redo_.back().shapes != nullptr));
+  const UndoStep s = std::move(redo_.back());
   redo_.pop_back();
   restore(s);
   set_status("redone", false);
@@ -363,8 +363,8 @@ bool ViewerModel::redo() {
 
 void ViewerModel::revert() {
   redo_.clear();
-  undo_.push_back(snapshot(true));
-  Snapshot file;
+  undo_.push_back(undo_step(true));
+  UndoStep file;
   file.materials = loaded_.materials;
   file.environment = loaded_.environment;
   file.render = loaded_.render;
@@ -472,6 +472,11 @@ void ViewerModel::shortcut(Shortcut s) {
     case Shortcut::Help: help_open = !help_open; break;
     case Shortcut::Quit: request_quit(); break;
     case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
+    case Shortcut::KeepSnapshot: snapshot_requested = true; break;
+    case Shortcut::FlipSnapshot:
+      if (snapshot_usable())
+        present.snapshot_view = present.snapshot_view == SnapshotView::Snapshot ? SnapshotView::Off : SnapshotView::Snapshot;
+      break;
     case Shortcut::Undo: undo(); break;
     case Shortcut::Redo: redo(); break;
   }

@@ -31,7 +31,13 @@ struct ViewInput {
   float viewport_height = 1;  // height of the image on screen (drag scaling: one height = half a turn)
 };
 
-enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi, Undo, Redo };
+enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi, Undo, Redo, KeepSnapshot, FlipSnapshot };
+
+// The A/B snapshot the window keeps (its pixels live in the presenter's texture).
+struct SnapshotInfo {
+  int width = 0, height = 0;
+  uint64_t spp = 0;
+};
 
 inline constexpr int kMaxViewerResolution = 16384;
 
@@ -128,6 +134,12 @@ class ViewerModel {
   ImageZoom zoom;
   bool help_open = false, ui_visible = true, quit_requested = false;
   bool save_requested = false;  // the window saves (it alone can read the displayed pixels back)
+  bool snapshot_requested = false;  // the window keeps the next full-resolution frame as the A/B snapshot
+  std::optional<SnapshotInfo> snapshot;  // set by the window when it kept one
+  // A snapshot of the image's current size exists (the A/B views are offered).
+  bool snapshot_usable() const {
+    return snapshot && snapshot->width == scene_.width && snapshot->height == scene_.height;
+  }
   void shortcut(Shortcut s);
   // Esc, the window's close button: quits at once, or asks first (confirm_quit) when the scene has edits that
   // were not saved. Camera moves are views, not edits: they never make the viewer ask.
@@ -154,7 +166,7 @@ class ViewerModel {
   };
   // What undo restores: everything an edit may change except the camera; shapes only when geometry changed
   // (scenes may have millions).
-  struct Snapshot {
+  struct UndoStep {
     std::vector<MaterialDesc> materials;
     std::vector<Emission> emission;
     EnvironmentDesc environment;
@@ -164,8 +176,8 @@ class ViewerModel {
   };
   // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.
   void remember(const std::string& what, bool geometry);
-  Snapshot snapshot(bool geometry) const;
-  void restore(const Snapshot& s);
+  UndoStep undo_step(bool geometry) const;
+  void restore(const UndoStep& s);
   bool set_geometry(const SceneDesc& edited, const std::string& what);
   void refresh_emission();
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
@@ -185,7 +197,7 @@ class ViewerModel {
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
   std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
   std::optional<Selection> selection_;
-  std::vector<Snapshot> undo_, redo_;
+  std::vector<UndoStep> undo_, redo_;
   std::string last_undo_what_;
   std::chrono::steady_clock::time_point last_undo_time_;
   bool restoring_ = false;

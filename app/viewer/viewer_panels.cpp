@@ -315,7 +315,33 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   ImGui::RadioButton("rel. error", &mode, 1);
   ImGui::SameLine();
   ImGui::RadioButton("samples", &mode, 2);
+  if (model.snapshot_usable()) {
+    ImGui::SameLine();
+    ImGui::RadioButton("A/B diff", &mode, 3);
+  } else if (mode == 3) {
+    mode = 0;
+  }
   p.mode = static_cast<ViewMode>(mode);
+  // A/B compare: keep the current image, then flip to it, split, or view the difference heat map.
+  if (ImGui::Button("Keep snapshot [K]")) model.shortcut(Shortcut::KeepSnapshot);
+  if (model.snapshot_usable()) {
+    int view = static_cast<int>(p.snapshot_view);
+    ImGui::SameLine();
+    ImGui::RadioButton("live", &view, 0);
+    ImGui::SameLine();
+    ImGui::RadioButton("snapshot [B]", &view, 1);
+    ImGui::SameLine();
+    ImGui::RadioButton("A|B", &view, 2);
+    p.snapshot_view = static_cast<SnapshotView>(view);
+    ImGui::TextDisabled("snapshot: %llu spp%s", static_cast<unsigned long long>(model.snapshot->spp),
+                        p.snapshot_view == SnapshotView::Split ? " (left), live (right)" : "");
+  } else {
+    p.snapshot_view = SnapshotView::Off;
+    if (model.snapshot_requested) {
+      ImGui::SameLine();
+      ImGui::TextDisabled("waiting for a full image");
+    }
+  }
   // Denoising: the session gathers the feature buffers and denoises on its render thread (turning it on
   // restarts the accumulation); the view picks the raw film, the denoised image, or both halves side by side.
   SessionSettings ss = model.session_settings();
@@ -343,14 +369,15 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   int tone = static_cast<int>(p.display.tone_map);
   if (ImGui::Combo("tone map", &tone, "none (clamp)\0Reinhard\0ACES fitted\0"))
     p.display.tone_map = static_cast<ToneMap>(tone);
-  if (p.mode == ViewMode::RelativeError) {
+  if (p.mode == ViewMode::RelativeError || p.mode == ViewMode::Difference) {
     ImGui::DragFloatRange2("log10 range", &p.error_log10_min, &p.error_log10_max, 0.05f, -8.f, 2.f, "%.1f");
     if (p.error_log10_max <= p.error_log10_min) p.error_log10_max = p.error_log10_min + 0.1f;
     char lo[32], mid[32], hi[32];
     std::snprintf(lo, sizeof lo, "%.0e", std::pow(10.0, p.error_log10_min));
     std::snprintf(mid, sizeof mid, "%.0e", std::pow(10.0, 0.5 * (p.error_log10_min + p.error_log10_max)));
     std::snprintf(hi, sizeof hi, ">= %.0e", std::pow(10.0, p.error_log10_max));
-    ImGui::TextDisabled("relative standard error per pixel (log scale)");
+    ImGui::TextDisabled(p.mode == ViewMode::Difference ? "relative difference live vs snapshot (log scale)"
+                                                        : "relative standard error per pixel (log scale)");
     legend(lo, mid, hi);
   } else if (p.mode == ViewMode::SampleCount) {
     char hi[32], mid[32];
@@ -662,6 +689,7 @@ void help_section(ViewerModel& model) {
       {"P", "pause / resume"},                     {"S", "save image (PNG + PFM)"},
       {"Tab", "hide / show panels"},               {"F1", "this help"},
       {"Ctrl+wheel / Ctrl+drag", "zoom / pan the image"}, {"F / 1", "fit the image / 1:1"},
+      {"K / B", "keep an A/B snapshot / flip to it"},
       {"Esc", "close a list / cancel typing; else quit (asks if the scene has unsaved edits)"}};
   if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingFixedFit)) {
     for (const auto& r : rows) {

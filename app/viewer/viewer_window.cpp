@@ -158,6 +158,11 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
 
     const Clock::time_point upload_start = Clock::now();
     const bool new_image = model.session().take_frame(front);  // never waits for a pass
+    if (model.snapshot_requested && front.width > 0 && !front.preview) {  // A/B: keep the newest full frame
+      model.snapshot_requested = false;
+      presenter.upload_snapshot(front);
+      model.snapshot = SnapshotInfo{front.width, front.height, front.spp};
+    }
     if (new_image) {
       presenter.upload(front);
       times.upload.add(ms_between(upload_start, Clock::now()));

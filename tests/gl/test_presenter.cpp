@@ -183,6 +183,56 @@ TEST_CASE("gl: the denoised image shows in the denoised view, on the right half 
   CHECK(compare(px, w, plain, s).max <= 1);
 }
 
+TEST_CASE("gl: A/B compare: the snapshot view, the split (snapshot left) and the difference heat map match the CPU") {
+  const int w = 60, h = 24;  // even width: no pixel centre on the split line
+  test::OsMesaContext ctx(w, h);
+  GlPresenter presenter;
+  const DisplayFrame live = test_frame(w, h);
+  // The snapshot: the live radiance reversed and scaled, so every pixel differs by a different amount.
+  DisplayFrame snap = live;
+  const size_t n = static_cast<size_t>(w) * h;
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) snap.rgba[4 * i + c] = 0.7f * std::abs(live.rgba[4 * (n - 1 - i) + c]);
+  presenter.upload(snap);
+  presenter.upload_snapshot(snap);
+  presenter.upload(live);
+  REQUIRE(presenter.has_snapshot());
+  std::vector<uint8_t> px;
+  for (const SnapshotView view : {SnapshotView::Off, SnapshotView::Snapshot, SnapshotView::Split}) {
+    CAPTURE(static_cast<int>(view));
+    PresentSettings s;
+    s.snapshot_view = view;
+    DisplayFrame e = live;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if ((static_cast<float>(x) + 0.5f) / static_cast<float>(w) < snapshot_until_u(view))
+          for (int c = 0; c < 3; ++c) e.rgba[4 * (static_cast<size_t>(y) * w + x) + c] = snap.rgba[4 * (static_cast<size_t>(y) * w + x) + c];
+    presenter.read_image(s, px);
+    const Diff d = compare(px, w, e, s);
+    INFO(d.worst);
+    CHECK(d.max <= 1);
+    if (view != SnapshotView::Off) CHECK(compare(px, w, live, s).max > 1);  // tells the two apart
+  }
+  PresentSettings s;
+  s.mode = ViewMode::Difference;
+  presenter.read_image(s, px);
+  int worst = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const Rgb a(live.rgba[4 * i], live.rgba[4 * i + 1], live.rgba[4 * i + 2]);
+    const Rgb b(snap.rgba[4 * i], snap.rgba[4 * i + 1], snap.rgba[4 * i + 2]);
+    const auto want = present_pixel(a, 0.f, 0.f, 1.f, s, b);
+    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(int(px[4 * i + c]) - int(want[c])));
+  }
+  CHECK(worst <= 1);
+  // A new size leaves the snapshot behind: the A/B views show the live image.
+  const DisplayFrame bigger = test_frame(w + 2, h);
+  presenter.upload(bigger);
+  CHECK_FALSE(presenter.has_snapshot());
+  presenter.read_image(s, px);
+  PresentSettings colour;
+  CHECK(compare(px, w + 2, bigger, colour).max <= 1);
+}
+
 TEST_CASE("gl: new frame sizes reallocate, and a preview drawn larger is magnified smoothly") {
   test::OsMesaContext ctx(64, 64);
   GlPresenter presenter;

@@ -427,3 +427,24 @@ TEST_CASE("viewer: the image fits the area by default; Ctrl+wheel zooms about th
   CHECK(model.zoom.fit);
   CHECK(area().w == 600.f);
 }
+
+TEST_CASE("viewer input: K asks the window for an A/B snapshot, B flips to it only while it fits the image") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  ImGui::GetIO().MousePos = ImVec2(-10.f, -10.f);
+  ui.press(GLFW_KEY_B);
+  CHECK(model.present.snapshot_view == SnapshotView::Off);  // nothing kept yet
+  ui.press(GLFW_KEY_K);
+  CHECK(model.snapshot_requested);
+  model.snapshot = SnapshotInfo{24, 24, 2};  // what the window records when it kept the frame
+  model.snapshot_requested = false;
+  ui.press(GLFW_KEY_B);
+  CHECK(model.present.snapshot_view == SnapshotView::Snapshot);
+  ui.press(GLFW_KEY_B);
+  CHECK(model.present.snapshot_view == SnapshotView::Off);
+  REQUIRE(model.set_resolution(32, 24));  // the snapshot no longer fits: the panel turns the A/B view off
+  model.present.snapshot_view = SnapshotView::Split;
+  ui.frame();
+  CHECK(model.present.snapshot_view == SnapshotView::Off);
+  CHECK_FALSE(model.snapshot_usable());
+}
