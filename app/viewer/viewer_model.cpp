@@ -1,5 +1,6 @@
 #include "viewer/viewer_model.h"
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -411,7 +412,38 @@ bool ViewerModel::load(const std::string& spec) {
   adopt(loaded, scene_short_name(spec));  // load_scene validated it
   note_edit(session_->set_scene(scene_));
   set_status("loaded " + spec, false);
+  if (recent && std::filesystem::is_regular_file(spec))
+    if (std::string err = recent->add(spec); !err.empty()) set_status(err, true);
   return true;
+}
+
+void ViewerModel::request_load(const std::string& spec) {
+  if (unsaved_edits_) confirm_load = spec;
+  else load(spec);
+}
+
+bool ViewerModel::open_file(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".json") {
+    request_load(path);
+    return true;
+  }
+  if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") {
+    EnvironmentDesc e = scene_.environment;
+    e.type = EnvironmentType::Map;
+    e.file = path;
+    e.image.reset();
+    if (!set_environment(e)) return false;
+    set_status("environment map " + path, false);
+    return true;
+  }
+  if (ext == ".obj") {
+    set_status("cannot open " + path + " alone: a mesh goes into a scene file as a \"mesh\" shape (docs/scene-format.md)", true);
+    return false;
+  }
+  set_status("cannot open " + path + ": drop a scene (.json) or an environment map (.exr, .hdr, .pfm)", true);
+  return false;
 }
 
 bool ViewerModel::save_scene(const std::string& path, bool replace) {

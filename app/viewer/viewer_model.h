@@ -14,6 +14,7 @@
 
 #include "scene/camera_controller.h"
 #include "viewer/display_transform.h"
+#include "viewer/recent_files.h"
 #include "render/render_session.h"
 
 namespace pt {
@@ -122,6 +123,13 @@ class ViewerModel {
 
   // --- Files. Errors land in status(), never in an exception.
   bool load(const std::string& spec);  // a built-in name or a .json path
+  // Load, unless the scene has unsaved edits: then ask first (confirm_load holds the spec while the panels ask).
+  void request_load(const std::string& spec);
+  std::optional<std::string> confirm_load;
+  // A file dropped on the window (or opened by name): a scene (.json) loads (asking first as above); an
+  // environment map (.exr, .hdr, .pfm) becomes the environment; anything else is refused with a message.
+  bool open_file(const std::string& path);
+  RecentFiles* recent = nullptr;  // scene files loaded successfully are added here (the window owns it)
   // Never replaces an existing file unless `replace` (the panels ask the user first); creates missing folders.
   bool save_scene(const std::string& path, bool replace = false);
   // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and

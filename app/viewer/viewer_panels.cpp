@@ -595,10 +595,20 @@ void scene_section(ViewerModel& model, PanelState& state) {
     ImGui::EndCombo();
   }
   ImGui::SameLine();
-  if (ImGui::Button("Load##builtin")) model.load(state.builtin_names[state.builtin]);
+  if (ImGui::Button("Load##builtin")) model.request_load(state.builtin_names[state.builtin]);
   ImGui::InputText("file", state.scene_path, sizeof state.scene_path);
   ImGui::SameLine();
-  if (ImGui::Button("Load##file")) model.load(state.scene_path);
+  if (ImGui::Button("Load##file")) model.request_load(state.scene_path);
+  if (model.recent && !model.recent->paths().empty() && ImGui::BeginCombo("recent", "open a recent scene...")) {
+    for (const std::string& path : model.recent->paths())
+      if (ImGui::Selectable(path.c_str())) {
+        copy_string(state.scene_path, sizeof state.scene_path, path);
+        model.request_load(path);
+        break;  // loading reorders the list
+      }
+    ImGui::EndCombo();
+  }
+  ImGui::TextDisabled("or drop a .json scene or an .exr/.hdr/.pfm map on the window");
   ImGui::InputText("save as", state.save_scene_path, sizeof state.save_scene_path);
   note_item(state, "save as");
   ImGui::SameLine();
@@ -629,39 +639,50 @@ void scene_section(ViewerModel& model, PanelState& state) {
   }
 }
 
-// Quitting with scene edits that were not saved (model.confirm_quit): save, discard, or stay.
-void quit_question(ViewerModel& model, PanelState& state) {
-  if (!model.confirm_quit) return;
-  if (!ImGui::IsPopupOpen("Quit?")) ImGui::OpenPopup("Quit?");
+// Quitting or opening another scene with edits that were not saved (model.confirm_quit, model.confirm_load):
+// save first, discard, or stay.
+void discard_question(ViewerModel& model, PanelState& state) {
+  if (!model.confirm_quit && !model.confirm_load) return;
+  const char* id = "Unsaved edits";
+  if (!ImGui::IsPopupOpen(id)) ImGui::OpenPopup(id);
   const ImGuiIO& io = ImGui::GetIO();
   ImGui::SetNextWindowPos(ImVec2(0.5f * io.DisplaySize.x, 0.5f * io.DisplaySize.y), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
-  if (!ImGui::BeginPopupModal("Quit?", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+  if (!ImGui::BeginPopupModal(id, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
     model.confirm_quit = false;
+    model.confirm_load.reset();
     return;
   }
-  ImGui::TextUnformatted("The scene has edits that are not saved.");
+  const bool quitting = model.confirm_quit;
+  const std::string next = model.confirm_load.value_or("");
+  auto proceed = [&] {
+    if (quitting) model.quit_requested = true;
+    else model.load(next);
+  };
+  auto close = [&] {
+    model.confirm_quit = false;
+    model.confirm_load.reset();
+    ImGui::CloseCurrentPopup();
+  };
+  if (quitting) ImGui::TextUnformatted("The scene has edits that are not saved. Quit anyway?");
+  else ImGui::Text("The scene has edits that are not saved. Open %s anyway?", next.c_str());
   ImGui::InputText("scene file", state.save_scene_path, sizeof state.save_scene_path);
   std::error_code ec;
   const bool exists = std::filesystem::exists(state.save_scene_path, ec);
   if (exists) ImGui::TextColored(ImVec4(1.f, 0.8f, 0.3f, 1.f), "exists: saving replaces it");
-  if (ImGui::Button(exists ? "Replace and quit" : "Save and quit")) {
-    if (model.save_scene(state.save_scene_path, exists)) model.quit_requested = true;
-    model.confirm_quit = false;
-    ImGui::CloseCurrentPopup();
+  const char* save_label = quitting ? (exists ? "Replace and quit" : "Save and quit") : (exists ? "Replace and open" : "Save and open");
+  if (ImGui::Button(save_label)) {
+    if (model.save_scene(state.save_scene_path, exists)) proceed();
+    close();
   }
   ImGui::SameLine();
-  if (ImGui::Button("Quit without saving")) {
-    model.quit_requested = true;
-    model.confirm_quit = false;
-    ImGui::CloseCurrentPopup();
+  if (ImGui::Button(quitting ? "Quit without saving" : "Open without saving")) {
+    proceed();
+    close();
   }
-  note_item(state, "Quit without saving");
+  note_item(state, "Discard");
   ImGui::SameLine();
-  if (ImGui::Button("Cancel")) {
-    model.confirm_quit = false;
-    ImGui::CloseCurrentPopup();
-  }
-  note_item(state, "Cancel quit");
+  if (ImGui::Button("Cancel")) close();
+  note_item(state, "Cancel");
   ImGui::EndPopup();
 }
 
@@ -728,8 +749,10 @@ void setup_viewer_style(float content_scale) {
 float panel_width() { return kPanelWidth * g_ui_scale; }
 
 float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown) {
-  quit_question(model, state);  // also with the panels hidden
-  if (!model.ui_visible) return 0.f;
+  if (!model.ui_visible) {
+    discard_question(model, state);  // also with the panels hidden
+    return 0.f;
+  }
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
   const ImGuiIO& io = ImGui::GetIO();
   const float width = std::min(panel_width(), io.DisplaySize.x);
@@ -766,6 +789,8 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
   if (model.selection()) state.shown_selection = model.selection()->serial;
   ImGui::PopItemWidth();
   ImGui::End();
+  // After the panel window: a modal opened while that window first appears would block its focus (1.86 asserts).
+  discard_question(model, state);
   return width;
 }
 

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -47,6 +48,13 @@ void on_size(GLFWwindow*, int, int) { ++g_input_events; }
 void on_refresh(GLFWwindow*) { ++g_input_events; }
 void on_iconify(GLFWwindow*, int) { ++g_input_events; }
 void on_focus(GLFWwindow*, int) { ++g_input_events; }
+// Files dropped on the window; opened by the loop (callbacks run inside glfwPollEvents, on this thread).
+std::vector<std::string> g_dropped;
+void on_drop(GLFWwindow*, int count, const char** paths) {
+  for (int i = 0; i < count; ++i)
+    if (paths[i]) g_dropped.emplace_back(paths[i]);
+  ++g_input_events;
+}
 // The close button asks the model, which may want to ask the user first (unsaved scene edits).
 std::atomic<bool> g_close_requested{false};
 void on_close(GLFWwindow* w) {
@@ -140,6 +148,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     const Clock::time_point start = Clock::now();
     glfwPollEvents();
     if (g_close_requested.exchange(false)) model.request_quit();
+    for (const std::string& path : g_dropped) model.open_file(path);
+    g_dropped.clear();
     // Quitting draws one last frame when a screenshot is wanted (the back buffer is undefined after a swap).
     const int sig = interrupts.signal_received();
     if (sig != 0 && !saving_on_signal) {
@@ -336,6 +346,7 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
   glfwSetWindowIconifyCallback(window, on_iconify);
   glfwSetWindowFocusCallback(window, on_focus);
   glfwSetWindowCloseCallback(window, on_close);
+  glfwSetDropCallback(window, on_drop);
 
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
@@ -364,6 +375,9 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
                                    : o.denoise_view == "split" ? DenoiseView::Split
                                                                : DenoiseView::Denoised;
       model.output_dir = o.output_dir;
+      RecentFiles recent;  // ~/.config/pathtracer/recent-scenes.txt
+      model.recent = &recent;
+      if (std::filesystem::is_regular_file(o.scene)) recent.add(o.scene);
       model.ui_visible = !o.hide_ui;
       rc = run_loop(window, model, o, interrupts);
     } catch (const GlError& e) {

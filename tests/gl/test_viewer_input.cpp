@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "io/image_io.h"
 #include "scene/scene_json.h"
 #include "viewer/viewer_input.h"
 #include "viewer/viewer_model.h"
@@ -161,7 +162,7 @@ TEST_CASE("viewer input: Esc with unsaved scene edits asks first, Esc again canc
   ui.press(GLFW_KEY_ESCAPE);
   REQUIRE(model.confirm_quit);
   ui.frame();
-  ui.click("Quit without saving");
+  ui.click("Discard");
   CHECK(model.quit_requested);
 }
 
@@ -447,4 +448,65 @@ TEST_CASE("viewer input: K asks the window for an A/B snapshot, B flips to it on
   ui.frame();
   CHECK(model.present.snapshot_view == SnapshotView::Off);
   CHECK_FALSE(model.snapshot_usable());
+}
+
+TEST_CASE("viewer: recent scene files persist, most recent first, without duplicates, at most 10") {
+  const std::filesystem::path dir = "viewer_recent_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  const std::string store = (dir / "config" / "recent-scenes.txt").string();
+  {
+    RecentFiles r(store);
+    CHECK(r.paths().empty());
+    CHECK(r.add("a.json").empty());
+    CHECK(r.add("b.json").empty());
+    CHECK(r.add("a.json").empty());
+    REQUIRE(r.paths().size() == 2);
+    CHECK(r.paths()[0] == std::filesystem::absolute("a.json").lexically_normal().string());
+  }
+  RecentFiles again(store);
+  REQUIRE(again.paths().size() == 2);
+  CHECK(std::filesystem::path(again.paths()[0]).filename() == "a.json");
+  CHECK(std::filesystem::path(again.paths()[1]).filename() == "b.json");
+  for (int i = 0; i < 15; ++i) {
+    std::string name = std::to_string(i);  // (GCC 12 warns falsely, -Wrestrict, on "s" + std::to_string(i))
+    again.add(name.insert(0, "s").append(".json"));
+  }
+  CHECK(again.paths().size() == kMaxRecentFiles);
+  CHECK(std::filesystem::path(again.paths()[0]).filename() == "s14.json");
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dropped map becomes the environment") {
+  const std::filesystem::path dir = "viewer_drop_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  const std::string scene_file = (dir / "spheres.json").string();
+  { std::ofstream(scene_file) << scene_to_json(small("cornell-spheres")); }
+  const std::string map_file = (dir / "sky.pfm").string();
+  write_pfm(map_file, Image{4, 2, std::vector<float>(24, 0.5f)});
+
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  RecentFiles recent((dir / "recent.txt").string());
+  model.recent = &recent;
+  CHECK(model.open_file(map_file));
+  CHECK(model.scene().environment.type == EnvironmentType::Map);
+  CHECK(model.has_unsaved_edits());
+  CHECK_FALSE(model.open_file((dir / "bunny.obj").string()));
+  CHECK(model.status().find("mesh") != std::string::npos);
+  CHECK_FALSE(model.open_file((dir / "notes.txt").string()));
+  CHECK(model.status_is_error());
+
+  // The environment edit is unsaved: the scene is not replaced until the user answers.
+  const size_t shapes = model.scene().shapes.size();
+  CHECK(model.open_file(scene_file));
+  REQUIRE(model.confirm_load);
+  CHECK(model.scene().shapes.size() == shapes);
+  Ui ui(model);
+  ui.frame();
+  ui.click("Discard");
+  CHECK(model.scene_name() == "spheres");
+  CHECK(model.scene().shapes.size() != shapes);
+  REQUIRE(recent.paths().size() == 1);
+  CHECK(std::filesystem::path(recent.paths()[0]).filename() == "spheres.json");
+  std::filesystem::remove_all(dir);
 }
