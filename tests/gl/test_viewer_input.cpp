@@ -468,8 +468,9 @@ TEST_CASE("viewer: recent scene files persist, most recent first, without duplic
   CHECK(std::filesystem::path(again.paths()[0]).filename() == "a.json");
   CHECK(std::filesystem::path(again.paths()[1]).filename() == "b.json");
   for (int i = 0; i < 15; ++i) {
-    std::string name = std::to_string(i);  // (GCC 12 warns falsely, -Wrestrict, on "s" + std::to_string(i))
-    again.add(name.insert(0, "s").append(".json"));
+    char name[32];  // (GCC 12 warns falsely, -Wrestrict, on "s" + std::to_string(i))
+    std::snprintf(name, sizeof name, "s%d.json", i);
+    again.add(name);
   }
   CHECK(again.paths().size() == kMaxRecentFiles);
   CHECK(std::filesystem::path(again.paths()[0]).filename() == "s14.json");
