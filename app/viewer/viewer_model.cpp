@@ -412,7 +412,8 @@ bool ViewerModel::load(const std::string& spec) {
   adopt(loaded, scene_short_name(spec));  // load_scene validated it
   note_edit(session_->set_scene(scene_));
   set_status("loaded " + spec, false);
-  if (recent && std::filesystem::is_regular_file(spec))
+  scene_file_ = std::filesystem::is_regular_file(spec) ? spec : "";
+  if (recent && !scene_file_.empty())
     if (std::string err = recent->add(spec); !err.empty()) set_status(err, true);
   return true;
 }
@@ -467,6 +468,7 @@ bool ViewerModel::save_scene(const std::string& path, bool replace) {
     return false;
   }
   unsaved_edits_ = false;
+  scene_file_ = path;
   set_status("saved scene " + path, false);
   return true;
 }

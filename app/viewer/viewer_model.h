@@ -130,6 +130,8 @@ class ViewerModel {
   // environment map (.exr, .hdr, .pfm) becomes the environment; anything else is refused with a message.
   bool open_file(const std::string& path);
   RecentFiles* recent = nullptr;  // scene files loaded successfully are added here (the window owns it)
+  // The file the scene was loaded from ("" for a built-in scene), or last saved to: Save offers it again.
+  const std::string& scene_file() const { return scene_file_; }
   // Never replaces an existing file unless `replace` (the panels ask the user first); creates missing folders.
   bool save_scene(const std::string& path, bool replace = false);
   // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and
@@ -202,6 +204,7 @@ class ViewerModel {
   SessionSettings settings_;
   bool paused_ = false;
   bool unsaved_edits_ = false;
+  std::string scene_file_;
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
   std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
   std::optional<Selection> selection_;

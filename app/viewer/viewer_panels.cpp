@@ -541,6 +541,16 @@ void object_section(ViewerModel& model, PanelState& state) {
                 });
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(sh.type == ShapeType::Sphere ? "the centre" : "the first vertex; the shape moves as a whole");
+  // A light is an object whose material emits: its emission here too (the material's, shared by its shapes).
+  const size_t m = static_cast<size_t>(current);
+  if (model.emission_strength(m) > 0.f) {
+    Rgb colour = model.emission_colour(m);
+    if (ImGui::ColorEdit3("emission##object", &colour.x, ImGuiColorEditFlags_Float))
+      model.set_emission(m, colour, model.emission_strength(m));
+    numeric_field(state, "strength##object", std::array<float, 1>{model.emission_strength(m)}, false,
+                  [](float* v) { return ImGui::DragFloat("strength##object", v, 0.05f, 0.f, 1e5f, "%.3f", ImGuiSliderFlags_Logarithmic); },
+                  [&](const std::array<float, 1>& v) { return outcome(model.set_emission(m, model.emission_colour(m), v[0]), model); });
+  }
   if (sh.type == ShapeType::Sphere)
     numeric_field(state, "radius", std::array<double, 1>{sh.radius}, true,
                   [](double* r) { return ImGui::InputDouble("radius", r, 0.0, 0.0, "%.4g"); },
@@ -754,6 +764,14 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
     return 0.f;
   }
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
+  // Save offers the file the scene came from (asking before replacing it); a built-in scene is saved as
+  // NAME.json in the folder last used.
+  if (const std::string key = model.scene_name() + "\n" + model.scene_file(); key != state.known_scene) {
+    state.known_scene = key;
+    const std::filesystem::path folder = std::filesystem::path(state.save_scene_path).parent_path();
+    copy_string(state.save_scene_path, sizeof state.save_scene_path,
+                !model.scene_file().empty() ? model.scene_file() : (folder / (model.scene_name() + ".json")).string());
+  }
   const ImGuiIO& io = ImGui::GetIO();
   const float width = std::min(panel_width(), io.DisplaySize.x);
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - width, 0.f));
