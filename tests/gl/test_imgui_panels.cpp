@@ -78,6 +78,22 @@ TEST_CASE("gl: the viewer panels render offscreen with the ImGui OpenGL3 backend
   CHECK(inside > 0.5 * kPanelWidth * h);
   CHECK(outside == 0);
 
+  // After a click on the image and with an A/B snapshot kept, the Object section and the A/B controls appear:
+  // more widgets, drawn through the real backend.
+  model.present.mode = ViewMode::Colour;
+  REQUIRE(model.select_at(2.0, 16.0));  // the red wall
+  model.snapshot = SnapshotInfo{32, 32, 6};
+  state.record_items = true;
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui::NewFrame();
+  draw_viewer_panels(model, state, shown);
+  ImGui::Render();
+  ctx.clear(0, 0, 0);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+  CHECK(ImGui::GetDrawData()->TotalVtxCount > vertices);
+  CHECK(state.item_rects.count("position##object") == 1);
+  CHECK(state.item_rects.count("red/type") == 1);  // the clicked material is open
+
   // Hidden panels draw nothing.
   model.ui_visible = false;
   ImGui_ImplOpenGL3_NewFrame();
