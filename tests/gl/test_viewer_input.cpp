@@ -125,7 +125,7 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-TEST_CASE("viewer input: Esc with a combo box open closes the list and does not quit; a second Esc quits") {
+TEST_CASE("viewer input: Esc with a combo box open closes the list and does not quit, a second Esc quits") {
   ViewerModel model(small("cornell"), "cornell", few_samples());
   Ui ui(model);
   ui.click("estimator");
@@ -166,7 +166,7 @@ TEST_CASE("viewer input: Esc with unsaved scene edits asks first, Esc again canc
   CHECK(model.quit_requested);
 }
 
-TEST_CASE("viewer input: a typed IOR applies once, on Enter; an invalid one is refused in red and nothing else reverts") {
+TEST_CASE("viewer input: a typed IOR applies once, on Enter, an invalid one is refused in red and nothing else reverts") {
   ViewerModel model(small("materials"), "materials", few_samples());
   Ui ui(model);
   const size_t plastic = material_index(model, "red plastic");
@@ -274,7 +274,7 @@ TEST_CASE("viewer: the style scales with the monitor's content scale, popups are
   ImGui::DestroyContext();
 }
 
-TEST_CASE("viewer: undo and redo scene edits (a slider drag is one step), revert to the file; camera moves are not edits") {
+TEST_CASE("viewer: undo and redo scene edits (a slider drag is one step), revert to the file, camera moves are not edits") {
   ViewerModel model(small("cornell"), "cornell", few_samples());
   const SceneDesc loaded = model.scene();
   CHECK_FALSE(model.can_undo());
@@ -322,7 +322,7 @@ TEST_CASE("viewer: undo and redo scene edits (a slider drag is one step), revert
   CHECK(model.scene().render.max_bounces == 5);
 }
 
-TEST_CASE("viewer input: a click on the image selects the material and object there; Ctrl+Z undoes an edit") {
+TEST_CASE("viewer input: a click on the image selects the material and object there, Ctrl+Z undoes an edit") {
   ViewerModel model(small("cornell"), "cornell", few_samples());
   Ui ui(model);
   ui.area.w = ui.area.h = 240.f;  // the 24 × 24 image drawn 10× at the top-left
@@ -372,7 +372,7 @@ TEST_CASE("viewer: the render resolution is set independently of the window, inv
   CHECK(model.scene().width == 32);
 }
 
-TEST_CASE("viewer: the image fits the area by default; Ctrl+wheel zooms about the cursor, Ctrl+drag pans, F fits, 1 is 1:1") {
+TEST_CASE("viewer: the image fits the area by default, Ctrl+wheel zooms about the cursor, Ctrl+drag pans, F fits, 1 is 1:1") {
   ImageZoom fit;
   ImageArea a = place_image(fit, 24, 24, 0.f, 0.f, 500.f, 300.f, 1.f);
   CHECK(a.w == 288.f);  // integer magnification 12 (300 / 24 = 12.5)

@@ -316,7 +316,7 @@ TEST_CASE("viewer: on shadertoy (look-at 1 unit ahead in a room 25 wide) the orb
   CHECK(glm::length(cornell.camera().target() - load_scene("cornell").camera.look_at) < 1e-12);
 }
 
-TEST_CASE("viewer: pick finds the material under an image point; double-click's pivot turns the camera to the hit") {
+TEST_CASE("viewer: pick finds the material under an image point, double-click's pivot turns the camera to the hit") {
   ViewerModel model(small_cornell(), "cornell", stop_at(1));
   const size_t red = material_index(model, "red"), green = material_index(model, "green");
   // The red wall fills the left edge of the image, the green one the right edge, at mid height.
