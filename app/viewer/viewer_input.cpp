@@ -18,7 +18,8 @@ namespace {
 void escape(ViewerModel& model) {
   if (ImGui::IsPopupOpen("", ImGuiPopupFlags_AnyPopupId)) {
     ImGui::ClosePopupToLevel(0, true);
-    model.confirm_quit = false;  // Esc on the quit question answers "cancel"
+    model.confirm_quit = false;  // Esc on the unsaved-edits question answers "cancel"
+    model.confirm_load.reset();
     return;
   }
   if (ImGui::IsAnyItemActive()) return;
