@@ -8,6 +8,7 @@
 #include "cli/bench_command.h"
 #include "cli/bench_rays_command.h"
 #include "cli/compare_command.h"
+#include "cli/merge_command.h"
 #include "cli/render_command.h"
 #include "viewer/view_command.h"
 #include "cli/stress_command.h"
@@ -23,6 +24,8 @@ int main(int argc, char** argv) {
   pt::add_bench_rays_command(*app.get_subcommand("bench"), bench_rays_options);
   pt::CompareOptions compare_options;
   pt::add_compare_command(app, compare_options);
+  pt::MergeOptions merge_options;
+  pt::add_merge_command(app, merge_options);
   pt::ViewOptions view_options;
   pt::add_view_command(app, view_options);
   pt::StressOptions stress_options;
@@ -44,6 +47,7 @@ int main(int argc, char** argv) {
       return pt::run_bench(bench_options);
     }
     if (app.got_subcommand("compare")) return pt::run_compare(compare_options);
+    if (app.got_subcommand("merge")) return pt::run_merge(merge_options);
     if (app.got_subcommand("view")) return pt::run_view(view_options);
     if (app.got_subcommand("stress")) return pt::run_stress(stress_options);
   } catch (const std::bad_alloc&) {

@@ -20,6 +20,7 @@
 #include "render/film.h"
 #include "denoise/denoiser.h"
 #include "io/film_exr.h"
+#include "io/film_state.h"
 #include "io/image_io.h"
 #include "cli/progress.h"
 #include "render/progressive.h"
@@ -92,6 +93,14 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->delimiter(',')
       ->expected(2)
       ->check(CLI::NonNegativeNumber);
+  r->add_option("--save-state", o.save_state,
+                "Also write the film's complete accumulation state here (.ptstate: resumable, mergeable; "
+                "docs/scale-out.md); written on Ctrl-C too");
+  r->add_option("--resume", o.resume,
+                "Continue the render saved in this state file (same scene and settings) up to the stop condition; "
+                "bit-identical to rendering straight there");
+  r->add_option("--sample-range", o.sample_range,
+                "A:B: render sample indices A to B-1 of every pixel (B-A spp), for `pathtracer merge`");
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With none of --png, --pfm and --exr, writes NAME.png and NAME.pfm in the current directory (NAME = scene\n"
@@ -249,6 +258,44 @@ int run_render(const RenderOptions& o) {
   }
   const bool features = o.denoise || std::any_of(aovs.begin(), aovs.end(), aov_needs_features);
 
+  // Resuming and sample ranges (docs/scale-out.md): checked before any work.
+  std::optional<LoadedFilmState> resumed;
+  uint32_t range_begin = 0, range_end = 0;
+  if (!o.sample_range.empty()) {
+    unsigned long long a = 0, b = 0;
+    char tail = 0;
+    if (std::sscanf(o.sample_range.c_str(), "%llu:%llu%c", &a, &b, &tail) != 2 || a >= b || b > (1ull << 31)) {
+      std::fprintf(stderr, "error: --sample-range %s: expected A:B with 0 <= A < B <= 2^31 (sample indices A to B-1)\n",
+                   o.sample_range.c_str());
+      return 2;
+    }
+    if (o.spp || !o.resume.empty()) {
+      std::fprintf(stderr, "error: --sample-range: %s (the range gives the samples)\n",
+                   o.spp ? "not with --spp" : "not with --resume");
+      return 2;
+    }
+    range_begin = static_cast<uint32_t>(a);
+    range_end = static_cast<uint32_t>(b);
+  }
+  if (!o.resume.empty()) {
+    try {
+      resumed = read_film_state(o.resume);
+    } catch (const FilmStateError& e) {
+      std::fprintf(stderr, "error: --resume: %s\n", e.what());
+      return 2;
+    }
+    if (std::string why = resume_problem(resumed->info, desc); !why.empty()) {
+      std::fprintf(stderr, "error: --resume %s: cannot continue %s with it: %s\n", o.resume.c_str(), o.scene.c_str(),
+                   why.c_str());
+      return 2;
+    }
+    if (features && !resumed->film.has_features()) {
+      std::fprintf(stderr, "error: --resume %s: the state has no feature buffers, which --denoise and the feature "
+                   "layers need (start it with them)\n", o.resume.c_str());
+      return 2;
+    }
+  }
+
   // Every output is checked before the first sample: a long render must not be lost to a typo.
   std::vector<OutputFile> outputs;
   if (!o.png.empty()) outputs.push_back({"--png", o.png});
@@ -259,6 +306,7 @@ int run_render(const RenderOptions& o) {
   }
   if (!o.exr.empty()) outputs.push_back({"--exr", o.exr});
   if (!o.denoised_pfm.empty()) outputs.push_back({"--denoised-pfm", o.denoised_pfm});
+  if (!o.save_state.empty()) outputs.push_back({"--save-state", o.save_state});
   if (!check_outputs(outputs, o.scene)) return 2;
   if (!check_film_memory(desc.width, desc.height, features, features || !o.exr.empty())) return 2;
 
@@ -267,10 +315,21 @@ int run_render(const RenderOptions& o) {
   if (o.spp) stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) stop.seconds = *o.time_seconds;
   if (o.target_relmse) stop.relmse = *o.target_relmse;
+  if (range_end > 0) stop.spp = range_end - range_begin;
   if (!stop.any()) stop.spp = 64;
 
-  Film film(desc.width, desc.height);
-  film.enable_features(features);
+  Film film;
+  FilmStateInfo state_info = state_info_for(desc, scene_stem(o.scene));
+  if (resumed) {
+    film = std::move(resumed->film);  // its features stay as saved
+    state_info.sample_begin = resumed->info.sample_begin;
+    state_info.render_seconds = resumed->info.render_seconds;
+  } else {
+    film.enable_features(features);
+    film.reset(desc.width, desc.height);
+    film.start_at(range_begin);
+    state_info.sample_begin = range_begin;
+  }
   Renderer renderer(o.threads);
   if (!renderer.thread_start_error().empty())
     std::fprintf(stderr, "warning: %s; rendering with %d\n", renderer.thread_start_error().c_str(), renderer.threads());
@@ -285,7 +344,7 @@ int run_render(const RenderOptions& o) {
   std::atomic<bool>& stop_now = interrupts.stop_flag();
   Watchdog watchdog(stop_now, stop.seconds > 0.0 ? std::optional<double>(stop.seconds) : std::nullopt);
 
-  uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
+  uint64_t spp = film.min_count(), samples = 0, rays = 0, pass_index = 0;
   double seconds_per_spp = 0.0;
   // Passes of about half a second keep the progress line and the stop checks timely.
   constexpr double kPassSeconds = 0.5;
@@ -345,9 +404,14 @@ int run_render(const RenderOptions& o) {
       if (flag == "--png") write_png(out.path, o.denoise ? Image{img.width, img.height, denoised} : img, display);
       else if (flag == "--pfm") write_pfm(out.path, img);
       else if (flag == "--denoised-pfm") write_pfm(out.path, Image{img.width, img.height, denoised});
+      else if (flag == "--save-state") {
+        FilmStateInfo info = state_info;
+        info.render_seconds += seconds;
+        write_film_state(out.path, film, info);
+      }
       else write_film_exr(out.path, film, {aovs, o.exr_half, o.denoise ? &denoised : nullptr});
       std::printf("wrote %s\n", std::filesystem::absolute(out.path).c_str());
-    } catch (const ImageError& e) {
+    } catch (const std::runtime_error& e) {  // ImageError, FilmStateError
       std::fprintf(stderr, "error: %s: %s\n", out.flag, e.what());
       ++failed;
     }

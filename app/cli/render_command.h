@@ -31,6 +31,9 @@ struct RenderOptions {
   bool generic_kernel = false;
   std::string path_loop = "auto";
   std::vector<int> bdpt_strategy;  // s,t: only that strategy, unweighted (diagnostic)
+  std::string save_state;          // write the film's accumulation state here (io/film_state.h)
+  std::string resume;              // continue from this state
+  std::string sample_range;        // "A:B": render sample indices [A, B) of every pixel
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

@@ -1,5 +1,8 @@
 #include "render/film.h"
 
+#include <stdexcept>
+#include <string>
+
 #include <limits>
 
 namespace pt {
@@ -10,7 +13,7 @@ void Film::reset(int width, int height) {
   const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
   count_.assign(n, 0);
   attempts_.assign(n, 0);
-  mean_.assign(3 * n, 0.0);
+  sum_.assign(6 * n, 0.0);
   m2_.assign(3 * n, 0.0);
   feature_.assign(features_enabled_ ? kFeatureStride * n : 0, 0.0);
   half_count_.assign(features_enabled_ ? n : 0, 0);
@@ -22,6 +25,50 @@ void Film::enable_features(bool on) {
   if (on == features_enabled_) return;
   features_enabled_ = on;
   reset(width_, height_);
+}
+
+void Film::start_at(uint32_t first) { attempts_.assign(count_.size(), first); }
+
+void Film::merge(const Film& o) {
+  if (o.width_ != width_ || o.height_ != height_)
+    throw std::invalid_argument("films of different sizes (" + std::to_string(width_) + "x" + std::to_string(height_) +
+                                " and " + std::to_string(o.width_) + "x" + std::to_string(o.height_) + ")");
+  if (o.features_enabled_ != features_enabled_) throw std::invalid_argument("one film has feature buffers, the other not");
+  for (size_t i = 0; i < count_.size(); ++i) {
+    const uint32_t nb = o.count_[i];
+    attempts_[i] = std::max(attempts_[i], o.attempts_[i]);
+    if (nb == 0) continue;
+    const uint32_t na = count_[i];
+    const double n = static_cast<double>(na) + nb;
+    const double wb = nb / n, cross = static_cast<double>(na) * nb / n;
+    for (int c = 0; c < 3; ++c) {
+      const double delta = o.mean_channel(i, c) - mean_channel(i, c);
+      m2_[3 * i + c] += o.m2_[3 * i + c] + delta * delta * cross;
+      // (hi, lo) += (hi_b, lo_b): TwoSum of the high parts, the low parts added to the error, renormalised.
+      double& hi = sum_[6 * i + 2 * c];
+      double& lo = sum_[6 * i + 2 * c + 1];
+      const double xh = o.sum_[6 * i + 2 * c], xl = o.sum_[6 * i + 2 * c + 1];
+      const double s = hi + xh, sb = s - hi, e = (hi - (s - sb)) + (xh - sb);
+      const double t = lo + xl + e;
+      const double h = s + t, hb = h - s;
+      lo = (s - (h - hb)) + (t - hb);
+      hi = h;
+    }
+    count_[i] = na + nb;
+    if (features_enabled_) {
+      for (size_t c = 0; c < kFeatureStride; ++c) {
+        double& x = feature_[kFeatureStride * i + c];
+        x += (o.feature_[kFeatureStride * i + c] - x) * wb;
+      }
+      const uint32_t ha = half_count_[i], hb = o.half_count_[i];
+      if (hb > 0) {
+        const double hw = static_cast<double>(hb) / (static_cast<double>(ha) + hb);
+        for (int c = 0; c < 3; ++c) half_mean_[3 * i + c] += (o.half_mean_[3 * i + c] - half_mean_[3 * i + c]) * hw;
+        half_count_[i] = ha + hb;
+      }
+    }
+  }
+  rejected_.fetch_add(o.rejected());
 }
 
 glm::dvec3 Film::variance_of_mean(size_t i) const {
@@ -38,7 +85,7 @@ double Film::estimated_relmse() const {
     if (n < 2) return std::numeric_limits<double>::infinity();
     const double inv = 1.0 / ((n - 1.0) * n);
     for (int c = 0; c < 3; ++c) {
-      const double m = mean_[3 * i + c];
+      const double m = mean_channel(i, c);
       sum += m2_[3 * i + c] * inv / (m * m + 0.01);
     }
   }
@@ -58,8 +105,9 @@ uint64_t Film::total_count() const {
 }
 
 std::vector<float> Film::mean_image() const {
-  std::vector<float> img(mean_.size());
-  for (size_t k = 0; k < mean_.size(); ++k) img[k] = static_cast<float>(mean_[k]);
+  std::vector<float> img(3 * count_.size());
+  for (size_t i = 0; i < count_.size(); ++i)
+    for (int c = 0; c < 3; ++c) img[3 * i + c] = static_cast<float>(mean_channel(i, c));
   return img;
 }
 
@@ -94,7 +142,7 @@ std::vector<float> Film::half_image(int half) const {
     for (int c = 0; c < 3; ++c) {
       const double a = half_mean_[3 * i + c];
       // Half B's mean from the total: (n·mean − n_A·mean_A)/(n − n_A).
-      const double value = half == 0 ? (na > 0 ? a : 0.0) : (n > na ? (n * mean_[3 * i + c] - na * a) / (n - na) : 0.0);
+      const double value = half == 0 ? (na > 0 ? a : 0.0) : (n > na ? (n * mean_channel(i, c) - na * a) / (n - na) : 0.0);
       img[3 * i + c] = static_cast<float>(value);
     }
   }

@@ -1,11 +1,15 @@
-// The progressive film: per pixel a sample count, the running mean and the running sum of squared deviations
-// (Welford 1962) per channel, in double.
+// The progressive film: per pixel a sample count, the sum of the samples and the running sum of squared
+// deviations (Welford 1962) per channel, in double.
 //
-// Why double Welford rather than the Shadertoy blend mix(old, new, 1/(n+1)) in float: the float blend stops
-// moving once (x − mean)/n falls below half an ulp of the mean (after ~10^7 samples at typical contrast), and
-// its rounding errors accumulate as a random walk. A double mean updated by mean += (x − mean)/n keeps ~16
-// digits, so 10^8 samples still leave the mean exact to ~1e-12 relative. The second moment gives the
-// per-pixel variance of the mean, from which the image's relMSE is estimated without a reference.
+// Why not the Shadertoy blend mix(old, new, 1/(n+1)) in float: it stops moving once (x − mean)/n falls below half
+// an ulp of the mean (after ~10^7 samples at typical contrast), and its rounding errors accumulate as a random
+// walk. The sum is kept as an unevaluated pair of doubles (hi + lo, Knuth's TwoSum: Knuth, TAOCP vol. 2,
+// §4.2.2; Ogita, Rump & Oishi 2005): about 106 bits, so every sum of up to 2^32 float samples whose dynamic
+// range is below ~2^50 is exact, and the mean (hi + lo)/n is the correctly rounded double of the exact mean in
+// practice. That makes the order of accumulation irrelevant: a film merged from sample ranges rendered apart
+// (another process, another machine, a resumed run; docs/scale-out.md) has the bits of the film that rendered
+// them in one go. The second moment (Welford's update against that mean) gives the per-pixel variance of the
+// mean, from which the image's relMSE is estimated without a reference.
 //
 // With features enabled (enable_features) the film also keeps, per pixel and with the same running mean, the
 // feature buffers of integrators/features.h (albedo, normal, depth, emission) and the mean of "half A", one of two halves
@@ -24,8 +28,8 @@ namespace pt {
 
 class Film {
  public:
-  // Memory per pixel (counts, mean and second moment): what a film of w×h costs, to check before allocating.
-  static constexpr size_t kBytesPerPixel = 2 * sizeof(uint32_t) + 6 * sizeof(double);
+  // Memory per pixel (counts, sum and second moment): what a film of w×h costs, to check before allocating.
+  static constexpr size_t kBytesPerPixel = 2 * sizeof(uint32_t) + 9 * sizeof(double);
   // What the feature buffers and the half buffer add per pixel when enabled.
   static constexpr size_t kFeatureBytesPerPixel = sizeof(uint32_t) + 13 * sizeof(double);
 
@@ -37,7 +41,7 @@ class Film {
     height_ = o.height_;
     count_ = std::move(o.count_);
     attempts_ = std::move(o.attempts_);
-    mean_ = std::move(o.mean_);
+    sum_ = std::move(o.sum_);
     m2_ = std::move(o.m2_);
     features_enabled_ = o.features_enabled_;
     feature_ = std::move(o.feature_);
@@ -65,14 +69,23 @@ class Film {
       rejected_.fetch_add(1, std::memory_order_relaxed);
       return false;
     }
+    const double previous = static_cast<double>(count_[i]);
     const double n = static_cast<double>(++count_[i]);
-    double* mean = &mean_[3 * i];
+    double* sum = &sum_[6 * i];
     double* m2 = &m2_[3 * i];
     for (int c = 0; c < 3; ++c) {
       const double x = v[c];
-      const double delta = x - mean[c];
-      mean[c] += delta / n;
-      m2[c] += delta * (x - mean[c]);
+      double& hi = sum[2 * c];
+      double& lo = sum[2 * c + 1];
+      const double mean_before = previous > 0.0 ? (hi + lo) / previous : 0.0;
+      // (hi, lo) += x: TwoSum gives hi + x exactly as s + e; lo absorbs e, and a second TwoSum renormalises so
+      // |lo| stays below half an ulp of hi (the pair then holds ~106 bits).
+      const double s = hi + x, sb = s - hi, e = (hi - (s - sb)) + (x - sb);
+      const double t = lo + e;
+      const double h = s + t, hb = h - s;
+      lo = (s - (h - hb)) + (t - hb);
+      hi = h;
+      m2[c] += (x - mean_before) * (x - (hi + lo) / n);
     }
     return true;
   }
@@ -104,8 +117,10 @@ class Film {
   }
 
   uint32_t count(size_t i) const { return count_[i]; }
-  Rgb mean(size_t i) const { return Rgb(mean_[3 * i], mean_[3 * i + 1], mean_[3 * i + 2]); }
-  double mean_channel(size_t i, int c) const { return mean_[3 * i + c]; }
+  Rgb mean(size_t i) const { return Rgb(mean_channel(i, 0), mean_channel(i, 1), mean_channel(i, 2)); }
+  double mean_channel(size_t i, int c) const {
+    return count_[i] > 0 ? (sum_[6 * i + 2 * c] + sum_[6 * i + 2 * c + 1]) / static_cast<double>(count_[i]) : 0.0;
+  }
   // Unbiased estimate of the variance of pixel i's mean, per channel: s²/n with s² = M2/(n−1). Infinite below 2 samples.
   glm::dvec3 variance_of_mean(size_t i) const;
   uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
@@ -139,6 +154,30 @@ class Film {
   std::vector<float> half_image(int half) const;
   uint32_t half_a_count(size_t i) const { return half_count_[i]; }
 
+  // --- Scale-out (io/film_state.h, docs/scale-out.md).
+  // Starts an empty film's sample indices at `first` for every pixel: the film renders the sample range
+  // [first, first + n) of a longer render (`render --sample-range`).
+  void start_at(uint32_t first);
+  // Adds another film of the same size and features (its samples disjoint from this one's, or drawn with another
+  // seed): counts add, the sums add as double-double pairs (so the mean has the bits of one film holding all
+  // the samples), the second moments by the parallel form of Welford's update (Chan, Golub & LeVeque 1979:
+  // M2 = M2_a + M2_b + δ²·na·nb/n, δ = mean_b − mean_a; equal to the sequential one up to rounding);
+  // features and half means are count-weighted, rejected counts add, and the next sample index is the larger.
+  // Throws std::invalid_argument on a size or feature mismatch.
+  void merge(const Film& other);
+  // The raw accumulation state, for io/film_state (saving and loading a film exactly).
+  struct Arrays {
+    std::vector<uint32_t>* count;
+    std::vector<uint32_t>* attempts;
+    std::vector<double>* sum;  // (hi, lo) per channel
+    std::vector<double>* m2;
+    std::vector<double>* feature;      // empty without features
+    std::vector<uint32_t>* half_count;
+    std::vector<double>* half_mean;
+  };
+  Arrays arrays() { return {&count_, &attempts_, &sum_, &m2_, &feature_, &half_count_, &half_mean_}; }
+  void set_rejected(uint64_t n) { rejected_.store(n); }
+
  private:
   static constexpr size_t kFeatureStride = 10;  // albedo rgb, normal xyz, depth, emission rgb
   std::vector<float> feature_image(size_t first, size_t channels) const;
@@ -149,7 +188,8 @@ class Film {
   std::vector<uint32_t> half_count_;  // samples in half A
   std::vector<double> half_mean_;    // mean of half A, 3 per pixel
   std::vector<uint32_t> count_, attempts_;
-  std::vector<double> mean_, m2_;
+  std::vector<double> sum_;  // per pixel and channel the pair (hi, lo): 6 doubles a pixel
+  std::vector<double> m2_;
   std::atomic<uint64_t> rejected_{0};
 };
 

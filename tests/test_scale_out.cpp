@@ -1,0 +1,248 @@
+// Scale-out (docs/scale-out.md): films rendered in pieces and merged, or saved and resumed, have the bits of one
+// straight render; state files are exact, and refused when truncated, corrupted or of another scene.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "io/film_state.h"
+#include "render/renderer.h"
+#include "run_command.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "test_helpers.h"
+
+using namespace pt;
+using pt::test::Run;
+
+namespace {
+
+SceneDesc small(const char* name, int size = 48) {
+  SceneDesc d = load_scene(name);
+  d.width = d.height = size;
+  d.render.seed = 7;
+  return d;
+}
+
+// Samples [first, first + spp) of every pixel, in one pass.
+Film render_range(const SceneDesc& desc, uint32_t first, int spp, bool features = false) {
+  const auto scene = compile_scene(desc);
+  Film film;
+  film.enable_features(features);
+  film.reset(desc.width, desc.height);
+  film.start_at(first);
+  Renderer renderer(2);
+  renderer.render_pass(*scene, desc.render, film, spp);
+  return film;
+}
+
+size_t mean_bits_differing(const Film& a, const Film& b) {
+  const std::vector<float> x = a.mean_image(), y = b.mean_image();
+  size_t n = 0;
+  for (size_t i = 0; i < x.size(); ++i) n += std::memcmp(&x[i], &y[i], sizeof(float)) != 0;
+  for (size_t i = 0; i < a.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c) n += a.mean_channel(i, c) != b.mean_channel(i, c);  // the doubles too
+  return n;
+}
+
+std::string bytes_of(const std::string& path) { return pt::test::slurp(path); }
+
+struct TempDir {
+  std::filesystem::path path;
+  explicit TempDir(const std::string& name) : path("scale_out_" + name + "_" + std::to_string(getpid())) {
+    std::filesystem::remove_all(path);
+    std::filesystem::create_directories(path);
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+  std::string operator/(const std::string& f) const { return (path / f).string(); }
+};
+
+}  // namespace
+
+TEST_CASE("scale-out: films of disjoint sample ranges merged in any order have the straight film's mean bits") {
+  for (const char* name : {"cornell", "cornell-spheres"}) {
+    CAPTURE(name);
+    const SceneDesc d = small(name);
+    const Film straight = render_range(d, 0, 24);
+    std::vector<Film> parts;
+    for (const auto& [first, spp] : {std::pair{0u, 5}, {5u, 8}, {13u, 3}, {16u, 8}})  // [0,5) [5,13) [13,16) [16,24)
+      parts.push_back(render_range(d, first, spp));
+    // Sequential order, reversed, and a tree.
+    Film forward(d.width, d.height), backward(d.width, d.height), left(d.width, d.height), right(d.width, d.height);
+    for (const Film& p : parts) forward.merge(p);
+    for (auto it = parts.rbegin(); it != parts.rend(); ++it) backward.merge(*it);
+    left.merge(parts[0]);
+    left.merge(parts[1]);
+    right.merge(parts[3]);
+    right.merge(parts[2]);
+    left.merge(right);
+    CHECK(forward.min_count() == 24);
+    CHECK(mean_bits_differing(forward, straight) == 0);
+    CHECK(mean_bits_differing(backward, straight) == 0);
+    CHECK(mean_bits_differing(left, straight) == 0);
+    CHECK(forward.next_sample_index(0) == 24);
+    // The second moments agree to rounding (Chan's combination is not the sequential update bit for bit).
+    for (size_t i = 0; i < straight.pixel_count(); i += 97)
+      CHECK(forward.variance_of_mean(i).x == doctest::Approx(straight.variance_of_mean(i).x).epsilon(1e-9));
+    CHECK(forward.estimated_relmse() == doctest::Approx(straight.estimated_relmse()).epsilon(1e-9));
+  }
+}
+
+TEST_CASE("scale-out: a film resumed from its saved state continues bit for bit, features included") {
+  TempDir dir("resume");
+  const SceneDesc d = small("cornell-spheres");
+  const auto scene = compile_scene(d);
+  Renderer renderer(2);
+  Film straight, piecewise;
+  for (Film* f : {&straight, &piecewise}) {
+    f->enable_features(true);
+    f->reset(d.width, d.height);
+  }
+  renderer.render_pass(*scene, d.render, straight, 12);
+  renderer.render_pass(*scene, d.render, piecewise, 5);
+  FilmStateInfo info = state_info_for(d, "cornell-spheres");
+  info.render_seconds = 1.5;
+  write_film_state(dir / "a.ptstate", piecewise, info);
+  LoadedFilmState loaded = read_film_state(dir / "a.ptstate");
+  CHECK(loaded.info.scene_hash == info.scene_hash);
+  CHECK(loaded.info.seed == 7);
+  CHECK(loaded.info.render_seconds == 1.5);
+  CHECK(loaded.info.scene_name == "cornell-spheres");
+  CHECK(resume_problem(loaded.info, d).empty());
+  CHECK(mean_bits_differing(loaded.film, piecewise) == 0);
+  renderer.render_pass(*scene, d.render, loaded.film, 7);
+  CHECK(mean_bits_differing(loaded.film, straight) == 0);
+  CHECK(loaded.film.albedo_image() == straight.albedo_image());
+  CHECK(loaded.film.half_image(1) == straight.half_image(1));
+  CHECK(loaded.film.variance_image() == straight.variance_image());  // same sequence of updates: same bits
+}
+
+TEST_CASE("scale-out: state files that are truncated, corrupted, padded, of another version or another scene are refused") {
+  TempDir dir("corrupt");
+  const SceneDesc d = small("cornell", 16);
+  const Film film = render_range(d, 0, 3);
+  write_film_state(dir / "good.ptstate", film, state_info_for(d, "cornell"));
+  const std::string good = bytes_of(dir / "good.ptstate");
+  REQUIRE(good.size() > 1000);
+  auto refused = [&](const std::string& bytes, const std::string& reason) {
+    { std::ofstream(dir / "bad.ptstate", std::ios::binary) << bytes; }
+    try {
+      read_film_state(dir / "bad.ptstate");
+      FAIL("accepted a bad state (" << reason << ")");
+    } catch (const FilmStateError& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find(reason) != std::string::npos);
+    }
+  };
+  refused(good.substr(0, good.size() / 2), "truncated");
+  refused(good.substr(0, 20), "truncated");
+  refused(good + "x", "more than its header says");
+  std::string flipped = good;
+  flipped[good.size() / 2] ^= 0x10;
+  refused(flipped, "checksum");
+  std::string version = good;
+  version[8] = 2;
+  refused(version, "version 2");
+  refused("P3\n16 16\n255\n", "not a pathtracer state file");
+  refused("", "not a pathtracer state file");
+
+  // A state of another scene, another seed or other settings cannot be resumed; a merged multi-seed one neither.
+  const FilmStateInfo info = read_film_state(dir / "good.ptstate").info;
+  SceneDesc other = d;
+  other.render.seed = 8;
+  CHECK(resume_problem(info, other).find("seed 7") != std::string::npos);
+  other = d;
+  other.render.max_bounces += 1;
+  CHECK(resume_problem(info, other).find("max bounces") != std::string::npos);
+  other = d;
+  other.materials[0].albedo = other.materials[0].albedo * 0.5f;
+  CHECK(resume_problem(info, other).find("another scene") != std::string::npos);
+  FilmStateInfo mixed = info;
+  mixed.mixed_seeds = true;
+  CHECK(resume_problem(mixed, d).find("different seeds") != std::string::npos);
+}
+
+TEST_CASE("scale-out: merging refuses overlapping sample ranges of one seed and other scenes, and marks several seeds") {
+  const SceneDesc d = small("cornell", 16);
+  std::vector<LoadedFilmState> states(2);
+  states[0].film = render_range(d, 0, 4);
+  states[0].info = state_info_for(d, "cornell");
+  states[1].film = render_range(d, 3, 4);  // indices 3..6 overlap 0..3
+  states[1].info = state_info_for(d, "cornell");
+  states[1].info.sample_begin = 3;
+  CHECK_THROWS_WITH_AS(merge_film_states(states, {"a", "b"}), doctest::Contains("both hold sample indices 3 to 3"),
+                       FilmStateError);
+  SceneDesc seeded = d;
+  seeded.render.seed = 99;
+  states[1].film = render_range(seeded, 0, 4);
+  states[1].info = state_info_for(seeded, "cornell");
+  const LoadedFilmState m = merge_film_states(states, {"a", "b"});
+  CHECK(m.info.mixed_seeds);
+  CHECK(m.film.min_count() == 8);
+  SceneDesc other = d;
+  other.render.max_bounces += 1;
+  states[1].info = state_info_for(other, "cornell");
+  CHECK_THROWS_WITH_AS(merge_film_states(states, {"a", "b"}), doctest::Contains("different scenes"), FilmStateError);
+}
+
+TEST_CASE("scale-out cli: stopped at 32 spp and resumed to 64, or two 32-spp halves merged, gives the straight render's PFM bytes") {
+  TempDir dir("cli");
+  const std::string common = "-q --scene cornell --seed 1 --width 96 --height 96 --threads 2 ";
+  auto render = [&](const std::string& args) {
+    const Run r = pt::test::run_pathtracer("", "render " + common + args);
+    INFO(r.out << r.err);
+    REQUIRE(r.status == 0);
+  };
+  render("--spp 64 --pfm " + dir / "straight.pfm");
+  render("--spp 32 --pfm " + dir / "a.pfm --save-state " + dir / "a.ptstate");
+  render("--spp 64 --resume " + dir / "a.ptstate --pfm " + dir / "resumed.pfm --save-state " + dir / "b.ptstate");
+  const std::string straight = bytes_of(dir / "straight.pfm");
+  REQUIRE(straight.size() > 96u * 96u * 12u);
+  CHECK(bytes_of(dir / "resumed.pfm") == straight);
+  CHECK(bytes_of(dir / "a.pfm") != straight);  // the test can tell them apart
+
+  render("--sample-range 0:32 --save-state " + dir / "h0.ptstate --pfm " + dir / "h0.pfm");
+  render("--sample-range 32:64 --save-state " + dir / "h1.ptstate --pfm " + dir / "h1.pfm");
+  const Run m = pt::test::run_pathtracer("", "merge " + dir / "h1.ptstate " + dir / "h0.ptstate --pfm " +
+                                                 dir / "merged.pfm --save-state " + dir / "merged.ptstate");
+  INFO(m.out << m.err);
+  REQUIRE(m.status == 0);
+  CHECK(m.out.find("merged 2 states of cornell: 96x96, 64 to 64 spp") != std::string::npos);
+  CHECK(bytes_of(dir / "merged.pfm") == straight);
+  // The merged state continues like the straight one: resumed to 80 spp, the same bytes as a straight 80.
+  render("--spp 80 --pfm " + dir / "straight80.pfm");
+  render("--spp 80 --resume " + dir / "merged.ptstate --pfm " + dir / "merged80.pfm");
+  CHECK(bytes_of(dir / "merged80.pfm") == bytes_of(dir / "straight80.pfm"));
+}
+
+TEST_CASE("scale-out cli: bad resume and merge requests exit 2 with the reason, before any work") {
+  TempDir dir("cli_bad");
+  const std::string common = "-q --scene cornell --seed 1 --width 32 --height 32 --threads 2 ";
+  REQUIRE(pt::test::run_pathtracer("", "render " + common + "--spp 4 --save-state " + dir / "s.ptstate --pfm " + dir / "s.pfm").status == 0);
+  const Run seed = pt::test::run_pathtracer("", "render -q --scene cornell --seed 2 --width 32 --height 32 --spp 8 --resume " + dir / "s.ptstate --pfm " + dir / "x.pfm");
+  CHECK(seed.status == 2);
+  CHECK(seed.err.find("seed 1, not 2") != std::string::npos);
+  const Run size = pt::test::run_pathtracer("", "render -q --scene cornell --seed 1 --width 40 --height 32 --spp 8 --resume " + dir / "s.ptstate --pfm " + dir / "x.pfm");
+  CHECK(size.status == 2);
+  CHECK(size.err.find("another scene or other settings") != std::string::npos);
+  std::string bytes = bytes_of(dir / "s.ptstate");
+  bytes.resize(bytes.size() - 100);
+  { std::ofstream(dir / "cut.ptstate", std::ios::binary) << bytes; }
+  const Run cut = pt::test::run_pathtracer("", "render " + common + "--spp 8 --resume " + dir / "cut.ptstate --pfm " + dir / "x.pfm");
+  CHECK(cut.status == 2);
+  CHECK(cut.err.find("truncated") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir / "x.pfm"));
+  const Run range = pt::test::run_pathtracer("", "render " + common + "--sample-range 8:4 --pfm " + dir / "x.pfm");
+  CHECK(range.status == 2);
+  CHECK(range.err.find("expected A:B") != std::string::npos);
+  const Run both = pt::test::run_pathtracer("", "render " + common + "--sample-range 0:4 --spp 4 --pfm " + dir / "x.pfm");
+  CHECK(both.status == 2);
+  const Run twice = pt::test::run_pathtracer("", "merge " + dir / "s.ptstate " + dir / "s.ptstate --pfm " + dir / "x.pfm");
+  CHECK(twice.status == 2);
+  CHECK(twice.err.find("both hold sample indices 0 to 3") != std::string::npos);
+  const Run over = pt::test::run_pathtracer("", "merge " + dir / "s.ptstate --save-state " + dir / "s.ptstate");
+  CHECK(over.status == 2);
+  CHECK(over.err.find("refusing to overwrite") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir / "x.pfm"));
+}

@@ -1,0 +1,284 @@
+#include "io/film_state.h"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+
+#include "io/little_endian.h"
+#include "io/safe_file.h"
+#include "scene/scene_json.h"
+
+namespace pt {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'T', 'S', 'T', 'A', 'T', 'E', '\0'};
+constexpr uint32_t kFlagFeatures = 1, kFlagMixedSeeds = 2;
+// A header's fixed fields (docs/scale-out.md): width, height, flags, scene hash, seed, estimator, sampler,
+// max bounces, RR depth, sample begin, rejected, render seconds, name length; then the name.
+constexpr uint32_t kHeaderFixedBytes = 4 + 4 + 4 + 8 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 8 + 4;
+constexpr uint32_t kMaxNameBytes = 4096;
+// Per pixel: count and next sample index (u32), sum pairs and second moments (6 + 3 f64); with features the
+// feature means (10 f64), the half-A count (u32) and mean (3 f64).
+constexpr size_t kPixelBytes = 2 * 4 + 9 * 8, kFeaturePixelBytes = 10 * 8 + 4 + 3 * 8;
+size_t pixel_bytes(bool features) { return kPixelBytes + (features ? kFeaturePixelBytes : 0); }
+constexpr int kMaxSide = 65536;
+
+uint64_t fnv1a(const unsigned char* p, size_t n, uint64_t h = 0xcbf29ce484222325ull) {
+  for (size_t i = 0; i < n; ++i) {
+    h ^= p[i];
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+void put_f64(std::string& out, double d) {
+  uint64_t v;
+  std::memcpy(&v, &d, 8);
+  put_le_u64(out, v);
+}
+
+double get_f64(const unsigned char* p) {
+  const uint64_t v = get_le_u64(p);
+  double d;
+  std::memcpy(&d, &v, 8);
+  return d;
+}
+
+// Bounds-checked reading: every read names what it wanted when the file ends early.
+struct Reader {
+  const unsigned char* p;
+  size_t size, pos = 0;
+  const std::string& path;
+  const unsigned char* take(size_t n, const char* what) {
+    if (n > size - pos) throw FilmStateError(path + ": truncated (ends inside " + what + ")");
+    const unsigned char* q = p + pos;
+    pos += n;
+    return q;
+  }
+  uint32_t u32(const char* what) { return get_le_u32(take(4, what)); }
+  uint64_t u64(const char* what) { return get_le_u64(take(8, what)); }
+  double f64(const char* what) { return get_f64(take(8, what)); }
+};
+
+template <class T>
+void put_array(std::string& out, const std::vector<T>& v) {
+  for (const T& x : v) {
+    if constexpr (std::is_same_v<T, double>) put_f64(out, x);
+    else put_le_u32(out, x);
+  }
+}
+
+template <class T>
+void get_array(Reader& r, std::vector<T>& v, const char* what) {
+  const unsigned char* p = r.take(v.size() * sizeof(T), what);
+  for (size_t i = 0; i < v.size(); ++i) {
+    if constexpr (std::is_same_v<T, double>) v[i] = get_f64(p + 8 * i);
+    else v[i] = get_le_u32(p + 4 * i);
+  }
+}
+
+}  // namespace
+
+uint64_t scene_content_hash(const SceneDesc& scene) {
+  SceneDesc unseeded = scene;  // the seed is kept apart: renders with other seeds may still be merged
+  unseeded.render.seed = 0;
+  const std::string json = scene_to_json(unseeded);
+  return fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
+}
+
+FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name) {
+  FilmStateInfo info;
+  info.scene_hash = scene_content_hash(scene);
+  info.seed = scene.render.seed;
+  info.estimator = static_cast<uint32_t>(scene.render.estimator);
+  info.sampler = static_cast<uint32_t>(scene.render.sampler);
+  info.max_bounces = scene.render.max_bounces;
+  info.rr_depth = scene.render.russian_roulette_depth;
+  info.scene_name = scene_name;
+  return info;
+}
+
+void write_film_state(const std::string& path, const Film& film_in, const FilmStateInfo& info) {
+  Film& film = const_cast<Film&>(film_in);  // arrays() is read here only
+  const Film::Arrays a = film.arrays();
+  const size_t n = film.pixel_count();
+  const std::string name = info.scene_name.substr(0, kMaxNameBytes);
+  std::string out;
+  out.reserve(64 + name.size() + n * pixel_bytes(film.has_features()) + 8);
+  out.append(kMagic, 8);
+  put_le_u32(out, kFilmStateVersion);
+  put_le_u32(out, kHeaderFixedBytes + static_cast<uint32_t>(name.size()));
+  put_le_u32(out, static_cast<uint32_t>(film.width()));
+  put_le_u32(out, static_cast<uint32_t>(film.height()));
+  put_le_u32(out, (film.has_features() ? kFlagFeatures : 0u) | (info.mixed_seeds ? kFlagMixedSeeds : 0u));
+  put_le_u64(out, info.scene_hash);
+  put_le_u64(out, info.seed);
+  put_le_u32(out, info.estimator);
+  put_le_u32(out, info.sampler);
+  put_le_u32(out, static_cast<uint32_t>(info.max_bounces));
+  put_le_u32(out, static_cast<uint32_t>(info.rr_depth));
+  put_le_u32(out, info.sample_begin);
+  put_le_u64(out, film.rejected());
+  put_f64(out, info.render_seconds);
+  put_le_u32(out, static_cast<uint32_t>(name.size()));
+  out += name;
+  put_array(out, *a.count);
+  put_array(out, *a.attempts);
+  put_array(out, *a.sum);
+  put_array(out, *a.m2);
+  if (film.has_features()) {
+    put_array(out, *a.feature);
+    put_array(out, *a.half_count);
+    put_array(out, *a.half_mean);
+  }
+  put_le_u64(out, fnv1a(reinterpret_cast<const unsigned char*>(out.data()), out.size()));
+  try {
+    write_file_safely(path, out);
+  } catch (const std::exception& e) {
+    throw FilmStateError(e.what());
+  }
+}
+
+LoadedFilmState read_film_state(const std::string& path) {
+  std::string bytes;
+  try {
+    // The largest film the renderer makes (16384², with features) plus its header.
+    bytes = read_file_limited(path, static_cast<size_t>(16384) * 16384 * pixel_bytes(true) + (1u << 20));
+  } catch (const std::exception& e) {
+    throw FilmStateError(e.what());
+  }
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  Reader r{p, bytes.size(), 0, path};
+  if (bytes.size() < 8 || std::memcmp(p, kMagic, 8) != 0)
+    throw FilmStateError(path + ": not a pathtracer state file (no PTSTATE signature)");
+  r.take(8, "the signature");
+  // The checksum first: a corrupted file is refused before any of its fields is trusted.
+  if (bytes.size() < 8 + 8 + 8) throw FilmStateError(path + ": truncated (" + std::to_string(bytes.size()) + " bytes)");
+  const uint64_t stored = get_le_u64(p + bytes.size() - 8);
+  const uint32_t version = get_le_u32(p + 8);
+  if (version != kFilmStateVersion)
+    throw FilmStateError(path + ": state file version " + std::to_string(version) + ", this build reads version " +
+                         std::to_string(kFilmStateVersion));
+  r.pos = 12;
+  const uint32_t header_bytes = r.u32("the header size");
+  if (header_bytes < kHeaderFixedBytes || header_bytes > kHeaderFixedBytes + kMaxNameBytes)
+    throw FilmStateError(path + ": corrupted (header size " + std::to_string(header_bytes) + ")");
+  const int width = static_cast<int>(r.u32("the header")), height = static_cast<int>(r.u32("the header"));
+  const uint32_t flags = r.u32("the header");
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide || (flags & ~(kFlagFeatures | kFlagMixedSeeds)))
+    throw FilmStateError(path + ": corrupted header (size " + std::to_string(width) + "x" + std::to_string(height) +
+                         ", flags " + std::to_string(flags) + ")");
+  const bool features = flags & kFlagFeatures;
+  const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
+  const size_t expected = 16 + header_bytes + n * pixel_bytes(features) + 8;
+  if (bytes.size() < expected)
+    throw FilmStateError(path + ": truncated (" + std::to_string(bytes.size()) + " of " + std::to_string(expected) +
+                         " bytes)");
+  if (bytes.size() > expected)
+    throw FilmStateError(path + ": corrupted (" + std::to_string(bytes.size() - expected) + " bytes more than its header says)");
+  if (fnv1a(p, bytes.size() - 8) != stored) throw FilmStateError(path + ": corrupted (checksum mismatch)");
+
+  LoadedFilmState s;
+  FilmStateInfo& info = s.info;
+  info.mixed_seeds = flags & kFlagMixedSeeds;
+  info.scene_hash = r.u64("the header");
+  info.seed = r.u64("the header");
+  info.estimator = r.u32("the header");
+  info.sampler = r.u32("the header");
+  info.max_bounces = static_cast<int32_t>(r.u32("the header"));
+  info.rr_depth = static_cast<int32_t>(r.u32("the header"));
+  info.sample_begin = r.u32("the header");
+  const uint64_t rejected = r.u64("the header");
+  info.render_seconds = r.f64("the header");
+  const uint32_t name_bytes = r.u32("the header");
+  if (name_bytes != header_bytes - kHeaderFixedBytes) throw FilmStateError(path + ": corrupted (scene name size)");
+  const unsigned char* name = r.take(name_bytes, "the scene name");
+  info.scene_name.assign(reinterpret_cast<const char*>(name), name_bytes);
+
+  s.film.enable_features(features);
+  s.film.reset(width, height);
+  const Film::Arrays a = s.film.arrays();
+  get_array(r, *a.count, "the sample counts");
+  get_array(r, *a.attempts, "the sample indices");
+  get_array(r, *a.sum, "the sums");
+  get_array(r, *a.m2, "the second moments");
+  if (features) {
+    get_array(r, *a.feature, "the feature buffers");
+    get_array(r, *a.half_count, "the half counts");
+    get_array(r, *a.half_mean, "the half means");
+  }
+  for (size_t i = 0; i < n; ++i)
+    if ((*a.count)[i] > (*a.attempts)[i])
+      throw FilmStateError(path + ": corrupted (pixel " + std::to_string(i) + " has more samples than sample indices)");
+  s.film.set_rejected(rejected);
+  return s;
+}
+
+std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene) {
+  if (info.mixed_seeds) return "it was merged from renders with different seeds: it can be merged, not resumed";
+  if (info.seed != scene.render.seed)
+    return "it was rendered with seed " + std::to_string(info.seed) + ", not " + std::to_string(scene.render.seed) +
+           " (give --seed " + std::to_string(info.seed) + ")";
+  if (info.scene_hash != scene_content_hash(scene)) {
+    std::string why = "it was rendered from another scene or other settings";
+    if (info.max_bounces != scene.render.max_bounces)
+      why += " (max bounces " + std::to_string(info.max_bounces) + ", not " + std::to_string(scene.render.max_bounces) + ")";
+    else if (info.estimator != static_cast<uint32_t>(scene.render.estimator) ||
+             info.sampler != static_cast<uint32_t>(scene.render.sampler))
+      why += " (estimator or sampler)";
+    return why + "; the scene, its film size and its render settings must be the same";
+  }
+  return "";
+}
+
+LoadedFilmState merge_film_states(std::vector<LoadedFilmState>& states, const std::vector<std::string>& names) {
+  if (states.empty()) throw FilmStateError("nothing to merge");
+  std::vector<size_t> order(states.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return states[a].info.sample_begin < states[b].info.sample_begin; });
+  const LoadedFilmState& first = states[order[0]];
+  for (size_t k = 1; k < order.size(); ++k) {
+    const LoadedFilmState& s = states[order[k]];
+    const std::string& name = names[order[k]];
+    if (s.info.scene_hash != first.info.scene_hash)
+      throw FilmStateError(name + " and " + names[order[0]] + " were rendered from different scenes or settings");
+    if (s.film.width() != first.film.width() || s.film.height() != first.film.height())
+      throw FilmStateError(name + ": another film size");
+    if (s.film.has_features() != first.film.has_features())
+      throw FilmStateError(name + ": feature buffers in one state and not the other");
+  }
+  // With one seed, a sample index rendered twice would count the same sample twice: refused.
+  for (size_t k = 0; k < order.size(); ++k)
+    for (size_t j = k + 1; j < order.size(); ++j) {
+      LoadedFilmState& a = states[order[k]];
+      LoadedFilmState& b = states[order[j]];
+      if (a.info.seed != b.info.seed || a.info.mixed_seeds || b.info.mixed_seeds) continue;
+      const Film::Arrays fa = a.film.arrays(), fb = b.film.arrays();
+      for (size_t i = 0; i < fa.count->size(); ++i) {
+        const uint32_t a0 = a.info.sample_begin, a1 = (*fa.attempts)[i];
+        const uint32_t b0 = b.info.sample_begin, b1 = (*fb.attempts)[i];
+        if ((*fa.count)[i] > 0 && (*fb.count)[i] > 0 && a0 < b1 && b0 < a1)
+          throw FilmStateError(names[order[k]] + " and " + names[order[j]] + " both hold sample indices " +
+                               std::to_string(std::max(a0, b0)) + " to " + std::to_string(std::min(a1, b1) - 1) +
+                               " (pixel " + std::to_string(i) + ") with seed " + std::to_string(a.info.seed) +
+                               ": render disjoint --sample-range's, or other seeds");
+      }
+    }
+  LoadedFilmState out;
+  out.info = first.info;
+  out.film.enable_features(first.film.has_features());
+  out.film.reset(first.film.width(), first.film.height());
+  out.film.start_at(first.info.sample_begin);
+  out.info.render_seconds = 0.0;
+  for (size_t k : order) {
+    const LoadedFilmState& s = states[k];
+    out.film.merge(s.film);
+    out.info.render_seconds += s.info.render_seconds;
+    out.info.mixed_seeds = out.info.mixed_seeds || s.info.mixed_seeds || s.info.seed != first.info.seed;
+  }
+  return out;
+}
+
+}  // namespace pt
