@@ -2,9 +2,11 @@
 // straight render; state files are exact, and refused when truncated, corrupted or of another scene.
 #include <doctest/doctest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <unistd.h>
 
 #include "io/film_state.h"
 #include "render/renderer.h"
@@ -245,4 +247,68 @@ TEST_CASE("scale-out cli: bad resume and merge requests exit 2 with the reason, 
   CHECK(over.status == 2);
   CHECK(over.err.find("refusing to overwrite") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir / "x.pfm"));
+}
+
+namespace {
+
+bool have_mpirun() { return std::system("command -v mpirun > /dev/null 2>&1") == 0; }
+
+// mpirun as CI runs it: as root when it is root, more ranks than cores allowed.
+std::string mpirun(int ranks) {
+  return "timeout 120 mpirun " + std::string(geteuid() == 0 ? "--allow-run-as-root " : "") + "--oversubscribe -np " +
+         std::to_string(ranks);
+}
+
+}  // namespace
+
+TEST_CASE("scale-out mpi: 2, 3 and 4 ranks write the single process's PFM bytes") {
+  if (!have_mpirun()) {
+    MESSAGE("mpirun not found: skipping the MPI test");
+    return;
+  }
+  TempDir dir("mpi");
+  const std::string common = "render -q --scene cornell --seed 1 --width 64 --height 64 --spp 24 ";
+  const Run one = pt::test::run_pathtracer("", common + "--threads 2 --pfm " + dir / "one.pfm --save-state " + dir / "one.ptstate");
+  REQUIRE(one.status == 0);
+  for (int n : {2, 3, 4}) {
+    CAPTURE(n);
+    const std::string pfm = dir / ("mpi" + std::to_string(n) + ".pfm");
+    const Run r = pt::test::run_pathtracer(mpirun(n), common + "--threads 1 --mpi --pfm " + pfm + " --save-state " +
+                                                          dir / ("mpi" + std::to_string(n) + ".ptstate"));
+    INFO(r.out << r.err);
+    REQUIRE(r.status == 0);
+    CHECK(r.out.find("mpi: " + std::to_string(n) + " ranks") != std::string::npos);
+    CHECK(bytes_of(pfm) == bytes_of(dir / "one.pfm"));
+    // The merged state continues like the single process's (resumed to 32 spp, same bytes).
+    const Run a = pt::test::run_pathtracer("", "render -q --scene cornell --seed 1 --width 64 --height 64 --spp 32 --resume " +
+                                                   dir / ("mpi" + std::to_string(n) + ".ptstate") + " --pfm " + dir / "a.pfm");
+    const Run b = pt::test::run_pathtracer("", "render -q --scene cornell --seed 1 --width 64 --height 64 --spp 32 --resume " +
+                                                   dir / "one.ptstate --pfm " + dir / "b.pfm");
+    REQUIRE(a.status == 0);
+    REQUIRE(b.status == 0);
+    CHECK(bytes_of(dir / "a.pfm") == bytes_of(dir / "b.pfm"));
+  }
+}
+
+TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, and the last checkpoint stays readable") {
+  if (!have_mpirun()) {
+    MESSAGE("mpirun not found: skipping the MPI test");
+    return;
+  }
+  TempDir dir("mpi_death");
+  // Two ranks render for up to 60 s with a checkpoint every 0.5 s; after 4 s one rank is killed.
+  const std::string script = mpirun(2) + " \"$0\" \"$@\" & job=$!; sleep 4; "
+                             "pkill -KILL -n -f \"render --mpi -q --scene cornell --seed 3\"; wait $job";
+  const auto start = std::chrono::steady_clock::now();
+  const Run r = pt::test::run_pathtracer(
+      "sh -c '" + script + "'",
+      "render --mpi -q --scene cornell --seed 3 --width 48 --height 48 --time 60 --threads 1 --checkpoint 0.5 --save-state " +
+          dir / "ck.ptstate --pfm " + dir / "ck.pfm");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  INFO(r.out << r.err);
+  CHECK(r.status != 0);
+  CHECK(seconds < 40.0);  // not the 60 s of the render, nor a hang
+  const LoadedFilmState ck = read_film_state(dir / "ck.ptstate");  // written whole, checksum good
+  CHECK(ck.film.min_count() > 0);
+  CHECK(ck.film.width() == 48);
 }

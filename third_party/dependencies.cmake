@@ -57,3 +57,8 @@ find_package(OpenEXR REQUIRED CONFIG)
 
 # tinyobjloader (libtinyobjloader-dev): Wavefront OBJ meshes of the scene's "mesh" shape (scene/mesh_obj.cpp).
 find_package(tinyobjloader REQUIRED CONFIG)
+
+# Open MPI (libopenmpi-dev, openmpi-bin): `render --mpi` spreads one frame over ranks (docs/scale-out.md). Only the
+# C API is used (through the CXX component: the project enables no C language); MPI_Init runs only with --mpi,
+# so a plain render never touches it.
+find_package(MPI REQUIRED COMPONENTS CXX)

@@ -16,6 +16,7 @@ PACKAGES=(
   libopenexr-dev                            # HDR environment maps, multi-layer film output (.exr)
   openexr                                   # exrheader: the tests check the layers other tools will see
   libtinyobjloader-dev                      # OBJ meshes
+  libopenmpi-dev openmpi-bin                # render --mpi (scale-out over ranks and machines)
 )
 
 tools/install_packages.sh "${PACKAGES[@]}"

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cli/interrupt.h"
+#include "cli/mpi_world.h"
 #include "cli/option_checks.h"
 #include "core/memory_budget.h"
 #include "io/safe_file.h"
@@ -101,6 +102,13 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
                 "bit-identical to rendering straight there");
   r->add_option("--sample-range", o.sample_range,
                 "A:B: render sample indices A to B-1 of every pixel (B-A spp), for `pathtracer merge`");
+  r->add_flag("--mpi", o.mpi,
+              "Run as one rank of an MPI job (mpirun -np N pathtracer render --mpi ...): the ranks split the samples, "
+              "rank 0 merges them exactly and writes the outputs (docs/scale-out.md)");
+  r->add_option("--checkpoint", o.checkpoint_seconds,
+                "Also write every output (merged over the ranks with --mpi) every S seconds, e.g. with --save-state, "
+                "so a run that dies keeps its last checkpoint")
+      ->check(finite_in(0.1, 1e7));
   r->add_flag("--quiet,-q", o.quiet, "No progress line");
   r->footer(
       "With none of --png, --pfm and --exr, writes NAME.png and NAME.pfm in the current directory (NAME = scene\n"
@@ -202,6 +210,22 @@ class Watchdog {
   std::thread thread_;
 };
 
+// Every rank's film on rank 0, merged exactly (io/film_state: double-double sums); nullopt on the other ranks.
+// The states travel in the file format, so the checksum also covers the transfer.
+std::optional<Film> merge_over_ranks(const MpiWorld& mpi, const Film& film, const FilmStateInfo& info, double busy) {
+  FilmStateInfo mine = info;
+  mine.render_seconds = busy;
+  const std::vector<std::string> parts = mpi.gather_to_root(encode_film_state(film, mine));
+  if (!mpi.root()) return std::nullopt;
+  std::vector<LoadedFilmState> states;
+  std::vector<std::string> names;
+  for (size_t r = 0; r < parts.size(); ++r) {
+    names.push_back("rank " + std::to_string(r));
+    states.push_back(decode_film_state(parts[r], names.back()));
+  }
+  return std::move(merge_film_states(states, names).film);
+}
+
 }  // namespace
 
 int run_render(const RenderOptions& o) {
@@ -258,6 +282,24 @@ int run_render(const RenderOptions& o) {
   }
   const bool features = o.denoise || std::any_of(aovs.begin(), aovs.end(), aov_needs_features);
 
+  // MPI: every rank runs this same command; rank 0 alone checks and writes the outputs and prints.
+  std::optional<MpiWorld> mpi;
+  if (o.mpi) {
+    if (!o.sample_range.empty() || !o.resume.empty()) {
+      std::fprintf(stderr, "error: --mpi: not with %s (the ranks share out the sample indices themselves)\n",
+                   o.resume.empty() ? "--sample-range" : "--resume");
+      return 2;
+    }
+    try {
+      mpi.emplace(nullptr, nullptr);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: --mpi: %s\n", e.what());
+      return 2;
+    }
+  }
+  const bool root = !mpi || mpi->root();
+  const int ranks = mpi ? mpi->size() : 1;
+
   // Resuming and sample ranges (docs/scale-out.md): checked before any work.
   std::optional<LoadedFilmState> resumed;
   uint32_t range_begin = 0, range_end = 0;
@@ -307,8 +349,14 @@ int run_render(const RenderOptions& o) {
   if (!o.exr.empty()) outputs.push_back({"--exr", o.exr});
   if (!o.denoised_pfm.empty()) outputs.push_back({"--denoised-pfm", o.denoised_pfm});
   if (!o.save_state.empty()) outputs.push_back({"--save-state", o.save_state});
-  if (!check_outputs(outputs, o.scene)) return 2;
-  if (!check_film_memory(desc.width, desc.height, features, features || !o.exr.empty())) return 2;
+  bool ok = root ? check_outputs(outputs, o.scene) : true;
+  ok = ok && check_film_memory(desc.width, desc.height, features, features || !o.exr.empty());
+  if (mpi) {  // all ranks stop together when one cannot go on
+    std::vector<int64_t> failed{ok ? 0 : 1};
+    mpi->max_all(failed);
+    ok = failed[0] == 0;
+  }
+  if (!ok) return 2;
 
   const auto scene = compile_scene(desc);
   StopConditions stop;
@@ -317,6 +365,19 @@ int run_render(const RenderOptions& o) {
   if (o.target_relmse) stop.relmse = *o.target_relmse;
   if (range_end > 0) stop.spp = range_end - range_begin;
   if (!stop.any()) stop.spp = 64;
+  // With --mpi, rank r renders the sample indices [r·S/N, (r+1)·S/N) of every pixel for a target of S spp (the
+  // merged film then has the straight render's bits), or, without an spp target, indices from r·2^31/N on.
+  if (mpi) {
+    const uint64_t total = stop.spp;
+    if (total > 0) {
+      range_begin = static_cast<uint32_t>(total * mpi->rank() / ranks);
+      stop.spp = total * (mpi->rank() + 1) / ranks - range_begin;
+    } else {
+      range_begin = static_cast<uint32_t>((uint64_t{1} << 31) / ranks * mpi->rank());
+    }
+  }
+  const double relmse_target = stop.relmse;  // with --mpi, for the merged film (checked across ranks below)
+  if (mpi) stop.relmse = 0.0;
 
   Film film;
   FilmStateInfo state_info = state_info_for(desc, scene_stem(o.scene));
@@ -333,7 +394,7 @@ int run_render(const RenderOptions& o) {
   Renderer renderer(o.threads);
   if (!renderer.thread_start_error().empty())
     std::fprintf(stderr, "warning: %s; rendering with %d\n", renderer.thread_start_error().c_str(), renderer.threads());
-  Progress progress(!o.quiet);
+  Progress progress(!o.quiet && root);
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
@@ -344,21 +405,99 @@ int run_render(const RenderOptions& o) {
   std::atomic<bool>& stop_now = interrupts.stop_flag();
   Watchdog watchdog(stop_now, stop.seconds > 0.0 ? std::optional<double>(stop.seconds) : std::nullopt);
 
+  // Writes every output from `f` (the merged film with --mpi); a checkpoint says so. Returns the failures.
+  auto write_outputs = [&](const Film& f, double seconds, bool checkpoint) {
+    const Image img{desc.width, desc.height, f.mean_image()};
+    // The denoised image (on the renderer's threads), shown by the PNG; the PFM stays the raw estimate.
+    std::vector<float> denoised;
+    if (o.denoise) {
+      const auto denoise_start = clock::now();
+      denoised = denoise_film(f, DenoiseSettings{}, renderer.pool());
+      if (!checkpoint)
+        std::printf("denoised in %.1f ms\n", std::chrono::duration<double, std::milli>(clock::now() - denoise_start).count());
+    }
+    DisplaySettings display;
+    display.exposure_ev = o.exposure;
+    display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
+                       : o.tonemap == "aces"   ? ToneMap::AcesFitted
+                                               : ToneMap::Clamp;
+    // Each output on its own: one that fails does not keep the others from being written.
+    int failed = 0;
+    for (const OutputFile& out : outputs) {
+      try {
+        const std::string flag = out.flag;
+        if (flag == "--png") write_png(out.path, o.denoise ? Image{img.width, img.height, denoised} : img, display);
+        else if (flag == "--pfm") write_pfm(out.path, img);
+        else if (flag == "--denoised-pfm") write_pfm(out.path, Image{img.width, img.height, denoised});
+        else if (flag == "--save-state") {
+          FilmStateInfo info = state_info;
+          info.render_seconds += seconds;
+          if (mpi) info.sample_begin = 0;
+          write_film_state(out.path, f, info);
+        }
+        else write_film_exr(out.path, f, {aovs, o.exr_half, o.denoise ? &denoised : nullptr});
+        if (!checkpoint) std::printf("wrote %s\n", std::filesystem::absolute(out.path).c_str());
+      } catch (const std::runtime_error& e) {  // ImageError, FilmStateError
+        std::fprintf(stderr, "error: %s: %s\n", out.flag, e.what());
+        ++failed;
+      }
+    }
+    if (checkpoint)
+      std::fprintf(stderr, "checkpoint at %.1f s: %u spp written%s\n", seconds, f.min_count(), failed ? " (with errors)" : "");
+    return failed;
+  };
+
   uint64_t spp = film.min_count(), samples = 0, rays = 0, pass_index = 0;
-  double seconds_per_spp = 0.0;
+  double seconds_per_spp = 0.0, busy_seconds = 0.0, last_checkpoint = 0.0;
   // Passes of about half a second keep the progress line and the stop checks timely.
   constexpr double kPassSeconds = 0.5;
-  while (!stop_now.load() && !stop_reason(stop, spp, elapsed(), film.estimated_relmse())) {
-    const int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed());
+  for (;;) {
+    // Whether to go on, whether to checkpoint, and (with --mpi) the pass size: rank 0's pace, so the ranks stay
+    // in step and meet at the same collective calls.
+    bool finished = stop_reason(stop, spp, elapsed(), stop.relmse > 0.0 ? film.estimated_relmse() : 0.0) != nullptr;
+    int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed());
+    bool checkpoint = o.checkpoint_seconds > 0.0 && elapsed() - last_checkpoint >= o.checkpoint_seconds;
+    bool abort = stop_now.load();
+    double global_spp = static_cast<double>(spp);
+    if (mpi) {
+      std::vector<int64_t> v{finished ? 0 : 1, abort ? 1 : 0, checkpoint && root ? 1 : 0, root ? pass : 0};
+      mpi->max_all(v);
+      global_spp = mpi->sum_all(static_cast<double>(spp));
+      if (relmse_target > 0.0) {  // the merged film's relMSE ≈ the mean of the ranks' over N (equal sample counts)
+        const double local = spp >= 2 ? film.estimated_relmse() : 1e300;
+        const double merged = mpi->sum_all(std::min(local, 1e300)) / (static_cast<double>(ranks) * ranks);
+        if (global_spp >= kRelMseStopMinSpp && merged <= relmse_target) v[0] = 0;
+      }
+      finished = v[0] == 0;
+      abort = v[1] != 0;
+      checkpoint = v[2] != 0;
+      pass = std::max(1, std::min(static_cast<int>(v[3]), stop.spp > 0 ? static_cast<int>(stop.spp - spp) : kMaxPassSpp));
+    }
+    if (checkpoint && !finished && !abort) {
+      last_checkpoint = elapsed();
+      if (mpi) {
+        std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds);
+        if (root) write_outputs(*merged, elapsed(), true);
+      } else {
+        write_outputs(film, elapsed(), true);
+      }
+    }
+    if (finished || abort) break;
+    const bool idle = stop.spp > 0 && spp >= stop.spp;  // this rank's share is done; others are not yet
     const auto pass_start = clock::now();
-    const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, o.adaptive, pass_index, &stop_now);
-    if (!ps.cancelled) seconds_per_spp = std::chrono::duration<double>(clock::now() - pass_start).count() / pass;
+    if (!idle) {
+      const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, o.adaptive, pass_index, &stop_now);
+      if (!ps.cancelled) seconds_per_spp = std::chrono::duration<double>(clock::now() - pass_start).count() / pass;
+      samples += ps.samples;
+      rays += ps.rays;
+    }
+    busy_seconds += std::chrono::duration<double>(clock::now() - pass_start).count();
     spp = film.min_count();
-    samples += ps.samples;
-    rays += ps.rays;
     const double relmse = stop.relmse > 0.0 ? film.estimated_relmse() : 0.0;  // a pass over the film: only if asked
-    progress.update(stop_progress(stop, spp, elapsed(), relmse).fraction, elapsed(), spp,
-                    static_cast<double>(samples) / elapsed());
+    StopConditions shown = stop;
+    if (mpi && root && stop.spp > 0) shown.spp = stop.spp * ranks;  // progress of the whole job, from rank 0
+    progress.update(stop_progress(shown, static_cast<uint64_t>(global_spp), elapsed(), relmse).fraction, elapsed(),
+                    static_cast<uint64_t>(global_spp), static_cast<double>(samples) * ranks / elapsed());
   }
   watchdog.finish();
   progress.finish();
@@ -366,6 +505,20 @@ int run_render(const RenderOptions& o) {
   if (const int sig = interrupts.signal_received())
     std::fprintf(stderr, "interrupted by %s: stopping, writing the image from the samples so far\n",
                  InterruptScope::signal_name(sig));
+
+  if (mpi) {
+    // Rank 0 merges every rank's film exactly; the other ranks are done.
+    const double all_samples = mpi->sum_all(static_cast<double>(samples)), all_rays = mpi->sum_all(static_cast<double>(rays));
+    const double all_busy = mpi->sum_all(busy_seconds);
+    std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds);
+    if (!root) return 0;
+    film = std::move(*merged);
+    samples = static_cast<uint64_t>(all_samples);
+    rays = static_cast<uint64_t>(all_rays);
+    spp = film.min_count();
+    std::printf("mpi: %d ranks, %.2f s, ranks busy %.0f %% of the time (sum of the ranks' pass times over ranks x "
+                "wall time)\n", ranks, seconds, 100.0 * all_busy / (ranks * seconds));
+  }
 
   std::printf("%s %dx%d %s/%s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
               "%llu non-finite samples rejected\n",
@@ -382,41 +535,7 @@ int run_render(const RenderOptions& o) {
   }
   if (spp == 0)
     std::fprintf(stderr, "warning: some pixels have no sample yet (they are written black)\n");
-
-  const Image img{desc.width, desc.height, film.mean_image()};
-  // The denoised image (on the renderer's threads), shown by the PNG; the PFM stays the raw estimate.
-  std::vector<float> denoised;
-  if (o.denoise) {
-    const auto denoise_start = clock::now();
-    denoised = denoise_film(film, DenoiseSettings{}, renderer.pool());
-    std::printf("denoised in %.1f ms\n", std::chrono::duration<double, std::milli>(clock::now() - denoise_start).count());
-  }
-  DisplaySettings display;
-  display.exposure_ev = o.exposure;
-  display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
-                     : o.tonemap == "aces"   ? ToneMap::AcesFitted
-                                             : ToneMap::Clamp;
-  // Each output on its own: one that fails does not keep the others from being written.
-  int failed = 0;
-  for (const OutputFile& out : outputs) {
-    try {
-      const std::string flag = out.flag;
-      if (flag == "--png") write_png(out.path, o.denoise ? Image{img.width, img.height, denoised} : img, display);
-      else if (flag == "--pfm") write_pfm(out.path, img);
-      else if (flag == "--denoised-pfm") write_pfm(out.path, Image{img.width, img.height, denoised});
-      else if (flag == "--save-state") {
-        FilmStateInfo info = state_info;
-        info.render_seconds += seconds;
-        write_film_state(out.path, film, info);
-      }
-      else write_film_exr(out.path, film, {aovs, o.exr_half, o.denoise ? &denoised : nullptr});
-      std::printf("wrote %s\n", std::filesystem::absolute(out.path).c_str());
-    } catch (const std::runtime_error& e) {  // ImageError, FilmStateError
-      std::fprintf(stderr, "error: %s: %s\n", out.flag, e.what());
-      ++failed;
-    }
-  }
-  return failed ? 1 : 0;
+  return write_outputs(film, seconds, false) ? 1 : 0;
 }
 
 }  // namespace pt

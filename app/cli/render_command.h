@@ -34,6 +34,8 @@ struct RenderOptions {
   std::string save_state;          // write the film's accumulation state here (io/film_state.h)
   std::string resume;              // continue from this state
   std::string sample_range;        // "A:B": render sample indices [A, B) of every pixel
+  bool mpi = false;                // spread the render over the ranks of an MPI job (cli/mpi_world.h)
+  double checkpoint_seconds = 0;   // write the outputs (merged, with --mpi) every this many seconds; 0 = at the end
 };
 
 void add_render_command(CLI::App& app, RenderOptions& options);

@@ -99,7 +99,7 @@ FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_na
   return info;
 }
 
-void write_film_state(const std::string& path, const Film& film_in, const FilmStateInfo& info) {
+std::string encode_film_state(const Film& film_in, const FilmStateInfo& info) {
   Film& film = const_cast<Film&>(film_in);  // arrays() is read here only
   const Film::Arrays a = film.arrays();
   const size_t n = film.pixel_count();
@@ -133,8 +133,13 @@ void write_film_state(const std::string& path, const Film& film_in, const FilmSt
     put_array(out, *a.half_mean);
   }
   put_le_u64(out, fnv1a(reinterpret_cast<const unsigned char*>(out.data()), out.size()));
+  return out;
+}
+
+void write_film_state(const std::string& path, const Film& film, const FilmStateInfo& info) {
+  const std::string bytes = encode_film_state(film, info);
   try {
-    write_file_safely(path, out);
+    write_file_safely(path, bytes);
   } catch (const std::exception& e) {
     throw FilmStateError(e.what());
   }
@@ -148,6 +153,10 @@ LoadedFilmState read_film_state(const std::string& path) {
   } catch (const std::exception& e) {
     throw FilmStateError(e.what());
   }
+  return decode_film_state(bytes, path);
+}
+
+LoadedFilmState decode_film_state(std::string_view bytes, const std::string& path) {
   const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
   Reader r{p, bytes.size(), 0, path};
   if (bytes.size() < 8 || std::memcmp(p, kMagic, 8) != 0)

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "render/film.h"
@@ -43,6 +44,8 @@ uint64_t scene_content_hash(const SceneDesc& scene);
 FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name);
 
 void write_film_state(const std::string& path, const Film& film, const FilmStateInfo& info);
+// The same bytes in memory (what ranks send each other, io/mpi).
+std::string encode_film_state(const Film& film, const FilmStateInfo& info);
 
 struct LoadedFilmState {
   Film film;
@@ -50,6 +53,8 @@ struct LoadedFilmState {
 };
 // Throws FilmStateError ("path: reason").
 LoadedFilmState read_film_state(const std::string& path);
+// Decodes bytes of encode_film_state; `name` labels the errors.
+LoadedFilmState decode_film_state(std::string_view bytes, const std::string& name);
 
 // "" when a state of `info` may continue rendering `scene` (same content hash and seed, resumable), else the reason.
 std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene);
