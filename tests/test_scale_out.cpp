@@ -312,3 +312,24 @@ TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, 
   CHECK(ck.film.min_count() > 0);
   CHECK(ck.film.width() == 48);
 }
+
+TEST_CASE("scale-out cli: Ctrl-C writes the state with the images, and the state resumes") {
+  TempDir dir("sigint");
+  // A render of 10^6 spp is interrupted after 2 s: the state must be there, whole, with the samples so far.
+  const std::string script = "\"$0\" \"$@\" & pid=$!; sleep 2; kill -INT $pid; wait $pid";
+  const Run r = pt::test::run_pathtracer("sh -c '" + script + "'",
+                                         "render -q --scene cornell --seed 1 --width 48 --height 48 --threads 2 "
+                                         "--spp 1000000 --save-state " + dir / "s.ptstate --pfm " + dir / "s.pfm");
+  INFO(r.out << r.err);
+  CHECK(r.status == 0);
+  CHECK(r.err.find("interrupted by SIGINT") != std::string::npos);
+  const LoadedFilmState s = read_film_state(dir / "s.ptstate");
+  CHECK(s.film.total_count() > 0);
+  CHECK(s.info.render_seconds > 0.5);
+  const uint32_t target = s.film.min_count() + 2;
+  const Run resumed = pt::test::run_pathtracer("", "render -q --scene cornell --seed 1 --width 48 --height 48 --spp " +
+                                                       std::to_string(target) + " --resume " + dir / "s.ptstate --pfm " + dir / "r.pfm");
+  INFO(resumed.err);
+  CHECK(resumed.status == 0);
+  CHECK(std::filesystem::exists(dir / "r.pfm"));
+}
