@@ -41,15 +41,18 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   reset_camera_controller();
 }
 
-// Emission as colour × strength, from the scene's materials.
-void ViewerModel::refresh_emission() {
-  emission_.assign(scene_.materials.size(), {});
-  for (size_t i = 0; i < scene_.materials.size(); ++i) {
-    const Rgb e = scene_.materials[i].emission;
+// Emission as colour × strength (max component 1), from materials.
+std::vector<ViewerModel::Emission> ViewerModel::emission_of(const std::vector<MaterialDesc>& materials) {
+  std::vector<Emission> out(materials.size());
+  for (size_t i = 0; i < materials.size(); ++i) {
+    const Rgb e = materials[i].emission;
     const float s = max_component(e);
-    emission_[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
+    out[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
   }
+  return out;
 }
+
+void ViewerModel::refresh_emission() { emission_ = emission_of(scene_.materials); }
 
 // Scenes written for a fly-through camera give a look-at point just ahead of the eye (shadertoy's is 1 unit
 // ahead in a room 25 wide): orbiting that point barely moves the camera. When the look-at point is closer than
@@ -342,25 +345,19 @@ void ViewerModel::restore(const UndoStep& s) {
   restoring_ = false;
 }
 
-bool ViewerModel::undo() {
-  if (undo_.empty()) return false;
-  redo_.push_back(undo_step(undo_.back().shapes != nullptr));
-  const UndoStep s = std::move(undo_.back());
-  undo_.pop_back();
+// Undo and redo are one move between the two stacks: the current state goes onto `to`, `from`'s top is restored.
+bool ViewerModel::step(std::vector<UndoStep>& from, std::vector<UndoStep>& to, const char* done) {
+  if (from.empty()) return false;
+  to.push_back(undo_step(from.back().shapes != nullptr));
+  const UndoStep s = std::move(from.back());
+  from.pop_back();
   restore(s);
-  set_status("undone", false);
+  set_status(done, false);
   return true;
 }
 
-bool ViewerModel::redo() {
-  if (redo_.empty()) return false;
-  undo_.push_back(undo_step(redo_.back().shapes != nullptr));
-  const UndoStep s = std::move(redo_.back());
-  redo_.pop_back();
-  restore(s);
-  set_status("redone", false);
-  return true;
-}
+bool ViewerModel::undo() { return step(undo_, redo_, "undone"); }
+bool ViewerModel::redo() { return step(redo_, undo_, "redone"); }
 
 void ViewerModel::revert() {
   redo_.clear();
@@ -372,13 +369,7 @@ void ViewerModel::revert() {
   file.width = loaded_.width;
   file.height = loaded_.height;
   file.shapes = std::make_shared<const std::vector<ShapeDesc>>(loaded_.shapes);
-  {
-    const SceneDesc current = scene_;
-    scene_.materials = loaded_.materials;
-    refresh_emission();
-    file.emission = emission_;
-    scene_.materials = current.materials;
-  }
+  file.emission = emission_of(loaded_.materials);
   restore(file);
   unsaved_edits_ = false;
   reset_camera();

@@ -190,6 +190,8 @@ class ViewerModel {
   void restore(const UndoStep& s);
   bool set_geometry(const SceneDesc& edited, const std::string& what);
   void refresh_emission();
+  static std::vector<Emission> emission_of(const std::vector<MaterialDesc>& materials);
+  bool step(std::vector<UndoStep>& from, std::vector<UndoStep>& to, const char* done);
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
   void reset_camera_controller();  // to the loaded camera, with a pivot the orbit can use
   bool commit(const SceneEdit& edit);  // validate, apply to the model, send to the session

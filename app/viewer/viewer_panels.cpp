@@ -4,6 +4,7 @@
 #include <imgui_internal.h>
 
 #include <filesystem>
+#include <initializer_list>
 
 #include <cinttypes>
 #include <cmath>
@@ -46,6 +47,17 @@ bool enum_combo(PanelState& st, const char* label, E& value) {
     ImGui::EndCombo();
   }
   return changed;
+}
+
+// Radio buttons on one line for an enum's first values, labelled in order.
+template <class E>
+void radio_row(E& value, std::initializer_list<const char*> labels) {
+  int v = static_cast<int>(value), i = 0;
+  for (const char* label : labels) {
+    if (i > 0) ImGui::SameLine();
+    ImGui::RadioButton(label, &v, i++);
+  }
+  value = static_cast<E>(v);
 }
 
 FieldMemory* find_refused(PanelState& st, ImGuiID id) {
@@ -325,14 +337,8 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   // A/B compare: keep the current image, then flip to it, split, or view the difference heat map.
   if (ImGui::Button("Keep snapshot [K]")) model.shortcut(Shortcut::KeepSnapshot);
   if (model.snapshot_usable()) {
-    int view = static_cast<int>(p.snapshot_view);
     ImGui::SameLine();
-    ImGui::RadioButton("live", &view, 0);
-    ImGui::SameLine();
-    ImGui::RadioButton("snapshot [B]", &view, 1);
-    ImGui::SameLine();
-    ImGui::RadioButton("A|B", &view, 2);
-    p.snapshot_view = static_cast<SnapshotView>(view);
+    radio_row(p.snapshot_view, {"live", "snapshot [B]", "A|B"});
     ImGui::TextDisabled("snapshot: %llu spp%s", static_cast<unsigned long long>(model.snapshot->spp),
                         p.snapshot_view == SnapshotView::Split ? " (left), live (right)" : "");
   } else {
@@ -349,14 +355,8 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Feature-guided a-trous filter (docs/denoising.md); saved PFMs stay the raw estimate");
   if (ss.denoise) {
-    int view = static_cast<int>(p.denoise_view);
     ImGui::SameLine();
-    ImGui::RadioButton("raw", &view, 0);
-    ImGui::SameLine();
-    ImGui::RadioButton("denoised", &view, 1);
-    ImGui::SameLine();
-    ImGui::RadioButton("split", &view, 2);
-    p.denoise_view = static_cast<DenoiseView>(view);
+    radio_row(p.denoise_view, {"raw", "denoised", "split"});
   }
   // Image zoom (Ctrl+wheel, Ctrl+drag on the image; F, 1).
   if (ImGui::Button("Fit [F]")) model.zoom = ImageZoom{};
@@ -452,6 +452,16 @@ void environment_section(ViewerModel& model, PanelState& state) {
   if (changed) model.set_environment(e);
 }
 
+// A material's emission: a colour (live) and a strength (typed or dragged; refused when negative).
+void emission_fields(ViewerModel& model, PanelState& state, size_t m) {
+  Rgb colour = model.emission_colour(m);
+  if (ImGui::ColorEdit3("emission", &colour.x, ImGuiColorEditFlags_Float))
+    model.set_emission(m, colour, model.emission_strength(m));
+  numeric_field(state, "strength", std::array<float, 1>{model.emission_strength(m)}, false,
+                [](float* v) { return ImGui::DragFloat("strength", v, 0.05f, 0.f, 1e5f, "%.3f", ImGuiSliderFlags_Logarithmic); },
+                [&](const std::array<float, 1>& v) { return outcome(model.set_emission(m, model.emission_colour(m), v[0]), model); });
+}
+
 void materials_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (model.selection() && model.selection()->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
@@ -500,12 +510,7 @@ void materials_section(ViewerModel& model, PanelState& state) {
         property("IOR", &MaterialDesc::ior, [](float* v) { return ImGui::DragFloat("IOR", v, 0.002f, 1.0f, 4.0f, "%.3f"); });
       if (t == MaterialType::Subsurface)
         property("g (anisotropy)", &MaterialDesc::g, [](float* v) { return ImGui::SliderFloat("g (anisotropy)", v, -0.95f, 0.95f, "%.2f"); });
-      Rgb colour = model.emission_colour(i);
-      if (ImGui::ColorEdit3("emission", &colour.x, ImGuiColorEditFlags_Float))
-        model.set_emission(i, colour, model.emission_strength(i));
-      numeric_field(state, "strength", std::array<float, 1>{model.emission_strength(i)}, false,
-                    [](float* v) { return ImGui::DragFloat("strength", v, 0.05f, 0.f, 1e5f, "%.3f", ImGuiSliderFlags_Logarithmic); },
-                    [&](const std::array<float, 1>& v) { return outcome(model.set_emission(i, model.emission_colour(i), v[0]), model); });
+      emission_fields(model, state, i);
       state.scope.clear();
       ImGui::TreePop();
     }
@@ -544,12 +549,9 @@ void object_section(ViewerModel& model, PanelState& state) {
   // A light is an object whose material emits: its emission here too (the material's, shared by its shapes).
   const size_t m = static_cast<size_t>(current);
   if (model.emission_strength(m) > 0.f) {
-    Rgb colour = model.emission_colour(m);
-    if (ImGui::ColorEdit3("emission##object", &colour.x, ImGuiColorEditFlags_Float))
-      model.set_emission(m, colour, model.emission_strength(m));
-    numeric_field(state, "strength##object", std::array<float, 1>{model.emission_strength(m)}, false,
-                  [](float* v) { return ImGui::DragFloat("strength##object", v, 0.05f, 0.f, 1e5f, "%.3f", ImGuiSliderFlags_Logarithmic); },
-                  [&](const std::array<float, 1>& v) { return outcome(model.set_emission(m, model.emission_colour(m), v[0]), model); });
+    ImGui::PushID("object");
+    emission_fields(model, state, m);
+    ImGui::PopID();
   }
   if (sh.type == ShapeType::Sphere)
     numeric_field(state, "radius", std::array<double, 1>{sh.radius}, true,
