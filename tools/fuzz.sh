@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(fuzz_scene fuzz_images fuzz_geometry_files)
+((${#targets[@]})) || targets=(fuzz_scene fuzz_images fuzz_geometry_files fuzz_film_state)
 
 tools/install_packages.sh clang-14 libclang-rt-14-dev
 
@@ -26,6 +26,7 @@ for t in "${targets[@]}"; do
     fuzz_scene)  seeds=(scenes); extra=(-dict=tests/fuzz/scene.dict -max_len=16384) ;;
     fuzz_images) seeds=(tests/fuzz/seeds/images); extra=(-max_len=4096) ;;
     fuzz_geometry_files) seeds=(tests/fuzz/seeds/geometry); extra=(-max_len=4096) ;;
+    fuzz_film_state) seeds=(tests/fuzz/seeds/states); extra=(-max_len=4096) ;;
     *) echo "unknown fuzz target $t" >&2; exit 2 ;;
   esac
   echo "== $t: ${seconds} s =="
@@ -34,7 +35,7 @@ for t in "${targets[@]}"; do
        -timeout=10 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" 2>"build-fuzz/$t.log"; then
     status=1
     echo "$t: FINDING (build-fuzz/$t.log, build-fuzz/findings/$t/):" >&2
-    grep -E 'ERROR|SUMMARY|fuzz_(scene|images|geometry_files):|Test unit written' "build-fuzz/$t.log" | head -20 >&2
+    grep -E 'ERROR|SUMMARY|fuzz_(scene|images|geometry_files|film_state):|Test unit written' "build-fuzz/$t.log" | head -20 >&2
   fi
   grep -E '^stat::(number_of_executed_units|peak_rss_mb)|cov: ' "build-fuzz/$t.log" | tail -3
 done

@@ -80,6 +80,10 @@ void get_array(Reader& r, std::vector<T>& v, const char* what) {
 
 }  // namespace
 
+uint64_t film_state_checksum(std::string_view body) {
+  return fnv1a(reinterpret_cast<const unsigned char*>(body.data()), body.size());
+}
+
 uint64_t scene_content_hash(const SceneDesc& scene) {
   SceneDesc unseeded = scene;  // the seed is kept apart: renders with other seeds may still be merged
   unseeded.render.seed = 0;

@@ -53,6 +53,8 @@ struct LoadedFilmState {
 };
 // Throws FilmStateError ("path: reason").
 LoadedFilmState read_film_state(const std::string& path);
+// The trailing checksum of a state whose bytes (checksum excluded) are `body` (FNV-1a 64).
+uint64_t film_state_checksum(std::string_view body);
 // Decodes bytes of encode_film_state; `name` labels the errors.
 LoadedFilmState decode_film_state(std::string_view bytes, const std::string& name);
 
