@@ -2,8 +2,9 @@
 # Builds everything and runs the whole test suite (doctest cases through ctest, all cores).
 # With CI=true (as in CI) or with --sanitize, then also builds the tracer and its tests with AddressSanitizer and
 # UndefinedBehaviorSanitizer (build-asan/) and runs the fast suites under them: scene files, intersection,
-# sampling, film, materials, furnace, determinism, CLI error paths; and runs each libFuzzer target (scene
-# loader, image readers) for 30 s under ASan/UBSan (tools/fuzz.sh; a finding fails the run).
+# sampling, film, materials, furnace, determinism, CLI error paths, film states and merges; and runs each
+# libFuzzer target (scene loader, image readers, geometry files, film states) for 30 s under ASan/UBSan
+# (tools/fuzz.sh; a finding fails the run).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 "$here/tools/bootstrap.sh"
