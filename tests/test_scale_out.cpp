@@ -290,6 +290,27 @@ TEST_CASE("scale-out mpi: 2, 3 and 4 ranks write the single process's PFM bytes"
   }
 }
 
+TEST_CASE("scale-out mpi: a state resumed by 2 ranks gives the single process's bytes, a mismatched one is refused by all") {
+  if (!have_mpirun()) {
+    MESSAGE("mpirun not found: skipping the MPI test");
+    return;
+  }
+  TempDir dir("mpi_resume");
+  const std::string common = "render -q --scene cornell --seed 1 --width 48 --height 48 ";
+  REQUIRE(pt::test::run_pathtracer("", common + "--spp 20 --threads 2 --pfm " + dir / "straight.pfm").status == 0);
+  REQUIRE(pt::test::run_pathtracer("", common + "--spp 8 --threads 2 --save-state " + dir / "s8.ptstate --pfm " + dir / "s8.pfm").status == 0);
+  const Run r = pt::test::run_pathtracer(mpirun(2), common + "--spp 20 --threads 1 --mpi --resume " + dir / "s8.ptstate --pfm " +
+                                                         dir / "resumed.pfm");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK(bytes_of(dir / "resumed.pfm") == bytes_of(dir / "straight.pfm"));
+  const Run bad = pt::test::run_pathtracer(mpirun(2), "render -q --scene cornell --seed 2 --width 48 --height 48 --spp 20 "
+                                                           "--threads 1 --mpi --resume " + dir / "s8.ptstate --pfm " + dir / "bad.pfm");
+  CHECK(bad.status != 0);
+  CHECK(bad.err.find("seed 1, not 2") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir / "bad.pfm"));
+}
+
 TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, and the last checkpoint stays readable") {
   if (!have_mpirun()) {
     MESSAGE("mpirun not found: skipping the MPI test");

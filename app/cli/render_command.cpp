@@ -212,13 +212,24 @@ class Watchdog {
 
 // Every rank's film on rank 0, merged exactly (io/film_state: double-double sums); nullopt on the other ranks.
 // The states travel in the file format, so the checksum also covers the transfer.
-std::optional<Film> merge_over_ranks(const MpiWorld& mpi, const Film& film, const FilmStateInfo& info, double busy) {
+// With --resume, rank 0 adds the resumed state's film (`base`), whose samples precede the ranks'.
+std::optional<Film> merge_over_ranks(const MpiWorld& mpi, const Film& film, const FilmStateInfo& info, double busy,
+                                     const LoadedFilmState* base) {
   FilmStateInfo mine = info;
   mine.render_seconds = busy;
   const std::vector<std::string> parts = mpi.gather_to_root(encode_film_state(film, mine));
   if (!mpi.root()) return std::nullopt;
   std::vector<LoadedFilmState> states;
   std::vector<std::string> names;
+  if (base) {
+    LoadedFilmState copy;
+    copy.info = base->info;
+    copy.film.enable_features(base->film.has_features());
+    copy.film.reset(base->film.width(), base->film.height());
+    copy.film.merge(base->film);  // an exact copy (merging into an empty film)
+    states.push_back(std::move(copy));
+    names.push_back("the resumed state");
+  }
   for (size_t r = 0; r < parts.size(); ++r) {
     names.push_back("rank " + std::to_string(r));
     states.push_back(decode_film_state(parts[r], names.back()));
@@ -285,9 +296,8 @@ int run_render(const RenderOptions& o) {
   // MPI: every rank runs this same command; rank 0 alone checks and writes the outputs and prints.
   std::optional<MpiWorld> mpi;
   if (o.mpi) {
-    if (!o.sample_range.empty() || !o.resume.empty()) {
-      std::fprintf(stderr, "error: --mpi: not with %s (the ranks share out the sample indices themselves)\n",
-                   o.resume.empty() ? "--sample-range" : "--resume");
+    if (!o.sample_range.empty()) {
+      std::fprintf(stderr, "error: --mpi: not with --sample-range (the ranks share out the sample indices themselves)\n");
       return 2;
     }
     try {
@@ -319,23 +329,48 @@ int run_render(const RenderOptions& o) {
     range_begin = static_cast<uint32_t>(a);
     range_end = static_cast<uint32_t>(b);
   }
-  if (!o.resume.empty()) {
+  // With --mpi, rank 0 alone reads the state; the ranks learn where it stopped below.
+  bool resume_failed = false;
+  uint32_t resume_index = 0;  // with --mpi: the state's next sample index, the same in every pixel
+  if (!o.resume.empty() && root) {
     try {
       resumed = read_film_state(o.resume);
     } catch (const FilmStateError& e) {
       std::fprintf(stderr, "error: --resume: %s\n", e.what());
-      return 2;
+      resume_failed = true;
     }
+  }
+  if (resumed) {
     if (std::string why = resume_problem(resumed->info, desc); !why.empty()) {
       std::fprintf(stderr, "error: --resume %s: cannot continue %s with it: %s\n", o.resume.c_str(), o.scene.c_str(),
                    why.c_str());
-      return 2;
-    }
-    if (features && !resumed->film.has_features()) {
+      resume_failed = true;
+    } else if (features && !resumed->film.has_features()) {
       std::fprintf(stderr, "error: --resume %s: the state has no feature buffers, which --denoise and the feature "
                    "layers need (start it with them)\n", o.resume.c_str());
-      return 2;
+      resume_failed = true;
     }
+  }
+  if (resumed && mpi && !resume_failed) {
+    // The ranks continue from one index for every pixel: a state whose pixels stopped at different indices (a
+    // pass interrupted mid-way) is resumed in one process.
+    Film& f = resumed->film;
+    resume_index = f.next_sample_index(0);
+    for (size_t i = 1; i < f.pixel_count() && !resume_failed; ++i)
+      if (f.next_sample_index(i) != resume_index) {
+        std::fprintf(stderr, "error: --resume %s: its pixels stopped at different sample indices (an interrupted "
+                     "pass); resume it without --mpi first\n", o.resume.c_str());
+        resume_failed = true;
+      }
+  }
+  if (resume_failed) resumed.reset();
+  if (mpi) {
+    std::vector<int64_t> v{resume_failed ? 1 : 0, resume_index};
+    mpi->max_all(v);
+    if (v[0]) return 2;
+    resume_index = static_cast<uint32_t>(v[1]);
+  } else if (resume_failed) {
+    return 2;
   }
 
   // Every output is checked before the first sample: a long render must not be lost to a typo.
@@ -365,15 +400,17 @@ int run_render(const RenderOptions& o) {
   if (o.target_relmse) stop.relmse = *o.target_relmse;
   if (range_end > 0) stop.spp = range_end - range_begin;
   if (!stop.any()) stop.spp = 64;
-  // With --mpi, rank r renders the sample indices [r·S/N, (r+1)·S/N) of every pixel for a target of S spp (the
-  // merged film then has the straight render's bits), or, without an spp target, indices from r·2^31/N on.
+  // With --mpi, rank r renders the sample indices [s0 + r·(S−s0)/N, s0 + (r+1)·(S−s0)/N) of every pixel for a
+  // target of S spp, s0 the resumed state's next index (0 without one): the merged film then has the straight
+  // render's bits. Without an spp target, indices from s0 + r·(2^31 − s0)/N on.
   if (mpi) {
-    const uint64_t total = stop.spp;
+    const uint64_t total = stop.spp, s0 = resume_index;
     if (total > 0) {
-      range_begin = static_cast<uint32_t>(total * mpi->rank() / ranks);
-      stop.spp = total * (mpi->rank() + 1) / ranks - range_begin;
+      const uint64_t todo = total > s0 ? total - s0 : 0;
+      range_begin = static_cast<uint32_t>(s0 + todo * mpi->rank() / ranks);
+      stop.spp = s0 + todo * (mpi->rank() + 1) / ranks - range_begin;
     } else {
-      range_begin = static_cast<uint32_t>((uint64_t{1} << 31) / ranks * mpi->rank());
+      range_begin = static_cast<uint32_t>(s0 + ((uint64_t{1} << 31) - s0) / ranks * mpi->rank());
     }
   }
   const double relmse_target = stop.relmse;  // with --mpi, for the merged film (checked across ranks below)
@@ -381,12 +418,20 @@ int run_render(const RenderOptions& o) {
 
   Film film;
   FilmStateInfo state_info = state_info_for(desc, scene_stem(o.scene));
-  if (resumed) {
+  // The ranks' films gather features when the state has them (rank 0 tells the others).
+  bool film_features = features || (resumed && resumed->film.has_features());
+  if (mpi) {
+    std::vector<int64_t> v{film_features ? 1 : 0};
+    mpi->max_all(v);
+    film_features = v[0] != 0;
+  }
+  if (resumed && !mpi) {
     film = std::move(resumed->film);  // its features stay as saved
     state_info.sample_begin = resumed->info.sample_begin;
     state_info.render_seconds = resumed->info.render_seconds;
   } else {
-    film.enable_features(features);
+    if (resumed) state_info.render_seconds = resumed->info.render_seconds;
+    film.enable_features(film_features);
     film.reset(desc.width, desc.height);
     film.start_at(range_begin);
     state_info.sample_begin = range_begin;
@@ -476,7 +521,7 @@ int run_render(const RenderOptions& o) {
     if (checkpoint && !finished && !abort) {
       last_checkpoint = elapsed();
       if (mpi) {
-        std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds);
+        std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds, resumed ? &*resumed : nullptr);
         if (root) write_outputs(*merged, elapsed(), true);
       } else {
         write_outputs(film, elapsed(), true);
@@ -510,7 +555,7 @@ int run_render(const RenderOptions& o) {
     // Rank 0 merges every rank's film exactly; the other ranks are done.
     const double all_samples = mpi->sum_all(static_cast<double>(samples)), all_rays = mpi->sum_all(static_cast<double>(rays));
     const double all_busy = mpi->sum_all(busy_seconds);
-    std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds);
+    std::optional<Film> merged = merge_over_ranks(*mpi, film, state_info, busy_seconds, resumed ? &*resumed : nullptr);
     if (!root) return 0;
     film = std::move(*merged);
     samples = static_cast<uint64_t>(all_samples);
