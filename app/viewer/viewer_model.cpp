@@ -461,6 +461,8 @@ bool ViewerModel::save_scene(const std::string& path, bool replace) {
   unsaved_edits_ = false;
   scene_file_ = path;
   set_status("saved scene " + path, false);
+  if (recent)  // a saved scene is one to open again, and its folder the next save's default
+    if (std::string err = recent->add(path); !err.empty()) set_status(err, true);
   return true;
 }
 

@@ -770,7 +770,10 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
   // NAME.json in the folder last used.
   if (const std::string key = model.scene_name() + "\n" + model.scene_file(); key != state.known_scene) {
     state.known_scene = key;
-    const std::filesystem::path folder = std::filesystem::path(state.save_scene_path).parent_path();
+    std::filesystem::path folder = std::filesystem::path(state.save_scene_path).parent_path();
+    // Across sessions: the folder of the scene file used last (the recent list keeps saves too).
+    if (folder.empty() && model.recent && !model.recent->paths().empty())
+      folder = std::filesystem::path(model.recent->paths().front()).parent_path();
     copy_string(state.save_scene_path, sizeof state.save_scene_path,
                 !model.scene_file().empty() ? model.scene_file() : (folder / (model.scene_name() + ".json")).string());
   }

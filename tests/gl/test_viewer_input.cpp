@@ -511,3 +511,22 @@ TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dr
   CHECK(std::filesystem::path(recent.paths()[0]).filename() == "spheres.json");
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("viewer: a saved scene joins the recent files, and a new session saves a built-in scene into its folder") {
+  const std::filesystem::path dir = std::filesystem::absolute("viewer_folder_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  const std::string store = (dir / "recent.txt").string();
+  {
+    ViewerModel model(small("cornell"), "cornell", few_samples());
+    RecentFiles recent(store);
+    model.recent = &recent;
+    REQUIRE(model.save_scene((dir / "work" / "mine.json").string()));
+    REQUIRE(recent.paths().size() == 1);
+  }
+  ViewerModel next(small("shadertoy"), "shadertoy", few_samples());  // a later session, a built-in scene
+  RecentFiles recent(store);
+  next.recent = &recent;
+  Ui ui(next);  // the constructor draws a first frame (with "scene.json", no folder, as the default path)
+  CHECK(std::string(ui.state.save_scene_path) == (dir / "work" / "shadertoy.json").string());
+  std::filesystem::remove_all(dir);
+}
