@@ -60,9 +60,4 @@ std::vector<std::string> MpiWorld::gather_to_root(const std::string& bytes) cons
   return out;
 }
 
-void MpiWorld::abort(int code) const {
-  MPI_Abort(MPI_COMM_WORLD, code);
-  std::abort();
-}
-
 }  // namespace pt

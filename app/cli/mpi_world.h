@@ -24,8 +24,6 @@ class MpiWorld {
   double sum_all(double value) const;
   // Rank 0 gets every rank's bytes (its own first), in rank order; the others get an empty vector.
   std::vector<std::string> gather_to_root(const std::string& bytes) const;
-  // Ends the whole job (every rank) with `code`: a rank that cannot go on never leaves the others waiting.
-  [[noreturn]] void abort(int code) const;
 
  private:
   int rank_ = 0, size_ = 1;

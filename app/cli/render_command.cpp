@@ -219,20 +219,18 @@ std::optional<Film> merge_over_ranks(const MpiWorld& mpi, const Film& film, cons
   mine.render_seconds = busy;
   const std::vector<std::string> parts = mpi.gather_to_root(encode_film_state(film, mine));
   if (!mpi.root()) return std::nullopt;
-  std::vector<LoadedFilmState> states;
+  std::vector<LoadedFilmState> decoded;
+  std::vector<const LoadedFilmState*> states;
   std::vector<std::string> names;
-  if (base) {
-    LoadedFilmState copy;
-    copy.info = base->info;
-    copy.film.enable_features(base->film.has_features());
-    copy.film.reset(base->film.width(), base->film.height());
-    copy.film.merge(base->film);  // an exact copy (merging into an empty film)
-    states.push_back(std::move(copy));
-    names.push_back("the resumed state");
-  }
+  decoded.reserve(parts.size());
   for (size_t r = 0; r < parts.size(); ++r) {
     names.push_back("rank " + std::to_string(r));
-    states.push_back(decode_film_state(parts[r], names.back()));
+    decoded.push_back(decode_film_state(parts[r], names.back()));
+    states.push_back(&decoded.back());
+  }
+  if (base) {
+    states.push_back(base);
+    names.push_back("the resumed state");
   }
   return std::move(merge_film_states(states, names).film);
 }

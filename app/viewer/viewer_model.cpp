@@ -245,13 +245,13 @@ bool ViewerModel::set_pivot_at(double x, double y) {
 
 // --- Geometry ---------------------------------------------------------------------------------------------------
 
-bool ViewerModel::set_geometry(const SceneDesc& edited, const std::string& what) {
+bool ViewerModel::set_geometry(SceneDesc edited, const std::string& what) {
   if (std::string err = validate_scene(edited); !err.empty()) {
     set_status("not applied: " + err, true);
     return false;
   }
   remember(what, true);
-  scene_ = edited;
+  scene_ = std::move(edited);
   pick_scene_.reset();
   unsaved_edits_ = true;
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
@@ -270,21 +270,21 @@ bool ViewerModel::move_shape(size_t index, DVec3 offset) {
   if (sh.type == ShapeType::Sphere) sh.center += offset;
   else
     for (DVec3& v : sh.vertices) v += offset;
-  return set_geometry(edited, "shape " + std::to_string(index));
+  return set_geometry(std::move(edited), "shape " + std::to_string(index));
 }
 
 bool ViewerModel::set_sphere_radius(size_t index, double radius) {
   if (index >= scene_.shapes.size() || scene_.shapes[index].type != ShapeType::Sphere) return false;
   SceneDesc edited = scene_;
   edited.shapes[index].radius = radius;
-  return set_geometry(edited, "shape " + std::to_string(index));
+  return set_geometry(std::move(edited), "shape " + std::to_string(index));
 }
 
 bool ViewerModel::set_shape_material(size_t index, size_t material) {
   if (index >= scene_.shapes.size() || material >= scene_.materials.size()) return false;
   SceneDesc edited = scene_;
   edited.shapes[index].material = static_cast<int>(material);
-  return set_geometry(edited, "shape " + std::to_string(index));
+  return set_geometry(std::move(edited), "shape " + std::to_string(index));
 }
 
 bool ViewerModel::set_resolution(int width, int height) {
@@ -295,22 +295,24 @@ bool ViewerModel::set_resolution(int width, int height) {
   SceneDesc edited = scene_;
   edited.width = width;
   edited.height = height;
-  return set_geometry(edited, "resolution");
+  return set_geometry(std::move(edited), "resolution");
 }
 
 // --- Undo ---------------------------------------------------------------------------------------------------------
 
-ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const {
+ViewerModel::UndoStep ViewerModel::step_of(const SceneDesc& d, std::vector<Emission> emission, bool geometry) {
   UndoStep s;
-  s.materials = scene_.materials;
-  s.emission = emission_;
-  s.environment = scene_.environment;
-  s.render = scene_.render;
-  s.width = scene_.width;
-  s.height = scene_.height;
-  if (geometry) s.shapes = std::make_shared<const std::vector<ShapeDesc>>(scene_.shapes);
+  s.materials = d.materials;
+  s.emission = std::move(emission);
+  s.environment = d.environment;
+  s.render = d.render;
+  s.width = d.width;
+  s.height = d.height;
+  if (geometry) s.shapes = std::make_shared<const std::vector<ShapeDesc>>(d.shapes);
   return s;
 }
+
+ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const { return step_of(scene_, emission_, geometry); }
 
 void ViewerModel::remember(const std::string& what, bool geometry) {
   if (restoring_) return;
@@ -362,15 +364,7 @@ bool ViewerModel::redo() { return step(redo_, undo_, "redone"); }
 void ViewerModel::revert() {
   redo_.clear();
   undo_.push_back(undo_step(true));
-  UndoStep file;
-  file.materials = loaded_.materials;
-  file.environment = loaded_.environment;
-  file.render = loaded_.render;
-  file.width = loaded_.width;
-  file.height = loaded_.height;
-  file.shapes = std::make_shared<const std::vector<ShapeDesc>>(loaded_.shapes);
-  file.emission = emission_of(loaded_.materials);
-  restore(file);
+  restore(step_of(loaded_, emission_of(loaded_.materials), true));
   unsaved_edits_ = false;
   reset_camera();
   set_status("reverted to the scene as loaded", false);

@@ -186,9 +186,10 @@ class ViewerModel {
   };
   // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.
   void remember(const std::string& what, bool geometry);
-  UndoStep undo_step(bool geometry) const;
+  static UndoStep step_of(const SceneDesc& d, std::vector<Emission> emission, bool geometry);
+  UndoStep undo_step(bool geometry) const;  // the current scene's
   void restore(const UndoStep& s);
-  bool set_geometry(const SceneDesc& edited, const std::string& what);
+  bool set_geometry(SceneDesc edited, const std::string& what);
   void refresh_emission();
   static std::vector<Emission> emission_of(const std::vector<MaterialDesc>& materials);
   bool step(std::vector<UndoStep>& from, std::vector<UndoStep>& to, const char* done);

@@ -70,6 +70,30 @@ Diff compare(const std::vector<uint8_t>& px, int stride_w, const DisplayFrame& f
   return d;
 }
 
+// The radiance of `f` reversed and scaled, 3 floats per pixel: an image unlike f at every pixel (a denoised
+// image, a snapshot).
+std::vector<float> reversed_means(const DisplayFrame& f, float scale) {
+  const size_t n = static_cast<size_t>(f.width) * f.height;
+  std::vector<float> out(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) out[3 * i + c] = scale * std::abs(f.rgba[4 * (n - 1 - i) + c]);
+  return out;
+}
+
+// `f` with its means replaced by `other`'s (3 floats per pixel) in the columns whose centre u satisfies `use`:
+// the frame present_pixel() must see when the view mixes two images.
+template <class Use>
+DisplayFrame mixed(const DisplayFrame& f, const std::vector<float>& other, Use use) {
+  DisplayFrame e = f;
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x)
+      if (use((static_cast<float>(x) + 0.5f) / static_cast<float>(f.width))) {
+        const size_t i = static_cast<size_t>(y) * f.width + x;
+        for (int c = 0; c < 3; ++c) e.rgba[4 * i + c] = other[3 * i + c];
+      }
+  return e;
+}
+
 }  // namespace
 
 TEST_CASE("gl: OSMesa gives a core 3.3+ context") {
@@ -146,21 +170,11 @@ TEST_CASE("gl: the denoised image shows in the denoised view, on the right half 
   GlPresenter presenter;
   DisplayFrame f = test_frame(w, h);
   // A "denoised" image unlike the raw one: the raw radiance reversed and halved.
-  const size_t n = static_cast<size_t>(w) * h;
-  f.denoised.resize(3 * n);
-  for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) f.denoised[3 * i + c] = 0.5f * std::abs(f.rgba[4 * (n - 1 - i) + c]);
+  f.denoised = reversed_means(f, 0.5f);
   presenter.upload(f);
   // The frame present_pixel() must see: the raw mean where the view shows it, the denoised one elsewhere.
   auto expected = [&](DenoiseView view) {
-    DisplayFrame e = f;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x;
-        if ((static_cast<float>(x) + 0.5f) / static_cast<float>(w) >= denoised_from_u(view))
-          for (int c = 0; c < 3; ++c) e.rgba[4 * i + c] = f.denoised[3 * i + c];
-      }
-    return e;
+    return mixed(f, f.denoised, [&](float u) { return u >= denoised_from_u(view); });
   };
   std::vector<uint8_t> px;
   for (const DenoiseView view : {DenoiseView::Raw, DenoiseView::Denoised, DenoiseView::Split}) {
@@ -189,10 +203,9 @@ TEST_CASE("gl: A/B compare: the snapshot view, the split (snapshot left) and the
   GlPresenter presenter;
   const DisplayFrame live = test_frame(w, h);
   // The snapshot: the live radiance reversed and scaled, so every pixel differs by a different amount.
-  DisplayFrame snap = live;
+  const std::vector<float> snap_means = reversed_means(live, 0.7f);
+  const DisplayFrame snap = mixed(live, snap_means, [](float) { return true; });
   const size_t n = static_cast<size_t>(w) * h;
-  for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) snap.rgba[4 * i + c] = 0.7f * std::abs(live.rgba[4 * (n - 1 - i) + c]);
   presenter.upload(snap);
   presenter.upload_snapshot(snap);
   presenter.upload(live);
@@ -202,11 +215,7 @@ TEST_CASE("gl: A/B compare: the snapshot view, the split (snapshot left) and the
     CAPTURE(static_cast<int>(view));
     PresentSettings s;
     s.snapshot_view = view;
-    DisplayFrame e = live;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        if ((static_cast<float>(x) + 0.5f) / static_cast<float>(w) < snapshot_until_u(view))
-          for (int c = 0; c < 3; ++c) e.rgba[4 * (static_cast<size_t>(y) * w + x) + c] = snap.rgba[4 * (static_cast<size_t>(y) * w + x) + c];
+    const DisplayFrame e = mixed(live, snap_means, [&](float u) { return u < snapshot_until_u(view); });
     presenter.read_image(s, px);
     const Diff d = compare(px, w, e, s);
     INFO(d.worst);

@@ -103,9 +103,8 @@ FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_na
   return info;
 }
 
-std::string encode_film_state(const Film& film_in, const FilmStateInfo& info) {
-  Film& film = const_cast<Film&>(film_in);  // arrays() is read here only
-  const Film::Arrays a = film.arrays();
+std::string encode_film_state(const Film& film, const FilmStateInfo& info) {
+  const Film::ConstArrays a = film.arrays();
   const size_t n = film.pixel_count();
   const std::string name = info.scene_name.substr(0, kMaxNameBytes);
   std::string out;
@@ -166,7 +165,8 @@ LoadedFilmState decode_film_state(std::string_view bytes, const std::string& pat
   if (bytes.size() < 8 || std::memcmp(p, kMagic, 8) != 0)
     throw FilmStateError(path + ": not a pathtracer state file (no PTSTATE signature)");
   r.take(8, "the signature");
-  // The checksum first: a corrupted file is refused before any of its fields is trusted.
+  // The version, then the size the header promises, then the checksum: a corrupted file is refused before any
+  // other field is trusted.
   if (bytes.size() < 8 + 8 + 8) throw FilmStateError(path + ": truncated (" + std::to_string(bytes.size()) + " bytes)");
   const uint64_t stored = get_le_u64(p + bytes.size() - 8);
   const uint32_t version = get_le_u32(p + 8);
@@ -245,15 +245,21 @@ std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene) {
   return "";
 }
 
-LoadedFilmState merge_film_states(std::vector<LoadedFilmState>& states, const std::vector<std::string>& names) {
+LoadedFilmState merge_film_states(const std::vector<LoadedFilmState>& states, const std::vector<std::string>& names) {
+  std::vector<const LoadedFilmState*> pointers;
+  for (const LoadedFilmState& s : states) pointers.push_back(&s);
+  return merge_film_states(pointers, names);
+}
+
+LoadedFilmState merge_film_states(const std::vector<const LoadedFilmState*>& states, const std::vector<std::string>& names) {
   if (states.empty()) throw FilmStateError("nothing to merge");
   std::vector<size_t> order(states.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return states[a].info.sample_begin < states[b].info.sample_begin; });
-  const LoadedFilmState& first = states[order[0]];
+                   [&](size_t a, size_t b) { return states[a]->info.sample_begin < states[b]->info.sample_begin; });
+  const LoadedFilmState& first = *states[order[0]];
   for (size_t k = 1; k < order.size(); ++k) {
-    const LoadedFilmState& s = states[order[k]];
+    const LoadedFilmState& s = *states[order[k]];
     const std::string& name = names[order[k]];
     if (s.info.scene_hash != first.info.scene_hash)
       throw FilmStateError(name + " and " + names[order[0]] + " were rendered from different scenes or settings");
@@ -265,14 +271,13 @@ LoadedFilmState merge_film_states(std::vector<LoadedFilmState>& states, const st
   // With one seed, a sample index rendered twice would count the same sample twice: refused.
   for (size_t k = 0; k < order.size(); ++k)
     for (size_t j = k + 1; j < order.size(); ++j) {
-      LoadedFilmState& a = states[order[k]];
-      LoadedFilmState& b = states[order[j]];
+      const LoadedFilmState& a = *states[order[k]];
+      const LoadedFilmState& b = *states[order[j]];
       if (a.info.seed != b.info.seed || a.info.mixed_seeds || b.info.mixed_seeds) continue;
-      const Film::Arrays fa = a.film.arrays(), fb = b.film.arrays();
-      for (size_t i = 0; i < fa.count->size(); ++i) {
-        const uint32_t a0 = a.info.sample_begin, a1 = (*fa.attempts)[i];
-        const uint32_t b0 = b.info.sample_begin, b1 = (*fb.attempts)[i];
-        if ((*fa.count)[i] > 0 && (*fb.count)[i] > 0 && a0 < b1 && b0 < a1)
+      for (size_t i = 0; i < a.film.pixel_count(); ++i) {
+        const uint32_t a0 = a.info.sample_begin, a1 = a.film.next_sample_index(i);
+        const uint32_t b0 = b.info.sample_begin, b1 = b.film.next_sample_index(i);
+        if (a.film.count(i) > 0 && b.film.count(i) > 0 && a0 < b1 && b0 < a1)
           throw FilmStateError(names[order[k]] + " and " + names[order[j]] + " both hold sample indices " +
                                std::to_string(std::max(a0, b0)) + " to " + std::to_string(std::min(a1, b1) - 1) +
                                " (pixel " + std::to_string(i) + ") with seed " + std::to_string(a.info.seed) +
@@ -286,7 +291,7 @@ LoadedFilmState merge_film_states(std::vector<LoadedFilmState>& states, const st
   out.film.start_at(first.info.sample_begin);
   out.info.render_seconds = 0.0;
   for (size_t k : order) {
-    const LoadedFilmState& s = states[k];
+    const LoadedFilmState& s = *states[k];
     out.film.merge(s.film);
     out.info.render_seconds += s.info.render_seconds;
     out.info.mixed_seeds = out.info.mixed_seeds || s.info.mixed_seeds || s.info.seed != first.info.seed;

@@ -65,6 +65,7 @@ std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene);
 // disjoint in every pixel; with different seeds any samples combine (the result is marked mixed: mergeable, not
 // resumable). States are combined in the order of their first sample index (Film::merge). Throws
 // FilmStateError with the reason (naming the states by `names`).
-LoadedFilmState merge_film_states(std::vector<LoadedFilmState>& states, const std::vector<std::string>& names);
+LoadedFilmState merge_film_states(const std::vector<const LoadedFilmState*>& states, const std::vector<std::string>& names);
+LoadedFilmState merge_film_states(const std::vector<LoadedFilmState>& states, const std::vector<std::string>& names);
 
 }  // namespace pt

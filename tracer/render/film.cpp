@@ -44,15 +44,7 @@ void Film::merge(const Film& o) {
     for (int c = 0; c < 3; ++c) {
       const double delta = o.mean_channel(i, c) - mean_channel(i, c);
       m2_[3 * i + c] += o.m2_[3 * i + c] + delta * delta * cross;
-      // (hi, lo) += (hi_b, lo_b): TwoSum of the high parts, the low parts added to the error, renormalised.
-      double& hi = sum_[6 * i + 2 * c];
-      double& lo = sum_[6 * i + 2 * c + 1];
-      const double xh = o.sum_[6 * i + 2 * c], xl = o.sum_[6 * i + 2 * c + 1];
-      const double s = hi + xh, sb = s - hi, e = (hi - (s - sb)) + (xh - sb);
-      const double t = lo + xl + e;
-      const double h = s + t, hb = h - s;
-      lo = (s - (h - hb)) + (t - hb);
-      hi = h;
+      add_pair(sum_[6 * i + 2 * c], sum_[6 * i + 2 * c + 1], o.sum_[6 * i + 2 * c], o.sum_[6 * i + 2 * c + 1]);
     }
     count_[i] = na + nb;
     if (features_enabled_) {

@@ -78,13 +78,7 @@ class Film {
       double& hi = sum[2 * c];
       double& lo = sum[2 * c + 1];
       const double mean_before = previous > 0.0 ? (hi + lo) / previous : 0.0;
-      // (hi, lo) += x: TwoSum gives hi + x exactly as s + e; lo absorbs e, and a second TwoSum renormalises so
-      // |lo| stays below half an ulp of hi (the pair then holds ~106 bits).
-      const double s = hi + x, sb = s - hi, e = (hi - (s - sb)) + (x - sb);
-      const double t = lo + e;
-      const double h = s + t, hb = h - s;
-      lo = (s - (h - hb)) + (t - hb);
-      hi = h;
+      add_pair(hi, lo, x, 0.0);
       m2[c] += (x - mean_before) * (x - (hi + lo) / n);
     }
     return true;
@@ -165,21 +159,35 @@ class Film {
   // features and half means are count-weighted, rejected counts add, and the next sample index is the larger.
   // Throws std::invalid_argument on a size or feature mismatch.
   void merge(const Film& other);
-  // The raw accumulation state, for io/film_state (saving and loading a film exactly).
-  struct Arrays {
-    std::vector<uint32_t>* count;
-    std::vector<uint32_t>* attempts;
-    std::vector<double>* sum;  // (hi, lo) per channel
-    std::vector<double>* m2;
-    std::vector<double>* feature;      // empty without features
-    std::vector<uint32_t>* half_count;
-    std::vector<double>* half_mean;
+  // The raw accumulation state, for io/film_state (saving and loading a film exactly): U and D are the count and
+  // the double vectors, const or not.
+  template <class U, class D>
+  struct ArraysOf {
+    U* count;
+    U* attempts;
+    D* sum;  // (hi, lo) per channel
+    D* m2;
+    D* feature;  // empty without features
+    U* half_count;
+    D* half_mean;
   };
+  using Arrays = ArraysOf<std::vector<uint32_t>, std::vector<double>>;
+  using ConstArrays = ArraysOf<const std::vector<uint32_t>, const std::vector<double>>;
   Arrays arrays() { return {&count_, &attempts_, &sum_, &m2_, &feature_, &half_count_, &half_mean_}; }
+  ConstArrays arrays() const { return {&count_, &attempts_, &sum_, &m2_, &feature_, &half_count_, &half_mean_}; }
   void set_rejected(uint64_t n) { rejected_.store(n); }
 
  private:
   static constexpr size_t kFeatureStride = 10;  // albedo rgb, normal xyz, depth, emission rgb
+  // (hi, lo) += (xh, xl), double-double: TwoSum gives hi + xh exactly as s + e; the low parts join e, and a second
+  // TwoSum renormalises so |lo| stays below half an ulp of hi (the pair then holds ~106 bits).
+  static void add_pair(double& hi, double& lo, double xh, double xl) {
+    const double s = hi + xh, sb = s - hi, e = (hi - (s - sb)) + (xh - sb);
+    const double t = lo + xl + e;
+    const double h = s + t, hb = h - s;
+    lo = (s - (h - hb)) + (t - hb);
+    hi = h;
+  }
   std::vector<float> feature_image(size_t first, size_t channels) const;
 
   int width_ = 0, height_ = 0;
