@@ -3,6 +3,7 @@
 #pragma once
 #include "integrators/integrator_kernels.h"
 #include "integrators/wavefront.h"
+#include "sampling/sobol_batch.h"
 
 namespace pt {
 
@@ -23,9 +24,25 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
     live[i] = static_cast<uint16_t>(i);
   }
   int live_count = n;
-  while (live_count > 0) {
+  // Every live path is at the same bounce, so it asks for the same 2D dimensions: Sobol points are computed for
+  // the whole queue at once (bit-identical to the path's own get_2d; sampling/sobol_batch.h).
+  constexpr bool kBatchPoints = std::is_same_v<Sampler, SobolSampler>;
+  using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
+  Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1], bsdf_points[kBatchPoints ? kWavefrontBatch : 1];
+  for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;
+    uint32_t light_dim = SamplerWithPoints<Sampler>::kNone, bsdf_dim = SamplerWithPoints<Sampler>::kNone;
+    if constexpr (kBatchPoints) {
+      if (o.light_sampling && SobolBatch::batched(o.dims.light_point(bounce))) {
+        light_dim = o.dims.light_point(bounce);
+        SobolBatch::get_2d(samplers, live, live_count, light_dim, light_points);
+      }
+      if (SobolBatch::batched(o.dims.bsdf_direction(bounce))) {
+        bsdf_dim = o.dims.bsdf_direction(bounce);
+        SobolBatch::get_2d(samplers, live, live_count, bsdf_dim, bsdf_points);
+      }
+    }
     // Closest hits kLanes at a time, then the vertices of those paths.
     for (int first = 0; first < live_count; first += kLanes) {
       const int k = std::min(kLanes, live_count - first);
@@ -49,7 +66,16 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
           add_escaped_radiance(s, o, p);
           continue;
         }
-        const VertexResult v = shade_vertex<Sampler, F>(s, o, samplers[i], hits[l], p, shadows[shadow_count], count);
+        const VertexSampler rng = [&]() -> VertexSampler {
+          if constexpr (kBatchPoints) {
+            return {samplers[i], light_dim, light_points[first + l], bsdf_dim, bsdf_points[first + l]};
+          } else {
+            (void)light_dim, (void)bsdf_dim;
+            return samplers[i];
+          }
+        }();
+        const VertexResult v = shade_vertex<std::decay_t<VertexSampler>, F>(s, o, rng, hits[l], p,
+                                                                           shadows[shadow_count], count);
         if (v.shadow_ray) shadow_owner[shadow_count++] = i;
         if (v.continues) next[next_count++] = i;
       }

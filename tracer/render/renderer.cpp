@@ -4,6 +4,7 @@
 #include "integrators/wavefront.h"
 #include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
+#include "sampling/sobol_batch.h"
 
 namespace pt {
 
@@ -69,9 +70,20 @@ bool render_tile_wavefront(BatchKernel<Sampler> batch, const Scene& scene, const
         const size_t pixel = static_cast<size_t>(y) * w + x;
         index[n] = film.next_sample_index(pixel);
         samplers[n] = Sampler(pixel, index[n], settings.seed);
-        rays[n] = camera_ray(scene, samplers[n], x, y);
         if (features) f[n] = PixelFeatures{};
       }
+    }
+    // The camera jitters of the whole tile at once where the sampler can (sampling/sobol_batch.h).
+    if constexpr (std::is_same_v<Sampler, SobolSampler>) {
+      Vec2 jitter[kWavefrontBatch];
+      SobolBatch::get_2d(samplers, nullptr, n, SampleDimensions::kCameraJitter, jitter);
+      for (int j = 0, y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x, ++j)
+          rays[j] = camera_ray(scene, SamplerWithPoints<Sampler>{samplers[j], SampleDimensions::kCameraJitter,
+                                                                 jitter[j]}, x, y);
+    } else {
+      for (int j = 0, y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x, ++j) rays[j] = camera_ray(scene, samplers[j], x, y);
     }
     if (!batch(scene, settings, samplers, rays, n, L, features ? f : nullptr, count, cancel)) return false;
     n = 0;

@@ -169,6 +169,7 @@ class SobolSampler {
   float get_1d(uint32_t d) const { return hashed_.get_1d(d); }
 
  private:
+  friend class SobolBatch;  // the same scrambles across SIMD lanes (sampling/sobol_batch.h)
   uint32_t reversed_index_ = 0;  // the sample index, bit-reversed
   uint32_t key_ = 0;
   HashedDimensions hashed_;
