@@ -123,6 +123,25 @@ TEST_CASE("sampling: uniform cone") {
   }
 }
 
+TEST_CASE("sampling: the quarter-turn sine and cosine are within 2 ulp of the true values on [-pi/4, pi/4]") {
+  // Against double-precision libm, on 2^20 + 1 evenly spaced angles and the end points.
+  const double limit = M_PI / 4;
+  double worst_ulps = 0;
+  for (int i = 0; i <= (1 << 20); ++i) {
+    const float x = static_cast<float>(-limit + 2 * limit * i / (1 << 20));
+    const Vec2 cs = cos_sin_quarter_turn(x);
+    const double c = std::cos(static_cast<double>(x)), s = std::sin(static_cast<double>(x));
+    // One ulp of a float of magnitude |v|: 2^(exponent − 23).
+    const auto ulps = [](double got, double want) {
+      const double ulp = std::ldexp(1.0, std::ilogb(std::max(std::abs(want), 0x1p-126)) - 23);
+      return std::abs(got - want) / ulp;
+    };
+    worst_ulps = std::max({worst_ulps, ulps(cs.x, c), ulps(cs.y, s)});
+  }
+  INFO("worst error " << worst_ulps << " ulp");
+  CHECK(worst_ulps <= 2.0);
+}
+
 TEST_CASE("sampling: concentric disk and triangle are uniform by area") {
   const int n = 1000000, bins = 40;
   Pcg32 rng(77, 5);

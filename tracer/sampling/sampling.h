@@ -24,19 +24,26 @@ inline Vec3 sample_uniform_sphere(Vec2 u) {
 }
 inline float uniform_sphere_pdf() { return kInv4Pi; }
 
+// (cos x, sin x) for |x| ≤ π/4: the single-precision minimax polynomials of Cephes (S. L. Moshier, sinf.c and
+// cosf.c, their range |x| ≤ π/4), within 2 ulp of the true values there (tested). Where the angle is known to
+// lie in that range this skips libm's range reduction and call: sincosf was 5 % of a `cornell` pass.
+inline Vec2 cos_sin_quarter_turn(float x) {
+  const float z = x * x;
+  const float s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
+  const float c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z -
+                  0.5f * z + 1.f;
+  return {c, s};
+}
+
 // Concentric map of the square onto the unit disk (Shirley & Chiu 1997): area-preserving, low distortion.
+// The angle is θ = (π/4)·(o.y/o.x) in the left/right wedges and θ = π/2 − φ, φ = (π/4)·(o.x/o.y), in the
+// others, where (cos θ, sin θ) = (sin φ, cos φ): both need only angles in [−π/4, π/4].
 inline Vec2 sample_uniform_disk_concentric(Vec2 u) {
   const Vec2 o = 2.f * u - Vec2(1.f);
   if (o.x == 0.f && o.y == 0.f) return {0.f, 0.f};
-  float r, theta;
-  if (std::abs(o.x) > std::abs(o.y)) {
-    r = o.x;
-    theta = (kPi / 4.f) * (o.y / o.x);
-  } else {
-    r = o.y;
-    theta = (kPi / 2.f) - (kPi / 4.f) * (o.x / o.y);
-  }
-  return r * Vec2(std::cos(theta), std::sin(theta));
+  if (std::abs(o.x) > std::abs(o.y)) return o.x * cos_sin_quarter_turn((kPi / 4.f) * (o.y / o.x));
+  const Vec2 cs = cos_sin_quarter_turn((kPi / 4.f) * (o.x / o.y));
+  return o.y * Vec2(cs.y, cs.x);
 }
 
 // Cosine-weighted hemisphere z >= 0 (Malley's method); pdf = cos θ / π per steradian.
