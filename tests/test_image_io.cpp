@@ -70,3 +70,36 @@ TEST_CASE("metrics: RMSE, relMSE, block averages") {
   CHECK(avg.rgb[0] == doctest::Approx(1.25f));
   CHECK(mean_rgb(b).x == doctest::Approx(1.25));
 }
+
+TEST_CASE("metrics: block errors count the blocks whose mean luminance is off the reference by more than the tolerance") {
+  // 8×4 pixels of grey 0.5: two whole 4×4 blocks (a 3-wide block size leaves partial ones out).
+  Image ref{8, 4, std::vector<float>(96, 0.5f)};
+  Image x = ref;
+  CHECK(block_errors(x, ref, 4, 0.03).blocks == 2);
+  CHECK(block_errors(x, ref, 4, 0.03).off == 0);
+  CHECK(block_errors(x, ref, 3, 0.03).blocks == 2);
+  // One pixel of the right block raised so that the block mean is 4 % high: off at 3 %, not at 5 %.
+  const float raised = 0.5f * (1 + 0.04f * 16);
+  for (int c = 0; c < 3; ++c) x.rgb[3 * (2 * 8 + 6) + c] = raised;
+  BlockErrors e = block_errors(x, ref, 4, 0.03);
+  CHECK(e.off == 1);
+  CHECK(e.worst == doctest::Approx(0.04).epsilon(1e-5));
+  CHECK(e.worst_x == 4);
+  CHECK(e.worst_y == 0);
+  CHECK(block_errors(x, ref, 4, 0.05).off == 0);
+  // Energy moved within a block leaves its mean alone; a darker left block gives a negative worst.
+  x = ref;
+  x.rgb[0] = 0.f;
+  x.rgb[3 * 1] = 1.f;
+  CHECK(block_errors(x, ref, 4, 1e-9).off == 0);
+  for (int c = 0; c < 3; ++c) x.rgb[3 * 9 + c] = 0.f;  // pixel (1, 1): the left block's mean drops by 1/16
+  e = block_errors(x, ref, 4, 0.03);
+  CHECK(e.off == 1);
+  CHECK(e.worst == doctest::Approx(-1.0 / 16).epsilon(1e-4));
+  // A black reference block: off unless the image is black there too.
+  Image black{4, 4, std::vector<float>(48, 0.f)};
+  CHECK(block_errors(black, black, 4, 0.03).off == 0);
+  Image lit = black;
+  lit.rgb[5] = 1e-6f;
+  CHECK(block_errors(lit, black, 4, 0.03).off == 1);
+}

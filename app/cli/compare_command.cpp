@@ -16,6 +16,14 @@ void add_compare_command(CLI::App& app, CompareOptions& o) {
                 "Block-average the reference by this integer factor first (for references stored at higher resolution)")
       ->check(whole_in(1, 64))
       ->capture_default_str();
+  c->add_option("--blocks", o.blocks,
+                "Also count the N×N pixel blocks whose mean luminance is off the reference's by more than "
+                "--block-tolerance (0: off)")
+      ->check(whole_in(0, 4096))
+      ->capture_default_str();
+  c->add_option("--block-tolerance", o.block_tolerance, "Relative tolerance of --blocks (0.03 = 3 %)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
 }
 
 int run_compare(const CompareOptions& o) {
@@ -31,6 +39,13 @@ int run_compare(const CompareOptions& o) {
     const glm::dvec3 m = mean_rgb(img), mr = mean_rgb(ref);
     std::printf("RMSE %.6g  relMSE %.6g  mean (%.5f, %.5f, %.5f)  reference mean (%.5f, %.5f, %.5f)\n",
                 rmse(img, ref), relmse(img, ref), m.x, m.y, m.z, mr.x, mr.y, mr.z);
+    if (o.blocks > 0) {
+      const BlockErrors b = block_errors(img, ref, o.blocks, o.block_tolerance);
+      std::printf("blocks %dx%d: %d of %d off the reference's mean luminance by more than %g %%", o.blocks, o.blocks,
+                  b.off, b.blocks, 100 * o.block_tolerance);
+      if (b.blocks > 0) std::printf(", worst %+.1f %% at pixel (%d, %d)", 100 * b.worst, b.worst_x, b.worst_y);
+      std::printf("\n");
+    }
     return 0;
   } catch (const ImageError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

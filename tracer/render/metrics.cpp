@@ -1,5 +1,8 @@
 #include "render/metrics.h"
 
+#include <cmath>
+#include <limits>
+
 namespace pt {
 
 namespace {
@@ -29,6 +32,33 @@ glm::dvec3 mean_rgb(const Image& img) {
   glm::dvec3 s(0.0);
   for (size_t i = 0; i < img.rgb.size(); i += 3) s += glm::dvec3(img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]);
   return s / static_cast<double>(img.rgb.size() / 3);
+}
+
+BlockErrors block_errors(const Image& x, const Image& ref, int block, double tolerance) {
+  check_same_size(x, ref);
+  if (block < 1) throw ImageError("block_errors: block size must be positive");
+  BlockErrors e;
+  const auto luminance = [](glm::vec3 c) {
+    return kLuminanceWeights[0] * double{c.x} + kLuminanceWeights[1] * double{c.y} + kLuminanceWeights[2] * double{c.z};
+  };
+  for (int by = 0; by + block <= x.height; by += block)
+    for (int bx = 0; bx + block <= x.width; bx += block) {
+      double sx = 0, sr = 0;
+      for (int y = by; y < by + block; ++y)
+        for (int px = bx; px < bx + block; ++px) {
+          sx += luminance(x.at(px, y));
+          sr += luminance(ref.at(px, y));
+        }
+      const double rel = sr > 0 ? (sx - sr) / sr : (sx == sr ? 0.0 : std::copysign(std::numeric_limits<double>::infinity(), sx - sr));
+      ++e.blocks;
+      if (!(std::abs(rel) <= tolerance)) ++e.off;  // NaN (non-finite input) counts as off
+      if (!(std::abs(rel) <= std::abs(e.worst))) {
+        e.worst = rel;
+        e.worst_x = bx;
+        e.worst_y = by;
+      }
+    }
+  return e;
 }
 
 Image block_average(const Image& img, int f) {
