@@ -31,9 +31,17 @@ Film render_features(const SceneDesc& desc, int spp, uint64_t seed) {
   return test::render_film(d, spp, 2, true);
 }
 
-std::vector<float> denoise_film(const Film& film) {
+constexpr DenoiseMethod kMethods[] = {DenoiseMethod::Regression, DenoiseMethod::Atrous};
+
+std::vector<float> denoise_film(const Film& film, DenoiseMethod method) {
   ThreadPool pool(2);
-  return pt::denoise_film(film, DenoiseSettings{}, pool);
+  return pt::denoise_film(film, method, pool);
+}
+
+std::vector<float> denoise_planes(const DenoiseInput& input, DenoiseMethod method) {
+  ThreadPool pool(2);
+  return method == DenoiseMethod::Atrous ? denoise(input, DenoiseSettings{}, pool)
+                                         : denoise_regression(input, RegressionSettings{}, pool);
 }
 
 double relmse_of(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
@@ -71,7 +79,7 @@ double gradient_across_column(const std::vector<float>& img, int w, int h, int x
 
 }  // namespace
 
-TEST_CASE("denoiser: a constant image stays constant") {
+TEST_CASE("denoiser: both filters keep a constant image constant") {
   const int w = 40, h = 30;
   const size_t n = static_cast<size_t>(w) * h;
   std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n), normal(3 * n), depth(n, 2.f);
@@ -80,13 +88,40 @@ TEST_CASE("denoiser: a constant image stays constant") {
     albedo[3 * i] = 0.3f, albedo[3 * i + 1] = 0.6f, albedo[3 * i + 2] = 0.9f;
     normal[3 * i + 2] = 1.f;
   }
-  ThreadPool pool(2);
-  const std::vector<float> out = denoise({w, h, &color, &variance, &albedo, &normal, &depth}, {}, pool);
-  REQUIRE(out.size() == color.size());
-  for (size_t k = 0; k < out.size(); ++k) CHECK(out[k] == doctest::Approx(color[k]).epsilon(1e-5));
+  for (const DenoiseMethod method : kMethods) {
+    const std::string name = enum_name(method);
+    CAPTURE(name);
+    const std::vector<float> out = denoise_planes({w, h, &color, &variance, &albedo, &normal, &depth}, method);
+    REQUIRE(out.size() == color.size());
+    int off = 0;
+    for (size_t k = 0; k < out.size(); ++k) off += !(std::abs(out[k] - color[k]) <= 1e-5f * color[k]);
+    CHECK(off == 0);
+  }
 }
 
-TEST_CASE("denoiser: a converged image stays as it is, a noisy one comes close to the converged one") {
+TEST_CASE("denoiser: the regression reproduces a linear ramp up to the image's border") {
+  // Radiance rising by 1 % of its base per pixel to the right and 0.5 % per pixel down, features constant, noisy
+  // enough (variance 1e-2) that every neighbour is accepted. A first-order fit in the screen offset follows the
+  // ramp exactly, also at the border where the window is one-sided; a weighted mean (no slope) would be off there
+  // by about half a window's rise (~0.04 here, checked by removing the offset regressors).
+  const int w = 48, h = 32;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n, 0.5f), normal(3 * n), depth(n, 2.f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      for (int c = 0; c < 3; ++c) color[3 * i + c] = (0.2f + 0.1f * c) * (1.f + 0.01f * x + 0.005f * y);
+      normal[3 * i + 2] = 1.f;
+    }
+  const std::vector<float> out = denoise_planes({w, h, &color, &variance, &albedo, &normal, &depth},
+                                                DenoiseMethod::Regression);
+  float worst = 0.f;
+  for (size_t k = 0; k < out.size(); ++k) worst = std::max(worst, std::abs(out[k] - color[k]));
+  MESSAGE("largest deviation from the ramp: " << worst);
+  CHECK(worst < 1e-4f);
+}
+
+TEST_CASE("denoiser: both filters leave a converged image as it is and bring a noisy one close to it") {
   SceneDesc desc = load_scene("cornell");
   desc.width = desc.height = 64;
   const Film converged = render_features(desc, 1024, 7);
@@ -97,21 +132,29 @@ TEST_CASE("denoiser: a converged image stays as it is, a noisy one comes close t
   // Clean input stays clean: the image of 1024 samples per pixel with the variance of ~10^6 (the film's
   // variance / 1024), as a converged film would report it. The luminance weights tighten with the variance.
   for (float& v : planes.variance) v /= 1024.f;
-  const std::vector<float> out = denoise(planes.input(), {}, pool);
-  const double changed = relmse_of(out, clean, desc.width, desc.height);
-  MESSAGE("converged image, relMSE of the denoised against the input: " << changed);
-  CHECK(changed < 1e-4);
-  // 16 samples per pixel: the denoised image is much closer to the converged one than the raw image is. At
-  // 64×64 the lamp's edge pixels, whose emission the filter leaves alone, keep a good part of the error
-  // (docs/denoising.md has the 512×512 figures).
   const Film noisy = render_features(desc, 16, 1);
   const double raw = relmse_of(noisy.mean_image(), clean, desc.width, desc.height);
-  const double denoised = relmse_of(denoise_film(noisy), clean, desc.width, desc.height);
-  MESSAGE("16 spp: raw relMSE " << raw << ", denoised " << denoised);
-  CHECK(denoised < 0.5 * raw);
+  const glm::dvec3 clean_mean = mean_rgb(Image{desc.width, desc.height, clean});
+  for (const DenoiseMethod method : kMethods) {
+    const std::string name = enum_name(method);
+    CAPTURE(name);
+    const std::vector<float> out = denoise_planes(planes.input(), method);
+    const double changed = relmse_of(out, clean, desc.width, desc.height);
+    MESSAGE(std::string(enum_name(method)) << ": converged image, relMSE of the denoised against the input: " << changed);
+    CHECK(changed < 1e-4);
+    // 16 samples per pixel: the denoised image is much closer to the converged one than the raw image is. At
+    // 64×64 the lamp's edge pixels, whose emission the filter leaves alone, keep a good part of the error
+    // (docs/denoising.md has the 512×512 figures).
+    const std::vector<float> denoised = denoise_film(noisy, method);
+    const double err = relmse_of(denoised, clean, desc.width, desc.height);
+    const glm::dvec3 m = mean_rgb(Image{desc.width, desc.height, denoised});
+    MESSAGE(std::string(enum_name(method)) << ": 16 spp: raw relMSE " << raw << ", denoised " << err << ", mean R "
+                              << m.x << " against " << clean_mean.x);
+    CHECK(err < 0.5 * raw);
+  }
 }
 
-TEST_CASE("denoiser: checker edges survive (>= 90 % of the converged image's gradient at 4 spp)") {
+TEST_CASE("denoiser: checker edges survive both filters (>= 90 % of the converged image's gradient at 4 spp)") {
   // The plane as 8×8 squares of alternating albedo, each 8 pixels wide, their edges on pixel boundaries.
   SceneDesc s = plane_view();
   MaterialDesc dark, light;
@@ -128,16 +171,21 @@ TEST_CASE("denoiser: checker edges survive (>= 90 % of the converged image's gra
                               1 + (i + j) % 2));
     }
   const std::vector<float> reference = render_features(s, 1024, 3).mean_image();
-  const std::vector<float> denoised = denoise_film(render_features(s, 4, 1));
-  for (int edge = 1; edge < 8; ++edge) {
-    CAPTURE(edge);
-    const double g_ref = gradient_across_column(reference, s.width, s.height, 8 * edge, 0, s.height);
-    const double g_den = gradient_across_column(denoised, s.width, s.height, 8 * edge, 0, s.height);
-    CHECK(g_den >= 0.9 * g_ref);
+  const Film noisy = render_features(s, 4, 1);
+  for (const DenoiseMethod method : kMethods) {
+    const std::string name = enum_name(method);
+    CAPTURE(name);
+    const std::vector<float> denoised = denoise_film(noisy, method);
+    for (int edge = 1; edge < 8; ++edge) {
+      CAPTURE(edge);
+      const double g_ref = gradient_across_column(reference, s.width, s.height, 8 * edge, 0, s.height);
+      const double g_den = gradient_across_column(denoised, s.width, s.height, 8 * edge, 0, s.height);
+      CHECK(g_den >= 0.9 * g_ref);
+    }
   }
 }
 
-TEST_CASE("denoiser: a normal discontinuity survives (a ridge, >= 90 % of the converged gradient at 4 spp)") {
+TEST_CASE("denoiser: a normal discontinuity survives both filters (a ridge, >= 90 % of the converged gradient at 4 spp)") {
   // Two faces of one albedo meeting in a ridge at x = 0 (the boundary before column 32), turned ±45° about y:
   // the lamp on the left lights them differently.
   SceneDesc s = plane_view();
@@ -148,12 +196,16 @@ TEST_CASE("denoiser: a normal discontinuity survives (a ridge, >= 90 % of the co
   s.shapes.push_back(quad({-3, -3, -4}, {0, -3, -1}, {0, 3, -1}, {-3, 3, -4}, 1));
   s.shapes.push_back(quad({0, -3, -1}, {3, -3, -4}, {3, 3, -4}, {0, 3, -1}, 1));
   const std::vector<float> reference = render_features(s, 1024, 3).mean_image();
-  const std::vector<float> denoised = denoise_film(render_features(s, 4, 1));
+  const Film noisy = render_features(s, 4, 1);
   const double g_ref = gradient_across_column(reference, s.width, s.height, 32, 0, s.height);
-  const double g_den = gradient_across_column(denoised, s.width, s.height, 32, 0, s.height);
-  MESSAGE("ridge gradient: converged " << g_ref << ", denoised " << g_den);
   CHECK(g_ref > 1.0);  // the ridge is an edge worth keeping
-  CHECK(g_den >= 0.9 * g_ref);
+  for (const DenoiseMethod method : kMethods) {
+    const std::string name = enum_name(method);
+    CAPTURE(name);
+    const double g_den = gradient_across_column(denoise_film(noisy, method), s.width, s.height, 32, 0, s.height);
+    MESSAGE(std::string(enum_name(method)) << ": ridge gradient: converged " << g_ref << ", denoised " << g_den);
+    CHECK(g_den >= 0.9 * g_ref);
+  }
 }
 
 TEST_CASE("exr: every layer round-trips bit for bit in float mode, and the beauty reads back as an image") {
@@ -161,7 +213,7 @@ TEST_CASE("exr: every layer round-trips bit for bit in float mode, and the beaut
   desc.width = 24;
   desc.height = 16;
   const Film film = render_features(desc, 4, 1);
-  const std::vector<float> denoised = denoise_film(film);
+  const std::vector<float> denoised = denoise_film(film, DenoiseMethod::Regression);  // partial tiles
   std::vector<Aov> all;
   for (const auto& e : enum_entries<Aov>()) all.push_back(e.value);
   const std::string path = "test_exr_roundtrip_" + std::to_string(getpid()) + ".exr";
@@ -238,6 +290,12 @@ TEST_CASE("cli: render --exr writes the layers exrheader lists, --exr-half halve
   const auto no_denoise = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoised-pfm x.pfm");
   CHECK(no_denoise.status == 2);
   CHECK(no_denoise.err.find("--denoised-pfm: needs --denoise") != std::string::npos);
+  const auto method_without = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoiser atrous");
+  CHECK(method_without.status == 2);
+  CHECK(method_without.err.find("--denoiser: needs --denoise") != std::string::npos);
+  const auto bad_method = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoise --denoiser nfor");
+  CHECK(bad_method.status == 2);
+  CHECK(bad_method.err.find("--denoiser") != std::string::npos);
   const auto layer_without = test::run_pathtracer("", "render -q --scene cornell --spp 1 --exr " + stem + "_x.exr --aov denoised");
   CHECK(layer_without.status == 2);
   CHECK(layer_without.err.find("--aov denoised: needs --denoise") != std::string::npos);

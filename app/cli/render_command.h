@@ -24,6 +24,7 @@ struct RenderOptions {
   bool exr_half = false;
   bool denoise = false;
   std::string denoised_pfm;
+  std::string denoiser;  // DenoiseMethod name; empty: regression
   float exposure = 0.f;
   std::string tonemap = "clamp";
   bool quiet = false;

@@ -22,6 +22,7 @@
 #include "denoise/denoiser.h"
 
 #include "core/math.h"
+#include "denoise/exp_neg.h"
 
 #include <algorithm>
 #include <cmath>
@@ -37,19 +38,6 @@ namespace pt {
 namespace {
 
 namespace stdx = std::experimental;
-
-// exp(−x) for x ≥ 0, to ~1e-3 relative error (weights need no more), in plain arithmetic so that it runs on SIMD
-// lanes as on scalars: exp(−x) = exp(−x/64)^64 with x clamped to 40 (e^−40 ≈ 4e−18 is as good as 0), a degree-5
-// Taylor polynomial for exp(−y) on y ∈ [0, 0.625] (error ≤ y⁶/720 ≈ 1e-4 there) and six squarings.
-template <class V>
-inline V exp_neg(V x) {
-  using std::min;
-  using stdx::min;
-  const V y = min(x, V(40.f)) * (1.f / 64.f);
-  V r = 1.f - y * (1.f - y * (0.5f - y * (1.f / 6.f - y * (1.f / 24.f - y * (1.f / 120.f)))));
-  r *= r, r *= r, r *= r, r *= r, r *= r, r *= r;
-  return r;
-}
 
 constexpr float kB3[5] = {1.f / 16, 1.f / 4, 3.f / 8, 1.f / 4, 1.f / 16};
 constexpr const float (&kLuma)[3] = kLuminanceWeights;  // Rec. 709 (core/math.h)

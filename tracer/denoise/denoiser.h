@@ -1,17 +1,22 @@
-// The denoiser: a feature-guided, variance-aware edge-avoiding à-trous wavelet filter (Dammertz et al. 2010,
-// "Edge-Avoiding À-Trous Wavelet Transform for fast Global Illumination Filtering"), with the luminance
-// edge-stopping function scaled by the filtered per-pixel standard deviation as in SVGF (Schied et al. 2017,
-// "Spatiotemporal Variance-Guided Filtering", §4.3–4.4). docs/denoising.md gives the equations, the parameters
-// and where the filter fails.
+// The denoisers (docs/denoising.md gives the equations, the parameters, the measurements and where each fails):
+// - final frames: a weighted first-order regression of the radiance on the feature buffers over a window, with
+//   non-local-means weights on the colour (regression.cpp; Moon et al. 2014, Bitterli et al. 2016 "NFOR" §4–5);
+// - the viewer: a feature-guided, variance-aware edge-avoiding à-trous wavelet filter (atrous.cpp; Dammertz et al.
+//   2010, "Edge-Avoiding À-Trous Wavelet Transform for fast Global Illumination Filtering"), with the luminance
+//   edge-stopping function scaled by the filtered per-pixel standard deviation as in SVGF (Schied et al. 2017,
+//   "Spatiotemporal Variance-Guided Filtering", §4.3–4.4).
 //
-// It filters the illumination, not the image: the emission seen directly (or through mirrors and glass) is set
-// aside, the rest is divided by the denoising albedo first and multiplied by it afterwards, so lights, texture
-// and material edges stay as sharp as the feature buffers, and only the smooth irradiance is blurred. The film's variance of each pixel's mean decides how different a neighbour's
-// illumination may be before it is treated as another feature (a shadow edge, a caustic) rather than noise.
+// Both leave the emission seen directly (or through mirrors and glass) aside. The à-trous filter works on the
+// illumination: the rest is divided by the denoising albedo first and multiplied by it afterwards, so lights,
+// texture and material edges stay as sharp as the feature buffers, and only the smooth irradiance is blurred; the
+// film's variance of each pixel's mean decides how different a neighbour's illumination may be before it is
+// treated as another feature (a shadow edge, a caustic) rather than noise. The regression fits the radiance with
+// the albedo among its regressors.
 #pragma once
 #include <memory>
 #include <vector>
 
+#include "core/enum_table.h"
 #include "core/thread_pool.h"
 
 namespace pt {
@@ -45,6 +50,29 @@ struct DenoiseSettings {
   }
 };
 
+// The final-frame filter (regression.cpp): per pixel, a weighted first-order regression of the radiance on the
+// features over a (2·radius + 1)² window, weights from non-local means on the colour with a (2·patch + 1)² patch.
+// The defaults were chosen on cornell, cornell-spheres and materials at 16 spp against converged references
+// (docs/denoising.md has the sweep): larger windows and ridges help the glossy scenes, smaller ones cornell.
+struct RegressionSettings {
+  int radius = 8;       // window radius R: 17×17 neighbours
+  int patch = 1;        // patch radius P of the colour distance: 3×3
+  float k = 0.7f;       // k of the distance: larger accepts more dissimilar neighbours
+  float ridge = 0.05f;  // λ: ridge on the feature slopes, relative to the sum of the weights
+};
+std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool);
+
+// Which filter: the regression for final frames (≈0.7 s at 512², 2 threads), the à-trous filter where time is
+// short (the viewer: ≈50 ms).
+enum class DenoiseMethod { Regression, Atrous };
+template <>
+struct EnumTable<DenoiseMethod> {
+  static constexpr std::array<EnumEntry<DenoiseMethod>, 2> kEntries{{
+      {DenoiseMethod::Regression, "regression", "First-order regression (final frames)"},
+      {DenoiseMethod::Atrous, "atrous", "À-trous wavelet (fast)"},
+  }};
+};
+
 // The filter with its working planes (~30 float planes of the image's size), kept from one call to the next:
 // an interactive front end that denoises every few passes allocates them once.
 class Denoiser {
@@ -75,5 +103,7 @@ struct FilmPlanes {
 
 // Denoises a film with features in one call (fresh planes).
 std::vector<float> denoise_film(const Film& film, const DenoiseSettings& settings, ThreadPool& pool);
+// The same with either filter at its default settings.
+std::vector<float> denoise_film(const Film& film, DenoiseMethod method, ThreadPool& pool);
 
 }  // namespace pt

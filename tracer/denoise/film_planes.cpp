@@ -20,4 +20,11 @@ std::vector<float> denoise_film(const Film& film, const DenoiseSettings& setting
   return denoise(planes.input(), settings, pool);
 }
 
+std::vector<float> denoise_film(const Film& film, DenoiseMethod method, ThreadPool& pool) {
+  if (method == DenoiseMethod::Atrous) return denoise_film(film, DenoiseSettings{}, pool);
+  FilmPlanes planes;
+  planes.copy_from(film);
+  return denoise_regression(planes.input(), RegressionSettings{}, pool);
+}
+
 }  // namespace pt
