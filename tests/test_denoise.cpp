@@ -121,6 +121,19 @@ TEST_CASE("denoiser: the regression reproduces a linear ramp up to the image's b
   CHECK(worst < 1e-4f);
 }
 
+TEST_CASE("denoiser: the regression stops when cancelled and returns nothing") {
+  const int w = 40, h = 40;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> color(3 * n, 0.5f), variance(3 * n, 1e-2f), albedo(3 * n, 0.5f), normal(3 * n), depth(n, 2.f);
+  for (size_t i = 0; i < n; ++i) normal[3 * i + 2] = 1.f;
+  ThreadPool pool(2);
+  const DenoiseInput input{w, h, &color, &variance, &albedo, &normal, &depth};
+  std::atomic<bool> cancel{true};
+  CHECK(denoise_regression(input, RegressionSettings{}, pool, &cancel).empty());
+  cancel = false;
+  CHECK(denoise_regression(input, RegressionSettings{}, pool, &cancel).size() == color.size());
+}
+
 TEST_CASE("denoiser: both filters leave a converged image as it is and bring a noisy one close to it") {
   SceneDesc desc = load_scene("cornell");
   desc.width = desc.height = 64;

@@ -364,7 +364,7 @@ TEST_CASE("session: an invalid scene is reported, not rendered, and a valid one 
   CHECK(session.stats().error.empty());
 }
 
-TEST_CASE("session: with denoising the final frame carries the denoise of the final film, the raw mean unchanged") {
+TEST_CASE("session: with denoising the final frame carries the final-frame denoise of the final film, the raw mean unchanged") {
   const SceneDesc desc = small_cornell();
   SessionSettings s = settings_with(8);
   s.denoise = true;
@@ -373,12 +373,12 @@ TEST_CASE("session: with denoising the final frame carries the denoise of the fi
   DisplayFrame f;
   REQUIRE(session.take_frame(f));
   CHECK(f.spp == 8);
-  // The raw mean is the film's, as without denoising; the denoised image is the denoiser's output for the
-  // final film (the last pass before the stop condition is always denoised afresh).
+  // The raw mean is the film's, as without denoising; the denoised image is the final-frame filter's output for
+  // the final film (the last pass before the stop condition is always denoised afresh, with that filter).
   Film film = test::render_film(desc, 8, 0, true);
   const std::vector<float> color = film.mean_image();
   ThreadPool pool(2);
-  const std::vector<float> want = denoise_film(film, DenoiseSettings::viewer(), pool);
+  const std::vector<float> want = denoise_film(film, DenoiseMethod::Regression, pool);
   REQUIRE(f.denoised.size() == want.size());
   int raw_mismatches = 0;
   for (size_t i = 0; i < film.pixel_count(); ++i)

@@ -13,6 +13,7 @@
 // treated as another feature (a shadow edge, a caustic) rather than noise. The regression fits the radiance with
 // the albedo among its regressors.
 #pragma once
+#include <atomic>
 #include <memory>
 #include <vector>
 
@@ -60,7 +61,9 @@ struct RegressionSettings {
   float k = 0.7f;       // k of the distance: larger accepts more dissimilar neighbours
   float ridge = 0.05f;  // λ: ridge on the feature slopes, relative to the sum of the weights
 };
-std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool);
+// Returns an empty vector if `cancel` was set before it finished (polled per 16×16 tile).
+std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool,
+                                      const std::atomic<bool>* cancel = nullptr);
 
 // Which filter: the regression for final frames (≈0.7 s at 512², 2 threads), the à-trous filter where time is
 // short (the viewer: ≈50 ms).

@@ -223,7 +223,8 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
 
 }  // namespace
 
-std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool) {
+std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
+                                      const std::atomic<bool>* cancel) {
   const int w = input.width, h = input.height;
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
   if (w <= 0 || h <= 0) throw std::invalid_argument("denoise: empty image");
@@ -265,8 +266,10 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
   std::vector<TileScratch> scratch(static_cast<size_t>(pool.size()));
   pool.parallel_for(tiles_x * tiles_y, [&](int task, int thread) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) return;
     regress_tile(in, st, task % tiles_x, task / tiles_x, scratch[static_cast<size_t>(thread)], out);
   });
+  if (cancel && cancel->load(std::memory_order_relaxed)) return {};
   for (size_t i = 0; i < 3 * n; ++i) out[i] += input.emission ? (*input.emission)[i] : 0.f;
   return out;
 }

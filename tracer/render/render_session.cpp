@@ -425,8 +425,8 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
 }
 
 // Fills f.denoised: a fresh denoise of the film when the last one is old enough, when it belongs to an earlier
-// accumulation, or when this pass meets a stop condition (the last image must be the film's own); else the last
-// denoised image again. Runs on the render thread, off the UI thread, using the render threads' pool.
+// accumulation, or when this pass meets a stop condition (the last image must be the film's own, and gets the
+// final-frame filter); else the last denoised image (the fast filter's) again. Runs on the render thread, off the UI thread, using the render threads' pool.
 void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds) {
   bool final_pass;
   {
@@ -434,6 +434,19 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     final_pass = stop_reason(settings_.stop, f.spp, stats_.seconds + pass_seconds, relmse) != nullptr;
   }
   const Clock::time_point now = Clock::now();
+  if (final_pass) {
+    // The image the session stops on gets the final-frame filter (≈0.7 s at 512², 2 threads); an edit or a
+    // pause meanwhile cancels it, and the fast filter below serves instead.
+    w.planes.copy_from(w.film);
+    std::vector<float> final_image = denoise_regression(w.planes.input(), RegressionSettings{}, w.renderer->pool(),
+                                                        &cancel_);
+    if (!final_image.empty()) {
+      w.denoised = std::move(final_image);
+      w.denoised_generation = w.generation;
+      f.denoised = w.denoised;
+      return;
+    }
+  }
   if (final_pass || w.denoised_generation != w.generation || now >= w.next_denoise) {
     w.planes.copy_from(w.film);
     w.denoiser.run(w.planes.input(), DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);

@@ -36,7 +36,8 @@ struct SessionSettings {
   bool background_priority = true;  // render threads at a lower OS priority than the (UI) owner thread
   // Denoise the published frames (denoise/denoiser.h): the film keeps its feature buffers, and after a pass the
   // render thread fills DisplayFrame::denoised, at most about a third of its time (a newer denoise waits until
-  // twice the last one's duration has passed; the last pass before a stop condition is always denoised).
+  // twice the last one's duration has passed; the last pass before a stop condition is always denoised, with the
+  // final-frame filter, denoise_regression, where the passes get the viewer's à-trous filter).
   // Turning it on restarts the accumulation (the film must gather features from the first sample).
   bool denoise = false;
 };
