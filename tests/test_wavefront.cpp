@@ -86,6 +86,33 @@ TEST_CASE("wavefront: the same through the generic kernel, a mesh in a BVH and n
   check_loops_agree(bunny);
 }
 
+TEST_CASE("wavefront: the shading lanes agree with the scalar loop for lights seen from behind, two-sided and triangular") {
+  // cornell plus a one-sided square light standing upright in the room (half the room sees its back), then the
+  // same light two-sided, then a triangular light (not a parallelogram: those lanes take the scalar path).
+  SceneDesc desc = load_scene("cornell");
+  desc.width = 40;
+  desc.height = 24;
+  MaterialDesc lamp;
+  lamp.name = "upright lamp";
+  lamp.albedo = Rgb(0.f);
+  lamp.emission = Rgb(3.f, 2.f, 1.f);
+  desc.materials.push_back(lamp);
+  const int m = static_cast<int>(desc.materials.size()) - 1;
+  desc.shapes.push_back(stress::quad({200, 100, 250}, {350, 100, 250}, {350, 250, 250}, {200, 250, 250}, m));
+  for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
+    desc.render.estimator = est;
+    desc.materials[static_cast<size_t>(m)].two_sided = false;
+    CAPTURE(std::string(to_string(est)));
+    check_loops_agree(desc);
+    desc.materials[static_cast<size_t>(m)].two_sided = true;
+    check_loops_agree(desc);
+  }
+  ShapeDesc& shape = desc.shapes.back();
+  REQUIRE(shape.type == ShapeType::Quad);
+  shape.type = ShapeType::Triangle;  // its first three vertices
+  check_loops_agree(desc);
+}
+
 TEST_CASE("wavefront: auto takes it where polygons are searched by brute force, and only there") {
   RenderSettings settings;
   const auto cornell = compile_scene(load_scene("cornell"));

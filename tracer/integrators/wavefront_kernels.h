@@ -2,6 +2,7 @@
 // instantiate it per feature set, beside the scalar kernels whose vertex code it shares.
 #pragma once
 #include "integrators/integrator_kernels.h"
+#include "integrators/lambert_lanes.h"
 #include "integrators/wavefront.h"
 #include "sampling/sobol_batch.h"
 
@@ -29,9 +30,14 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   constexpr bool kBatchPoints = std::is_same_v<Sampler, SobolSampler>;
   using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
   Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1], bsdf_points[kBatchPoints ? kWavefrontBatch : 1];
+  constexpr bool kLambertLanes = F == kFeaturePolygons;
+  LaneShading lane_shading;
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;
+    // Lambertian polygons lit by next-event estimation are shaded kLanes at a time (lambert_lanes.h); every
+    // other vertex, and every lane that code hands back, by shade_vertex.
+    const bool lanes = kLambertLanes && o.light_sampling && !features && static_cast<int>(bounce) < o.max_bounces;
     uint32_t light_dim = SamplerWithPoints<Sampler>::kNone, bsdf_dim = SamplerWithPoints<Sampler>::kNone;
     if constexpr (kBatchPoints) {
       if (o.light_sampling && SobolBatch::batched(o.dims.light_point(bounce))) {
@@ -59,6 +65,20 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
       bool found[kLanes];
       intersect_scene_packet<F>(s, rays, t_max, skip, k, hits, found);
       count.rays += static_cast<uint64_t>(k);
+      // Path i's sampler at queue position j.
+      const auto rng_at = [&](int j) -> VertexSampler {
+        const uint16_t i = live[j];
+        if constexpr (kBatchPoints) {
+          return {samplers[i], light_dim, light_points[j], bsdf_dim, bsdf_points[j]};
+        } else {
+          (void)light_dim, (void)bsdf_dim;
+          return samplers[i];
+        }
+      };
+      if constexpr (kLambertLanes)
+        if (lanes)
+          shade_lambert_lanes(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
+                              bounce, lane_shading, count);
       for (int l = 0; l < k; ++l) {
         const uint16_t i = live[first + l];
         PathState& p = paths[i];
@@ -66,14 +86,15 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
           add_escaped_radiance(s, o, p);
           continue;
         }
-        const VertexSampler rng = [&]() -> VertexSampler {
-          if constexpr (kBatchPoints) {
-            return {samplers[i], light_dim, light_points[first + l], bsdf_dim, bsdf_points[first + l]};
-          } else {
-            (void)light_dim, (void)bsdf_dim;
-            return samplers[i];
+        if (lanes && lane_shading.handled[l]) {
+          if (lane_shading.shadow[l]) {
+            shadows[shadow_count] = lane_shading.shadow_ray[l];
+            shadow_owner[shadow_count++] = i;
           }
-        }();
+          if (lane_shading.continues[l]) next[next_count++] = i;
+          continue;
+        }
+        const VertexSampler rng = rng_at(first + l);
         const VertexResult v = shade_vertex<std::decay_t<VertexSampler>, F>(s, o, rng, hits[l], p,
                                                                            shadows[shadow_count], count);
         if (v.shadow_ray) shadow_owner[shadow_count++] = i;

@@ -24,14 +24,19 @@ inline Vec3 sample_uniform_sphere(Vec2 u) {
 }
 inline float uniform_sphere_pdf() { return kInv4Pi; }
 
-// (cos x, sin x) for |x| ≤ π/4: the single-precision minimax polynomials of Cephes (S. L. Moshier, sinf.c and
+// cos x and sin x for |x| ≤ π/4: the single-precision minimax polynomials of Cephes (S. L. Moshier, sinf.c and
 // cosf.c, their range |x| ≤ π/4), within 2 ulp of the true values there (tested). Where the angle is known to
-// lie in that range this skips libm's range reduction and call: sincosf was 5 % of a `cornell` pass.
+// lie in that range this skips libm's range reduction and call: sincosf was 5 % of a `cornell` pass. Templated
+// over the float type: the shading lanes (integrators/lambert_lanes.h) run the same operations on SIMD lanes.
+template <class T>
+inline void quarter_turn_cos_sin(const T& x, T& c, T& s) {
+  const T z = x * x;
+  s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
+  c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z - 0.5f * z + 1.f;
+}
 inline Vec2 cos_sin_quarter_turn(float x) {
-  const float z = x * x;
-  const float s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
-  const float c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z -
-                  0.5f * z + 1.f;
+  float c, s;
+  quarter_turn_cos_sin(x, c, s);
   return {c, s};
 }
 

@@ -1,0 +1,368 @@
+// shade_vertex (integrator_kernels.h) for a packet's worth of paths at once, in the case that dominates the
+// Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation of a parallelogram light
+// sampled by area. Every step is written as a loop over kLanes lanes of plain float arrays (structure of arrays),
+// which the compiler turns into SIMD instructions; each lane performs exactly the float operations of the scalar
+// functions, in the same order (glm's vector operators evaluate component-wise, dot products as (x + y) + z;
+// -ffp-contract=off keeps multiplies and adds apart), so a path's radiance is bit-identical to the scalar loop's
+// (tested by the wavefront tests, which compare every built-in scene's image byte for byte).
+//
+// A lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit emits, when the chosen
+// light is not such a parallelogram sampled by area (a sphere, an infinite light, a rectangle near enough for
+// solid-angle sampling), or when the bounce limit is reached. Only the per-lane gathers of scene data and the
+// light choice stay scalar.
+#pragma once
+#include <cstdint>
+
+#include "geometry/simd_polygons.h"
+#include "integrators/integrator_kernels.h"
+
+namespace pt {
+namespace integrator_detail {
+
+// What the lanes hand back: per lane, whether it was shaded here, and if so its shadow ray and whether the path
+// goes on (its PathState is updated in place).
+struct LaneShading {
+  bool handled[kLanes];
+  bool shadow[kLanes];
+  bool continues[kLanes];
+  ShadowRay shadow_ray[kLanes];
+};
+
+namespace lane_detail {
+
+using M = vfloat::mask_type;
+using vbits = stdx::rebind_simd_t<uint32_t, vfloat>;  // unsigned: stepping wraps, never overflows
+
+[[gnu::always_inline]] inline vfloat ld(const float* a) { return vfloat(a, stdx::vector_aligned); }
+[[gnu::always_inline]] inline void st(float* a, const vfloat& v) { v.copy_to(a, stdx::vector_aligned); }
+// m ? a : b, lane-wise.
+[[gnu::always_inline]] inline vfloat select(const M& m, const vfloat& a, const vfloat& b) {
+  vfloat r = b;
+  stdx::where(m, r) = a;
+  return r;
+}
+// std::max(a, b) and std::min(a, b) as the standard defines them: (a < b) ? b : a and (b < a) ? b : a.
+[[gnu::always_inline]] inline vfloat std_max(const vfloat& a, const vfloat& b) { return select(a < b, b, a); }
+[[gnu::always_inline]] inline vfloat std_min(const vfloat& a, const vfloat& b) { return select(b < a, b, a); }
+[[gnu::always_inline]] inline vfloat bits_plus(const vfloat& v, uint32_t k) {
+  return stdx::__proposed::simd_bit_cast<vfloat>(stdx::__proposed::simd_bit_cast<vbits>(v) + k);
+}
+// next_float_up / next_float_down of core/math.h, lane-wise.
+[[gnu::always_inline]] inline vfloat step_up(vfloat v) {
+  stdx::where(v == 0.f, v) = 0.f;  // −0 → +0
+  const vfloat r = select(v >= 0.f, bits_plus(v, 1u), bits_plus(v, ~0u));
+  return select(v == kInfinity, v, r);
+}
+[[gnu::always_inline]] inline vfloat step_down(vfloat v) {
+  stdx::where(v == 0.f, v) = -0.f;
+  const vfloat r = select(v > 0.f, bits_plus(v, ~0u), bits_plus(v, 1u));
+  return select(v == -kInfinity, v, r);
+}
+// offset_ray_origin (geometry/interaction.h) towards w, lane-wise: the point pushed off along ±ng by the error
+// bound, then one ulp further on every axis the offset moves.
+struct Vec3Lanes {
+  vfloat x, y, z;
+};
+[[gnu::always_inline]] inline Vec3Lanes offset_origin(const Vec3Lanes& p, const Vec3Lanes& err, const Vec3Lanes& ng,
+                                                      const Vec3Lanes& w) {
+  const vfloat dist = (stdx::abs(ng.x) * err.x + stdx::abs(ng.y) * err.y) + stdx::abs(ng.z) * err.z;
+  vfloat ofx = dist * ng.x, ofy = dist * ng.y, ofz = dist * ng.z;
+  const M flip = ((w.x * ng.x + w.y * ng.y) + w.z * ng.z) < 0.f;
+  ofx = select(flip, -ofx, ofx), ofy = select(flip, -ofy, ofy), ofz = select(flip, -ofz, ofz);
+  const auto nudge = [](vfloat po, const vfloat& of) {
+    return select(of > 0.f, step_up(po), select(of < 0.f, step_down(po), po));
+  };
+  return {nudge(p.x + ofx, ofx), nudge(p.y + ofy, ofy), nudge(p.z + ofz, ofz)};
+}
+
+}  // namespace lane_detail
+
+// GCC 12's AVX-512 square root (avx512fintrin.h) passes an undefined vector as the masked-off source and warns
+// about it from inside the header; every lane is computed here.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+// The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
+// o.light_sampling, no uniform estimator, no feature buffers, and p.depth < o.max_bounces for every path (the
+// caller checks; all live paths of a batch share one depth).
+template <class RngOf>
+void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
+                         const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
+                         RayCount& count) {
+  using namespace lane_detail;
+  constexpr int N = kLanes;
+  const PolygonSoA& P = s.polygons;
+  // ---- Gather (scalar): the ray, the hit polygon, its material, the chosen light.
+  alignas(64) float ox[N], oy[N], oz[N], dx[N], dy[N], dz[N], t[N];
+  alignas(64) float ax[N], ay[N], az[N], v1x[N], v1y[N], v1z[N], v2x[N], v2y[N], v2z[N], v3x[N], v3y[N], v3z[N];
+  alignas(64) float d00x[N], d00y[N], d00z[N], d01x[N], d01y[N], d01z[N];
+  alignas(64) float d10x[N], d10y[N], d10z[N], d11x[N], d11y[N], d11z[N];
+  alignas(64) float m0x[N], m0y[N], m0z[N], m1x[N], m1y[N], m1z[N], ngx[N], ngy[N], ngz[N];
+  alignas(64) float alb_r[N], alb_g[N], alb_b[N], beta_r[N], beta_g[N], beta_b[N], eta[N];
+  alignas(64) float ux[N], uy[N], bux[N], buy[N], u_rr[N];
+  alignas(64) float la_x[N], la_y[N], la_z[N], lb_x[N], lb_y[N], lb_z[N], lc_x[N], lc_y[N], lc_z[N];
+  alignas(64) float ln_x[N], ln_y[N], ln_z[N], l_area[N], l_pmf[N], le_r[N], le_g[N], le_b[N];
+  alignas(64) float quad[N], two_sided[N], light_ok[N];  // 0 or 1
+  alignas(64) uint8_t active[N];
+  alignas(64) uint32_t light_prim[N];
+  const bool roulette = o.rr_depth >= 0 && static_cast<int>(depth) >= o.rr_depth;
+  for (int l = 0; l < N; ++l) {
+    active[l] = 0;
+    light_ok[l] = 0.f;
+    out.handled[l] = out.shadow[l] = out.continues[l] = false;
+    // Inactive lanes compute on harmless values; their results are never used.
+    ox[l] = oy[l] = oz[l] = dx[l] = dy[l] = t[l] = 0.f;
+    dz[l] = 1.f;
+    ax[l] = ay[l] = az[l] = v1x[l] = v1y[l] = v1z[l] = v2x[l] = v2y[l] = v2z[l] = v3x[l] = v3y[l] = v3z[l] = 0.f;
+    d00x[l] = d00y[l] = d00z[l] = d01x[l] = d01y[l] = d01z[l] = 0.f;
+    d10x[l] = d10y[l] = d10z[l] = d11x[l] = d11y[l] = d11z[l] = 0.f;
+    m0x[l] = m0y[l] = m0z[l] = m1x[l] = m1y[l] = m1z[l] = 0.f;
+    ngx[l] = ngy[l] = 0.f;
+    ngz[l] = 1.f;
+    alb_r[l] = alb_g[l] = alb_b[l] = beta_r[l] = beta_g[l] = beta_b[l] = eta[l] = 1.f;
+    ux[l] = uy[l] = bux[l] = buy[l] = u_rr[l] = 0.5f;
+    la_x[l] = la_y[l] = la_z[l] = lb_x[l] = lb_y[l] = lb_z[l] = lc_x[l] = lc_y[l] = lc_z[l] = 0.f;
+    ln_x[l] = ln_y[l] = 0.f;
+    ln_z[l] = 1.f;
+    l_area[l] = l_pmf[l] = 1.f;
+    le_r[l] = le_g[l] = le_b[l] = 0.f;
+    quad[l] = two_sided[l] = 0.f;
+    light_prim[l] = kNoPrimitive;
+  }
+  for (int l = 0; l < k; ++l) {
+    if (!found[l]) continue;
+    const uint32_t prim = hits[l].prim;
+    const Material& m = s.materials[P.material[prim]];
+    if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
+    const PathState& p = paths[ids[l]];
+    ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
+    dx[l] = p.ray.d.x, dy[l] = p.ray.d.y, dz[l] = p.ray.d.z;
+    t[l] = hits[l].t;
+    const Vec3 a = P.v[0][prim], b = P.v[1][prim], c = P.v[2][prim], d = P.v[3][prim];
+    ax[l] = a.x, ay[l] = a.y, az[l] = a.z, v1x[l] = b.x, v1y[l] = b.y, v1z[l] = b.z;
+    v2x[l] = c.x, v2y[l] = c.y, v2z[l] = c.z, v3x[l] = d.x, v3y[l] = d.y, v3z[l] = d.z;
+    const auto& dual = P.dual[prim];
+    d00x[l] = dual[0][0].x, d00y[l] = dual[0][0].y, d00z[l] = dual[0][0].z;
+    d01x[l] = dual[0][1].x, d01y[l] = dual[0][1].y, d01z[l] = dual[0][1].z;
+    d10x[l] = dual[1][0].x, d10y[l] = dual[1][0].y, d10z[l] = dual[1][0].z;
+    d11x[l] = dual[1][1].x, d11y[l] = dual[1][1].y, d11z[l] = dual[1][1].z;
+    const auto& margin = P.edge_margin[prim];
+    m0x[l] = margin[0].x, m0y[l] = margin[0].y, m0z[l] = margin[0].z;
+    m1x[l] = margin[1].x, m1y[l] = margin[1].y, m1z[l] = margin[1].z;
+    const Vec3 ng = P.normal[prim];
+    ngx[l] = ng.x, ngy[l] = ng.y, ngz[l] = ng.z;
+    quad[l] = P.triangle[prim] ? 0.f : 1.f;
+    alb_r[l] = m.albedo.x, alb_g[l] = m.albedo.y, alb_b[l] = m.albedo.z;
+    beta_r[l] = p.beta.x, beta_g[l] = p.beta.y, beta_b[l] = p.beta.z;
+    eta[l] = p.eta_scale;
+    active[l] = 1;
+  }
+
+  // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point.
+  alignas(64) float px[N], py[N], pz[N], ex[N], ey[N], ez[N];
+  {
+    const vfloat T = ld(t), Ax = ld(ax), Ay = ld(ay), Az = ld(az);
+    const vfloat qx = (ld(ox) + T * ld(dx)) - Ax, qy = (ld(oy) + T * ld(dy)) - Ay, qz = (ld(oz) + T * ld(dz)) - Az;
+    vfloat b1 = (qx * ld(d00x) + qy * ld(d00y)) + qz * ld(d00z);
+    vfloat b2 = (qx * ld(d01x) + qy * ld(d01y)) + qz * ld(d01z);
+    const M half = b1 < 0.f && ld(quad) != 0.f;
+    b1 = select(half, (qx * ld(d10x) + qy * ld(d10y)) + qz * ld(d10z), b1);
+    b2 = select(half, (qx * ld(d11x) + qy * ld(d11y)) + qz * ld(d11z), b2);
+    vfloat b0 = (1.f - b1) - b2;
+    const vfloat Bx = select(half, ld(v2x), ld(v1x)), By = select(half, ld(v2y), ld(v1y)),
+                 Bz = select(half, ld(v2z), ld(v1z));
+    const vfloat Cx = select(half, ld(v3x), ld(v2x)), Cy = select(half, ld(v3y), ld(v2y)),
+                 Cz = select(half, ld(v3z), ld(v2z));
+    const vfloat mx = select(half, ld(m1x), ld(m0x)), my = select(half, ld(m1y), ld(m0y)),
+                 mz = select(half, ld(m1z), ld(m0z));
+    const M clamp = b0 < mx || b1 < my || b2 < mz;
+    if (stdx::any_of(clamp)) {
+      const vfloat c0 = std_max(b0, mx), c1 = std_max(b1, my), c2 = std_max(b2, mz);
+      const vfloat inv = 1.f / ((c0 + c1) + c2);
+      b0 = select(clamp, c0 * inv, b0), b1 = select(clamp, c1 * inv, b1), b2 = select(clamp, c2 * inv, b2);
+    }
+    st(px, (b0 * Ax + b1 * Bx) + b2 * Cx);
+    st(py, (b0 * Ay + b1 * By) + b2 * Cy);
+    st(pz, (b0 * Az + b1 * Bz) + b2 * Cz);
+    constexpr float g7 = gamma_bound(7);
+    st(ex, g7 * ((stdx::abs(b0 * Ax) + stdx::abs(b1 * Bx)) + stdx::abs(b2 * Cx)));
+    st(ey, g7 * ((stdx::abs(b0 * Ay) + stdx::abs(b1 * By)) + stdx::abs(b2 * Cy)));
+    st(ez, g7 * ((stdx::abs(b0 * Az) + stdx::abs(b1 * Bz)) + stdx::abs(b2 * Cz)));
+  }
+
+  // ---- The shading frame (Frame::from_normal), wo's z in it, the lit side's normal.
+  alignas(64) float sx[N], sy[N], sz[N], tx[N], ty[N], tz[N], wlz[N], nx[N], ny[N], nz[N];
+  {
+    const vfloat Nx = ld(ngx), Ny = ld(ngy), Nz = ld(ngz);
+    const vfloat sign = select(stdx::signbit(Nz), vfloat(-1.f), vfloat(1.f));  // std::copysign(1, n.z)
+    const vfloat a = -1.f / (sign + Nz);
+    const vfloat b = Nx * Ny * a;
+    st(sx, 1.f + sign * Nx * Nx * a), st(sy, sign * b), st(sz, -sign * Nx);
+    st(tx, b), st(ty, sign + Ny * Ny * a), st(tz, -Ny);
+    const vfloat wz = (-ld(dx) * Nx + -ld(dy) * Ny) + -ld(dz) * Nz;
+    st(wlz, wz);
+    const M front = wz >= 0.f;
+    st(nx, select(front, Nx, -Nx)), st(ny, select(front, Ny, -Ny)), st(nz, select(front, Nz, -Nz));
+  }
+
+  // ---- Light choice and the lanes' random numbers (scalar): lanes whose light this code cannot sample go to
+  // the scalar path.
+  const uint32_t choice_dim = o.dims.light_choice(depth), point_dim = o.dims.light_point(depth);
+  const uint32_t dir_dim = o.dims.bsdf_direction(depth), rr_dim = o.dims.roulette(depth);
+  for (int l = 0; l < k; ++l) {
+    if (!active[l]) continue;
+    const auto& rng = rng_of(l);
+    const Vec3 ref(px[l], py[l], pz[l]);
+    if (!s.lights.empty()) {
+      const int li = choose_light(s, rng.get_1d(choice_dim));
+      const Light& light = s.lights[li];
+      const bool polygon = light.kind == LightKind::Polygon || light.kind == LightKind::Rectangle;
+      if (!polygon || !P.parallelogram[light.prim] ||
+          (light.kind == LightKind::Rectangle && use_spherical_rect(light, ref))) {
+        active[l] = 0;  // the scalar path
+        continue;
+      }
+      const uint32_t lp = light.prim;
+      // sample_li: a one-sided light seen from behind gives no sample.
+      light_ok[l] = light.two_sided || glm::dot(P.normal[lp], ref - P.v[0][lp]) > 0.f ? 1.f : 0.f;
+      const Vec3 la = P.v[0][lp], lb = P.v[1][lp], lc = P.v[2][lp], ln = P.normal[lp];
+      la_x[l] = la.x, la_y[l] = la.y, la_z[l] = la.z, lb_x[l] = lb.x, lb_y[l] = lb.y, lb_z[l] = lb.z;
+      lc_x[l] = lc.x, lc_y[l] = lc.y, lc_z[l] = lc.z, ln_x[l] = ln.x, ln_y[l] = ln.y, ln_z[l] = ln.z;
+      l_area[l] = light.area;
+      l_pmf[l] = s.light_pmf[li];
+      le_r[l] = light.emission.x, le_g[l] = light.emission.y, le_b[l] = light.emission.z;
+      two_sided[l] = light.two_sided ? 1.f : 0.f;
+      light_prim[l] = lp;
+      const Vec2 u = rng.get_2d(point_dim);
+      ux[l] = u.x, uy[l] = u.y;
+    }
+    const Vec2 bu = rng.get_2d(dir_dim);
+    bux[l] = bu.x, buy[l] = bu.y;
+    if (roulette) u_rr[l] = rng.get_1d(rr_dim);
+  }
+
+  // ---- The light sample (sample_li by area, sample_lights' choice probability), the BSDF there, the shadow ray
+  // and its contribution.
+  const Vec3Lanes P_{ld(px), ld(py), ld(pz)}, E_{ld(ex), ld(ey), ld(ez)}, NG{ld(ngx), ld(ngy), ld(ngz)};
+  const vfloat Wz = ld(wlz);
+  const vfloat Fr = ld(alb_r) * kInvPi, Fg = ld(alb_g) * kInvPi, Fb = ld(alb_b) * kInvPi;
+  const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
+  alignas(64) float traced[N], shadow_ok[N];
+  alignas(64) float so_x[N], so_y[N], so_z[N], sd_x[N], sd_y[N], sd_z[N], st_max[N], sc_r[N], sc_g[N], sc_b[N];
+  {
+    // sample_polygon_area of a parallelogram: a + u.x·(b − a) + u.y·(c − b).
+    const vfloat Ux = ld(ux), Uy = ld(uy);
+    const vfloat Lax = ld(la_x), Lay = ld(la_y), Laz = ld(la_z), Lbx = ld(lb_x), Lby = ld(lb_y), Lbz = ld(lb_z);
+    const vfloat lpx = (Lax + Ux * (Lbx - Lax)) + Uy * (ld(lc_x) - Lbx);
+    const vfloat lpy = (Lay + Ux * (Lby - Lay)) + Uy * (ld(lc_y) - Lby);
+    const vfloat lpz = (Laz + Ux * (Lbz - Laz)) + Uy * (ld(lc_z) - Lbz);
+    const vfloat ddx = lpx - P_.x, ddy = lpy - P_.y, ddz = lpz - P_.z;
+    const vfloat dist2 = (ddx * ddx + ddy * ddy) + ddz * ddz;
+    const vfloat dist = stdx::sqrt(dist2);
+    const vfloat wix = ddx / dist, wiy = ddy / dist, wiz = ddz / dist;
+    const vfloat Lnx = ld(ln_x), Lny = ld(ln_y), Lnz = ld(ln_z);
+    const vfloat cos_l = stdx::abs((Lnx * wix + Lny * wiy) + Lnz * wiz);
+    const vfloat c_e = (Lnx * -wix + Lny * -wiy) + Lnz * -wiz;  // area_light_emission(n, −wi)
+    const M le_on = c_e > 0.f || (ld(two_sided) != 0.f && c_e < 0.f);
+    vfloat pdf = dist2 / (cos_l * ld(l_area));
+    M ok = ld(light_ok) != 0.f && dist2 > 0.f && cos_l != 0.f && stdx::isfinite(pdf);
+    pdf *= ld(l_pmf);
+    const vfloat Ler = ld(le_r), Leg = ld(le_g), Leb = ld(le_b);
+    ok = ok && pdf > 0.f && le_on && !(Ler == 0.f && Leg == 0.f && Leb == 0.f);
+    // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (only their cosines matter).
+    const vfloat wil_z = (wix * NG.x + wiy * NG.y) + wiz * NG.z;
+    const M same_side = Wz * wil_z > 0.f;
+    ok = ok && same_side && !(Fr == 0.f && Fg == 0.f && Fb == 0.f);
+    st(traced, select(ok, vfloat(1.f), vfloat(0.f)));
+    const Vec3Lanes origin = offset_origin(P_, E_, NG, {wix, wiy, wiz});
+    const vfloat tlx = lpx - origin.x, tly = lpy - origin.y, tlz = lpz - origin.z;
+    const vfloat sdist = stdx::sqrt((tlx * tlx + tly * tly) + tlz * tlz);
+    const vfloat t_max = sdist * kShadowRayShorten;
+    // power_heuristic(ls.pdf, bsdf_pdf) with the Lambert pdf max(|cos θ|, 0)/π.
+    const vfloat cos_abs = stdx::abs(wil_z);
+    const vfloat bpdf = select(same_side, std_max(cos_abs, vfloat(0.f)) * kInvPi, vfloat(0.f));
+    const vfloat ff = pdf * pdf, gg = bpdf * bpdf;
+    vfloat w = select(ff + gg > 0.f, ff / (ff + gg), vfloat(0.f));
+    w = select(stdx::isinf(ff), vfloat(1.f), w);
+    if (!o.mis) w = 1.f;
+    const vfloat scale = (cos_abs * w) / pdf;
+    st(shadow_ok, select(ok && t_max > 0.f, vfloat(1.f), vfloat(0.f)));
+    st(so_x, origin.x), st(so_y, origin.y), st(so_z, origin.z);
+    st(sd_x, tlx / sdist), st(sd_y, tly / sdist), st(sd_z, tlz / sdist);
+    st(st_max, t_max);
+    st(sc_r, ((Br * Fr) * select(le_on, Ler, vfloat(0.f))) * scale);
+    st(sc_g, ((Bg * Fg) * select(le_on, Leg, vfloat(0.f))) * scale);
+    st(sc_b, ((Bb * Fb) * select(le_on, Leb, vfloat(0.f))) * scale);
+  }
+
+  // ---- The BSDF sample (cosine-weighted, mirrored to wo's side), the throughput, roulette, the next ray.
+  alignas(64) float goes_on[N], nb_r[N], nb_g[N], nb_b[N], b_pdf[N], no_x[N], no_y[N], no_z[N];
+  alignas(64) float nd_x[N], nd_y[N], nd_z[N];
+  {
+    const M flip = Wz < 0.f;
+    const vfloat wo_z = select(flip, -Wz, Wz);
+    M ok = wo_z > 0.f && !(ld(alb_r) == 0.f && ld(alb_g) == 0.f && ld(alb_b) == 0.f);
+    // sample_cosine_hemisphere: the concentric disk (sampling.h), then z = √max(0, 1 − x² − y²).
+    const vfloat cx = 2.f * ld(bux) - 1.f, cy = 2.f * ld(buy) - 1.f;
+    const M wide = stdx::abs(cx) > stdx::abs(cy);
+    const vfloat angle = (kPi / 4.f) * select(wide, cy / cx, cx / cy);
+    vfloat cs, sn;
+    quarter_turn_cos_sin(angle, cs, sn);
+    const M centre = cx == 0.f && cy == 0.f;
+    const vfloat dxs = select(centre, vfloat(0.f), select(wide, cx * cs, cy * sn));
+    const vfloat dys = select(centre, vfloat(0.f), select(wide, cx * sn, cy * cs));
+    const vfloat zz = (1.f - dxs * dxs) - dys * dys;
+    const vfloat wz0 = stdx::sqrt(std_max(vfloat(0.f), zz));
+    ok = ok && wz0 > 0.f;
+    const vfloat pdf = std_max(wz0, vfloat(0.f)) * kInvPi;
+    const vfloat wz = select(flip, -wz0, wz0);
+    ok = ok && pdf > 0.f && wz != 0.f;
+    const vfloat k_scale = stdx::abs(wz) / pdf;
+    vfloat nbr = Br * (Fr * k_scale), nbg = Bg * (Fg * k_scale), nbb = Bb * (Fb * k_scale);
+    // frame.to_world: s·x + t·y + n·z.
+    const vfloat wwx = (ld(sx) * dxs + ld(tx) * dys) + NG.x * wz;
+    const vfloat wwy = (ld(sy) * dxs + ld(ty) * dys) + NG.y * wz;
+    const vfloat wwz = (ld(sz) * dxs + ld(tz) * dys) + NG.z * wz;
+    if (roulette) {
+      const vfloat q = std_min(vfloat(kMaxRouletteSurvival), std_max(nbr, std_max(nbg, nbb)) * ld(eta));
+      ok = ok && ld(u_rr) < q;
+      nbr = nbr / q, nbg = nbg / q, nbb = nbb / q;
+    }
+    ok = ok && !(nbr == 0.f && nbg == 0.f && nbb == 0.f) && stdx::isfinite(nbr) && stdx::isfinite(nbg) &&
+         stdx::isfinite(nbb);
+    st(goes_on, select(ok, vfloat(1.f), vfloat(0.f)));
+    st(nb_r, nbr), st(nb_g, nbg), st(nb_b, nbb);
+    st(b_pdf, pdf);
+    const Vec3Lanes origin = offset_origin(P_, E_, NG, {wwx, wwy, wwz});
+    st(no_x, origin.x), st(no_y, origin.y), st(no_z, origin.z);
+    st(nd_x, wwx), st(nd_y, wwy), st(nd_z, wwz);
+  }
+
+  // ---- Write back (scalar, lane order).
+  for (int l = 0; l < k; ++l) {
+    if (!active[l]) continue;
+    out.handled[l] = true;
+    PathState& p = paths[ids[l]];
+    if (traced[l] != 0.f) ++count.rays;
+    if (shadow_ok[l] != 0.f) {
+      out.shadow[l] = true;
+      out.shadow_ray[l] = {{Vec3(so_x[l], so_y[l], so_z[l]), Vec3(sd_x[l], sd_y[l], sd_z[l])},
+                           st_max[l], hits[l].prim, light_prim[l], Rgb(sc_r[l], sc_g[l], sc_b[l])};
+    }
+    if (goes_on[l] == 0.f) continue;
+    out.continues[l] = true;
+    p.beta = Rgb(nb_r[l], nb_g[l], nb_b[l]);
+    p.count_emission = false;
+    p.prev_bsdf_pdf = b_pdf[l];
+    p.prev_p = Vec3(px[l], py[l], pz[l]);
+    p.prev_n = Vec3(nx[l], ny[l], nz[l]);
+    p.ray = {Vec3(no_x[l], no_y[l], no_z[l]), Vec3(nd_x[l], nd_y[l], nd_z[l])};
+    p.skip = hits[l].prim;
+    p.depth = static_cast<int>(depth) + 1;
+  }
+}
+
+#pragma GCC diagnostic pop
+
+}  // namespace integrator_detail
+}  // namespace pt
