@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
+#include <utility>
 #include <unistd.h>
 
 #include "denoise/denoiser.h"
@@ -119,6 +121,32 @@ TEST_CASE("denoiser: the regression reproduces a linear ramp up to the image's b
   for (size_t k = 0; k < out.size(); ++k) worst = std::max(worst, std::abs(out[k] - color[k]));
   MESSAGE("largest deviation from the ramp: " << worst);
   CHECK(worst < 1e-4f);
+}
+
+TEST_CASE("denoiser: both filters take images smaller than their windows, and non-finite variances") {
+  // 1×1, 3×2 and 1×40: the window and the patch reach past every border. The variance of one pixel is NaN
+  // and of another +inf (a film below 2 samples reports no estimate); the output stays finite.
+  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{3, 2}, std::pair{1, 40}}) {
+    const size_t n = static_cast<size_t>(w) * h;
+    std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n, 0.5f), normal(3 * n), depth(n, 2.f);
+    for (size_t i = 0; i < n; ++i) {
+      normal[3 * i + 2] = 1.f;
+      for (int c = 0; c < 3; ++c) color[3 * i + c] = 0.1f * static_cast<float>(c + 1) + 0.01f * static_cast<float>(i);
+    }
+    variance[0] = std::numeric_limits<float>::quiet_NaN();
+    variance[3 * n - 1] = std::numeric_limits<float>::infinity();
+    for (const DenoiseMethod method : kMethods) {
+      const std::string name = enum_name(method);
+      CAPTURE(name);
+      CAPTURE(w);
+      CAPTURE(h);
+      const std::vector<float> out = denoise_planes({w, h, &color, &variance, &albedo, &normal, &depth}, method);
+      REQUIRE(out.size() == color.size());
+      int bad = 0;
+      for (float v : out) bad += !std::isfinite(v) || v < 0.f;
+      CHECK(bad == 0);
+    }
+  }
 }
 
 TEST_CASE("denoiser: the regression stops when cancelled and returns nothing") {
