@@ -131,12 +131,15 @@ constexpr std::array<BatchKernel<Sampler>, sizeof...(F)> batch_kernels_for(std::
   return {&trace_batch<Sampler, static_cast<uint32_t>(F)>...};
 }
 
-// As kKernels (integrator_kernels.h), generic only in instrumented builds.
+// As kKernels (integrator_kernels.h), generic only in instrumented builds (but for the lanes' kernel).
 template <class Sampler>
 constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> make_batch_kernels() {
   if constexpr (kGenericKernelsOnly) {
     std::array<BatchKernel<Sampler>, kAllFeatures + 1> all{};
     all.fill(&trace_batch<Sampler, kAllFeatures>);
+    // Except the kernel for Lambertian polygons: it alone runs the shading lanes (lambert_lanes.h), which the
+    // sanitizers must see too.
+    all[kFeaturePolygons] = &trace_batch<Sampler, kFeaturePolygons>;
     return all;
   } else {
     return batch_kernels_for<Sampler>(std::make_index_sequence<kAllFeatures + 1>{});
