@@ -46,11 +46,13 @@ constexpr float kDistanceEpsilon = 1e-10f;          // ε of the distance: keeps
 constexpr float kMinDepth = 1e-6f;
 constexpr double kOffsetRidge = 1e-4;
 
-// The inputs as planes, one float per pixel per channel, padded on every side by `margin` = R + P pixels that
-// repeat the nearest edge pixel, so a window or patch offset never needs a bounds check (a clamped coordinate reads
-// the same value).
+// The inputs as planes, one float per pixel per channel, padded by pixels that repeat the nearest edge pixel, so a
+// window or patch offset never needs a bounds check (a clamped coordinate reads the same value): `margin` = R + P
+// on the left and top, margin + kTile − 1 on the right and bottom, where the last tiles reach past the image.
 struct Planes {
   int w = 0, h = 0, margin = 0;
+  int width_padded() const { return w + 2 * margin + kTile - 1; }
+  int height_padded() const { return h + 2 * margin + kTile - 1; }
   size_t stride = 0;
   std::array<std::vector<float>, 3> color, variance;
   std::array<std::vector<float>, 7> feature;  // albedo r, g, b, normal x, y, z, depth
@@ -237,14 +239,14 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
 
   Planes in;
   in.w = w, in.h = h, in.margin = st.radius + st.patch;
-  in.stride = static_cast<size_t>(w + 2 * in.margin);
-  const size_t padded = in.stride * static_cast<size_t>(h + 2 * in.margin);
+  in.stride = static_cast<size_t>(in.width_padded());
+  const size_t padded = in.stride * static_cast<size_t>(in.height_padded());
   for (auto& p : in.color) p.resize(padded);
   for (auto& p : in.variance) p.resize(padded);
   for (auto& p : in.feature) p.resize(padded);
-  pool.parallel_for(h + 2 * in.margin, [&](int row, int) {
+  pool.parallel_for(in.height_padded(), [&](int row, int) {
     const int y = std::clamp(row - in.margin, 0, h - 1);
-    for (int col = 0; col < w + 2 * in.margin; ++col) {
+    for (int col = 0; col < in.width_padded(); ++col) {
       const size_t i = static_cast<size_t>(y) * w + static_cast<size_t>(std::clamp(col - in.margin, 0, w - 1));
       const size_t j = static_cast<size_t>(row) * in.stride + static_cast<size_t>(col);
       const float* nrm = &(*input.normal)[3 * i];

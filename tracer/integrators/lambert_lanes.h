@@ -85,8 +85,8 @@ struct Vec3Lanes {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 // The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
-// o.light_sampling, no uniform estimator, no feature buffers, and p.depth < o.max_bounces for every path (the
-// caller checks; all live paths of a batch share one depth).
+// o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
+// live paths of a batch share one depth).
 template <class RngOf>
 void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
                          const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
@@ -106,7 +106,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   alignas(64) float ln_x[N], ln_y[N], ln_z[N], l_area[N], l_pmf[N], le_r[N], le_g[N], le_b[N];
   alignas(64) float quad[N], two_sided[N], light_ok[N];  // 0 or 1
   alignas(64) uint8_t active[N];
-  alignas(64) uint32_t light_prim[N];
+  alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = o.rr_depth >= 0 && static_cast<int>(depth) >= o.rr_depth;
   for (int l = 0; l < N; ++l) {
     active[l] = 0;
@@ -134,7 +134,8 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   for (int l = 0; l < k; ++l) {
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
-    const Material& m = s.materials[P.material[prim]];
+    material[l] = P.material[prim];
+    const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     const PathState& p = paths[ids[l]];
     ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
@@ -345,6 +346,13 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     if (!active[l]) continue;
     out.handled[l] = true;
     PathState& p = paths[ids[l]];
+    if (p.features.out) [[unlikely]] {  // the first hit of a film with feature buffers: shade_vertex's own call
+      Interaction it;
+      it.p = Vec3(px[l], py[l], pz[l]);
+      it.ng = Vec3(ngx[l], ngy[l], ngz[l]);
+      p.features.at_vertex<MaterialSet::Lambert>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
+                                                 s.materials[material[l]], false, p.L);
+    }
     if (traced[l] != 0.f) ++count.rays;
     if (shadow_ok[l] != 0.f) {
       out.shadow[l] = true;

@@ -37,7 +37,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
     int next_count = 0, shadow_count = 0;
     // Lambertian polygons lit by next-event estimation are shaded kLanes at a time (lambert_lanes.h); every
     // other vertex, and every lane that code hands back, by shade_vertex.
-    const bool lanes = kLambertLanes && o.light_sampling && !features && static_cast<int>(bounce) < o.max_bounces;
+    const bool lanes = kLambertLanes && o.light_sampling && static_cast<int>(bounce) < o.max_bounces;
     uint32_t light_dim = SamplerWithPoints<Sampler>::kNone, bsdf_dim = SamplerWithPoints<Sampler>::kNone;
     if constexpr (kBatchPoints) {
       if (o.light_sampling && SobolBatch::batched(o.dims.light_point(bounce))) {
