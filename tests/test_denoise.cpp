@@ -325,21 +325,20 @@ TEST_CASE("cli: render --exr writes the layers exrheader lists, --exr-half halve
   CHECK(half_header.find("spp.Y, 16-bit floating-point") != std::string::npos);
   CHECK(half_header.find("albedo") == std::string::npos);
 
-  const auto no_exr = test::run_pathtracer("", "render -q --scene cornell --spp 1 --aov depth");
-  CHECK(no_exr.status == 2);
-  CHECK(no_exr.err.find("--aov: needs --exr") != std::string::npos);
-  const auto no_denoise = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoised-pfm x.pfm");
-  CHECK(no_denoise.status == 2);
-  CHECK(no_denoise.err.find("--denoised-pfm: needs --denoise") != std::string::npos);
-  const auto method_without = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoiser atrous");
-  CHECK(method_without.status == 2);
-  CHECK(method_without.err.find("--denoiser: needs --denoise") != std::string::npos);
-  const auto bad_method = test::run_pathtracer("", "render -q --scene cornell --spp 1 --denoise --denoiser nfor");
-  CHECK(bad_method.status == 2);
-  CHECK(bad_method.err.find("--denoiser") != std::string::npos);
-  const auto layer_without = test::run_pathtracer("", "render -q --scene cornell --spp 1 --exr " + stem + "_x.exr --aov denoised");
-  CHECK(layer_without.status == 2);
-  CHECK(layer_without.err.find("--aov denoised: needs --denoise") != std::string::npos);
+  // Bad combinations: exit 2 and the reason.
+  const std::pair<std::string, std::string> refused[] = {
+      {"--aov depth", "--aov: needs --exr"},
+      {"--denoised-pfm x.pfm", "--denoised-pfm: needs --denoise"},
+      {"--denoiser atrous", "--denoiser: needs --denoise"},
+      {"--denoise --denoiser nfor", "--denoiser"},
+      {"--exr " + stem + "_x.exr --aov denoised", "--aov denoised: needs --denoise"},
+  };
+  for (const auto& [args, reason] : refused) {
+    CAPTURE(args);
+    const auto r = test::run_pathtracer("", "render -q --scene cornell --spp 1 " + args);
+    CHECK(r.status == 2);
+    CHECK(r.err.find(reason) != std::string::npos);
+  }
   CHECK_FALSE(std::filesystem::exists(stem + "_x.exr"));
   for (const char* suffix : {".exr", ".pfm", ".txt", "_h.exr"}) std::filesystem::remove(stem + suffix);
 }

@@ -252,6 +252,12 @@ TEST_CASE("scale-out cli: bad resume and merge requests exit 2 with the reason, 
 namespace {
 
 bool have_mpirun() { return std::system("command -v mpirun > /dev/null 2>&1") == 0; }
+// The MPI tests' guard: true (with a message) where mpirun is missing and the test should return.
+bool skip_without_mpirun() {
+  if (have_mpirun()) return false;
+  MESSAGE("mpirun not found: skipping the MPI test");
+  return true;
+}
 
 // mpirun as CI runs it: as root when it is root, more ranks than cores allowed.
 std::string mpirun(int ranks) {
@@ -262,10 +268,7 @@ std::string mpirun(int ranks) {
 }  // namespace
 
 TEST_CASE("scale-out mpi: 2, 3 and 4 ranks write the single process's PFM bytes") {
-  if (!have_mpirun()) {
-    MESSAGE("mpirun not found: skipping the MPI test");
-    return;
-  }
+  if (skip_without_mpirun()) return;
   TempDir dir("mpi");
   const std::string common = "render -q --scene cornell --seed 1 --width 64 --height 64 --spp 24 ";
   const Run one = pt::test::run_pathtracer("", common + "--threads 2 --pfm " + dir / "one.pfm --save-state " + dir / "one.ptstate");
@@ -291,10 +294,7 @@ TEST_CASE("scale-out mpi: 2, 3 and 4 ranks write the single process's PFM bytes"
 }
 
 TEST_CASE("scale-out mpi: a state resumed by 2 ranks gives the single process's bytes, a mismatched one is refused by all") {
-  if (!have_mpirun()) {
-    MESSAGE("mpirun not found: skipping the MPI test");
-    return;
-  }
+  if (skip_without_mpirun()) return;
   TempDir dir("mpi_resume");
   const std::string common = "render -q --scene cornell --seed 1 --width 48 --height 48 ";
   REQUIRE(pt::test::run_pathtracer("", common + "--spp 20 --threads 2 --pfm " + dir / "straight.pfm").status == 0);
@@ -312,10 +312,7 @@ TEST_CASE("scale-out mpi: a state resumed by 2 ranks gives the single process's 
 }
 
 TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, and the last checkpoint stays readable") {
-  if (!have_mpirun()) {
-    MESSAGE("mpirun not found: skipping the MPI test");
-    return;
-  }
+  if (skip_without_mpirun()) return;
   TempDir dir("mpi_death");
   // Two ranks render for up to 60 s with a checkpoint every 0.5 s; after 4 s one rank is killed.
   const std::string script = mpirun(2) + " \"$0\" \"$@\" & job=$!; sleep 4; "

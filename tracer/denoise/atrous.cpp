@@ -28,7 +28,6 @@
 #include <cmath>
 #include <experimental/simd>
 #include <functional>
-#include <stdexcept>
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #endif
@@ -83,15 +82,6 @@ struct FlushDenormals {
   ~FlushDenormals() { _mm_setcsr(saved); }
 #endif
 };
-
-void check_input(const DenoiseInput& in) {
-  const size_t n = static_cast<size_t>(in.width) * static_cast<size_t>(in.height);
-  if (in.width <= 0 || in.height <= 0) throw std::invalid_argument("denoise: empty image");
-  for (const auto* p : {in.color, in.variance, in.albedo, in.normal})
-    if (!p || p->size() != 3 * n) throw std::invalid_argument("denoise: a 3-channel input is missing or mis-sized");
-  if (!in.depth || in.depth->size() != n) throw std::invalid_argument("denoise: depth is missing or mis-sized");
-  if (in.emission && in.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
-}
 
 // One chunk of V::size() pixels starting at (x, y), all 25 taps of level `step`; writes the filtered
 // illumination and variance of the lanes inside the image to the output planes.
@@ -170,7 +160,7 @@ std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, Th
 }
 
 void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool& pool, std::vector<float>& out) {
-  check_input(in);
+  check_denoise_input(in);
   using Wide = stdx::native_simd<float>;
   constexpr int kWide = static_cast<int>(Wide::size());
   const int w = in.width, h = in.height;
@@ -207,8 +197,7 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
       const float* nrm = &(*in.normal)[3 * i];
-      const float len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
-      const float inv = len2 > 1e-12f ? 1.f / std::sqrt(len2) : 0.f;  // averaged normals are shorter than 1
+      const float inv = inverse_normal_length(nrm);
       g.n0[j] = nrm[0] * inv, g.n1[j] = nrm[1] * inv, g.n2[j] = nrm[2] * inv;
       g.z[j] = (*in.depth)[i];
       float sd_l = 0.f;  // channels of one path are correlated: their deviations add

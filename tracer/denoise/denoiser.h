@@ -14,6 +14,7 @@
 // the albedo among its regressors.
 #pragma once
 #include <atomic>
+#include <cmath>
 #include <memory>
 #include <vector>
 
@@ -34,6 +35,14 @@ struct DenoiseInput {
   const std::vector<float>* depth = nullptr;     // distance to the first hit
   const std::vector<float>* emission = nullptr;  // emission seen directly, per channel (features.h); null = none
 };
+
+// Throws std::invalid_argument when an input is missing or of the wrong size (both filters check first).
+void check_denoise_input(const DenoiseInput& input);
+// 1/|n| of a film's normal (averaged normals are shorter than 1), 0 where there is none.
+inline float inverse_normal_length(const float* n) {
+  const float len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  return len2 > 1e-12f ? 1.f / std::sqrt(len2) : 0.f;
+}
 
 struct DenoiseSettings {
   int iterations = 5;          // à-trous levels: the footprint is 4·(2^iterations − 1) + 1 pixels wide

@@ -1,7 +1,19 @@
 #include "denoise/denoiser.h"
+
+#include <stdexcept>
+
 #include "render/film.h"
 
 namespace pt {
+
+void check_denoise_input(const DenoiseInput& in) {
+  const size_t n = static_cast<size_t>(in.width) * static_cast<size_t>(in.height);
+  if (in.width <= 0 || in.height <= 0) throw std::invalid_argument("denoise: empty image");
+  for (const auto* p : {in.color, in.variance, in.albedo, in.normal})
+    if (!p || p->size() != 3 * n) throw std::invalid_argument("denoise: a 3-channel input is missing or mis-sized");
+  if (!in.depth || in.depth->size() != n) throw std::invalid_argument("denoise: depth is missing or mis-sized");
+  if (in.emission && in.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
+}
 
 void FilmPlanes::copy_from(const Film& film) {
   width = film.width();

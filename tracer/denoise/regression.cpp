@@ -229,11 +229,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
                                       const std::atomic<bool>* cancel) {
   const int w = input.width, h = input.height;
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  if (w <= 0 || h <= 0) throw std::invalid_argument("denoise: empty image");
-  for (const auto* p : {input.color, input.variance, input.albedo, input.normal})
-    if (!p || p->size() != 3 * n) throw std::invalid_argument("denoise: a 3-channel input is missing or mis-sized");
-  if (!input.depth || input.depth->size() != n) throw std::invalid_argument("denoise: depth is missing or mis-sized");
-  if (input.emission && input.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
+  check_denoise_input(input);
   if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f))
     throw std::invalid_argument("denoise: bad regression settings");
 
@@ -250,8 +246,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
       const size_t i = static_cast<size_t>(y) * w + static_cast<size_t>(std::clamp(col - in.margin, 0, w - 1));
       const size_t j = static_cast<size_t>(row) * in.stride + static_cast<size_t>(col);
       const float* nrm = &(*input.normal)[3 * i];
-      const float len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
-      const float inv = len2 > 1e-12f ? 1.f / std::sqrt(len2) : 0.f;  // averaged normals are shorter than 1
+      const float inv = inverse_normal_length(nrm);
       for (int c = 0; c < 3; ++c) {
         const float emitted = input.emission ? (*input.emission)[3 * i + c] : 0.f;
         in.color[c][j] = (*input.color)[3 * i + c] - emitted;

@@ -434,10 +434,12 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     final_pass = stop_reason(settings_.stop, f.spp, stats_.seconds + pass_seconds, relmse) != nullptr;
   }
   const Clock::time_point now = Clock::now();
+  bool copied = false;
   if (final_pass) {
     // The image the session stops on gets the final-frame filter (≈0.7 s at 512², 2 threads); an edit or a
-    // pause meanwhile cancels it, and the fast filter below serves instead.
+    // pause meanwhile cancels it, and the fast filter below serves instead (from the same planes).
     w.planes.copy_from(w.film);
+    copied = true;
     std::vector<float> final_image = denoise_regression(w.planes.input(), RegressionSettings{}, w.renderer->pool(),
                                                         &cancel_);
     if (!final_image.empty()) {
@@ -448,7 +450,7 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     }
   }
   if (final_pass || w.denoised_generation != w.generation || now >= w.next_denoise) {
-    w.planes.copy_from(w.film);
+    if (!copied) w.planes.copy_from(w.film);
     w.denoiser.run(w.planes.input(), DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);
     w.denoised_generation = w.generation;
     const Clock::time_point done = Clock::now();
