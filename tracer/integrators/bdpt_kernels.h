@@ -199,6 +199,18 @@ class Scoped {
 // out from the connection, each step multiplying by pdf_rev/pdf_fwd of one vertex; strategies that would have
 // to connect at a specular vertex cannot produce the path and are left out. `sampled` replaces the end vertex
 // of the subpath that the strategy sampled afresh (s = 1: the light point; t = 1: the eye).
+//
+// Specular chains. Between non-specular vertices a (light side) and b (camera side) joined through specular
+// vertices, the ratio of the densities of the strategies on either side of the chain is
+//   A_a p⊥_L(a → a+1) / (B_b p⊥_C(b → b−1)),
+// A and B the area densities made by the light and the camera walk, p⊥ the directional densities per projected
+// solid angle at the chain's ends: the geometry terms of the chain's segments appear on both sides and cancel,
+// as do the specular lobes' Dirac densities (symmetric per projected solid angle; the η² of refraction cancels
+// on entering and leaving). pbrt-v3's recursion keeps the area densities A_{a+1} and B_{b−1} instead, which
+// multiplies that ratio by G(a, a+1)/G(b−1, b): the weights still sum to one (unbiased), but on the glass
+// ball's caustic seen directly (light → glass → glass → floor → eye) they gave path tracing (s = 0) nearly all
+// the weight although light tracing (t = 1) samples it far better. Dividing those two densities by their
+// segment's geometry term restores the ratio (Mitsuba 0.5 converts them to projected solid angle likewise).
 inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
                         const BdptVertex& sampled, int ns, int nt) {
   if (ns + nt == 2) return 1.f;
@@ -222,16 +234,33 @@ inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vec
   if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, pt, *qs_minus));
 
   const auto remap0 = [](float f) { return f != 0.f ? f : 1.f; };
+  // Through a chain of specular vertices the ratio must hold the densities in projected solid angle at the
+  // chain's ends (below); `projected` divides a specular vertex's area density, made by its non-specular
+  // neighbour n, by G(n, v).
+  const auto projected = [](float pdf, const BdptVertex& v, const BdptVertex& n) {
+    const float g = geometry_term(v, n);
+    return pdf > 0.f && g > 0.f ? pdf / g : pdf;
+  };
   float sum = 0.f;
   float r = 1.f;
   for (int i = nt - 1; i > 0; --i) {
-    r *= remap0(camera[i].pdf_rev) / remap0(camera[i].pdf_fwd);
+    float rev = camera[i].pdf_rev, fwd = camera[i].pdf_fwd;
+    if (camera[i].delta) {  // i < nt − 1: the connection's end is not specular
+      if (!camera[i + 1].delta) rev = projected(rev, camera[i], camera[i + 1]);
+      if (!camera[i - 1].delta) fwd = projected(fwd, camera[i], camera[i - 1]);
+    }
+    r *= remap0(rev) / remap0(fwd);
     if (!camera[i].delta && !camera[i - 1].delta) sum += r * r;
   }
   r = 1.f;
   for (int i = ns - 1; i >= 0; --i) {
-    r *= remap0(light[i].pdf_rev) / remap0(light[i].pdf_fwd);
-    const bool delta_before = i > 0 && light[i - 1].delta;  // no light is a Dirac (every kind has an extent)
+    float rev = light[i].pdf_rev, fwd = light[i].pdf_fwd;
+    if (light[i].delta) {  // 0 < i < ns − 1: no light is a Dirac (every kind has an extent), nor the end
+      if (!light[i - 1].delta) fwd = projected(fwd, light[i], light[i - 1]);
+      if (!light[i + 1].delta) rev = projected(rev, light[i], light[i + 1]);
+    }
+    r *= remap0(rev) / remap0(fwd);
+    const bool delta_before = i > 0 && light[i - 1].delta;
     if (!light[i].delta && !delta_before) sum += r * r;
   }
   return 1.f / (1.f + sum);

@@ -47,6 +47,16 @@ inline Link link(const BdptVertex& a, const BdptVertex& b) {
   return {d2 > 0.f ? d / std::sqrt(d2) : Vec3(0.f), d2};
 }
 
+// The geometry term |cos θ_a| |cos θ_b| / d² of the segment between a and b (a cosine only at a vertex on a
+// surface; towards a vertex at infinity no distance: densities there are per solid angle).
+inline float geometry_term(const BdptVertex& a, const BdptVertex& b) {
+  const Link l = link(a, b);
+  float g = a.infinite || b.infinite ? 1.f : (l.dist2 > 0.f ? 1.f / l.dist2 : 0.f);
+  if (a.on_surface()) g *= std::abs(glm::dot(a.it.ng, l.w));
+  if (b.on_surface()) g *= std::abs(glm::dot(b.it.ng, l.w));
+  return g;
+}
+
 // A solid-angle density at `from` towards `to` as a density per unit area at `to` (pbrt-v3 ConvertDensity).
 inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex& to) {
   if (to.infinite || from.infinite) return pdf;
