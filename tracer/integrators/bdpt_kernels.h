@@ -279,7 +279,12 @@ bool unoccluded(const Scene& s, const BdptVertex& a, const BdptVertex& b, RayCou
   if (!(dist > 0.f)) return false;
   const uint32_t skip_a = a.kind == VertexKind::Camera ? ~0u : skip_on_leave(a.it);
   const uint32_t skip_b = b.kind == VertexKind::Camera ? ~0u : skip_on_leave(b.it);
-  return !occluded_scene<F>(s, {from, d / dist}, dist * kShadowRayShorten, skip_a, skip_b);
+  // The shortening guards against geometry coplanar with a surface at b; the eye lies on no surface. It is
+  // relative, so a long ray loses dist × 2^-12 at its end: towards the eye, that hid the wall right behind
+  // the camera from light vertices inside the stress matrix's huge spheres (radius 1e5 × the room: 49 units of
+  // a 2e5-long ray), whose splats then passed through it (bdpt 1.6e-4 high in the huge-sphere furnace room).
+  const float t_max = b.kind == VertexKind::Camera ? dist : dist * kShadowRayShorten;
+  return !occluded_scene<F>(s, {from, d / dist}, t_max, skip_a, skip_b);
 }
 
 // Strategy s = 1: a light sampled from camera vertex pt (its index t − 1; bounce t − 2). Fills `sampled`.
