@@ -309,7 +309,7 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
     sampled.beta = Le / (pdf * pmf);
   } else {
     LightSample ls;
-    if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng}, u, ls) || is_black(ls.Le)) return Rgb(0.f);
+    if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng, pt.it.prim}, u, ls) || is_black(ls.Le)) return Rgb(0.f);
     wi = ls.wi;
     sampled.it.p = ls.p;
     sampled.it.ng = area_light_normal(s, l, ls.p);

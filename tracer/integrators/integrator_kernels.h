@@ -145,7 +145,7 @@ template <class Sampler, uint32_t F>
     const Vec2 u_point = rng.get_2d(o.dims.light_point(depth));
     LightSample ls;
     int li;
-    if (sample_lights<F>(s, {it.p, n}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
+    if (sample_lights<F>(s, {it.p, n, it.prim}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
       const Vec3 wi_local = frame.to_local(ls.wi);
       const Rgb f = bsdf_eval<kM>(m, wo_local, wi_local);
       if (!is_black(f)) {  // no shadow ray where the BSDF is zero

@@ -33,6 +33,7 @@ struct LightSample {
 struct LightReference {
   Vec3 p;
   Vec3 n;
+  uint32_t prim = kNoPrimitive;  // the receiver's primitive: a planar light does not light its own surface
 };
 
 inline int choose_light(const Scene& s, float u) {
@@ -133,6 +134,12 @@ template <uint32_t F = kAllFeatures>
 inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref, Vec2 u, LightSample& ls) {
   ls.prim = l.prim;
   Vec3 n(0.f);
+  // A planar light cannot light its own surface (every direction to it is tangent). Rounding puts a receiver on
+  // a rectangle light a hair to either side of its plane, and the spherical rectangle seen from there fills a
+  // hemisphere: its samples carried that hemisphere's radiance into the receiver (stress: nee 2.4 % high in the
+  // furnace room of two-sided emitting quads). BSDF-sampled rays never hit their own planar primitive either,
+  // so area_light_pdf is never asked about this case.
+  if ((l.kind == LightKind::Rectangle || l.kind == LightKind::Polygon) && l.prim == ref.prim) return false;
   // A one-sided polygon light seen from behind sends nothing: no sample (area_light_pdf is 0 there too).
   if ((l.kind == LightKind::Rectangle || l.kind == LightKind::Polygon) && !l.two_sided &&
       glm::dot(s.polygons.normal[l.prim], ref.p - s.polygons.v[0][l.prim]) <= 0.f)
