@@ -229,27 +229,21 @@ TEST_CASE("huge spheres: the closed room of six 1e5-radius spheres is a furnace 
 
 // NEE must find huge emitting spheres: the cone/area choice of sample_li() is tied to the receiver's rounding
 // error, not to the sphere's radius (with a margin relative to r, NEE returned Le instead of 1.96875 here).
-TEST_CASE("huge spheres: NEE in the furnace room of huge emitting spheres") {
-  const double e = furnace_expected(1.0, 0.5, 5, false);
-  const Film f = render(wall_room_furnace(true, 1e5, 1.0, 0.5, 5, -1, Estimator::Nee), 64);
-  const MeanSE m = film_mean(f);
-  INFO("nee: " << m.mean.x << " ± " << m.se.x << " vs " << e);
-  CHECK(agrees(m.mean.x, m.se.x, e, 1e-5));
-}
-
 // bdpt in the same room: its light subpaths start anywhere on the spheres, mostly far outside the room, and a
 // vertex on a sphere's inner face sees the eye through the sphere's interior and the wall behind the camera.
 // The eye connection's shadow ray, shortened by a relative 2^-12 (49 units of a 2e5-long ray), missed that
 // wall, and the splats made the mean 3.1e-4 high (24 standard errors: 1.96906 ± 1.3e-5). With bdpt nearly
-// every weight falls on the camera's cosine samples here, so the estimate is almost exact: the bound is tight.
-TEST_CASE("huge spheres: bdpt's light tracing does not see through the walls of the huge-sphere room") {
+// every weight falls on the camera's cosine samples here, so its estimate is almost exact: a tight bound too.
+TEST_CASE("huge spheres: NEE and bdpt's light tracing in the furnace room of huge emitting spheres") {
   const double e = furnace_expected(1.0, 0.5, 5, false);
-  const Film f = render(wall_room_furnace(true, 1e5, 1.0, 0.5, 5, -1, Estimator::Bdpt), 64);
-  const MeanSE m = film_mean(f);
-  INFO("bdpt: " << m.mean.x << " ± " << m.se.x << " vs " << e);
-  CHECK(agrees(m.mean.x, m.se.x, e, 1e-5));
-  CHECK(std::abs(m.mean.x - e) < 2e-5);
-  CHECK(f.rejected() == 0);
+  for (Estimator est : {Estimator::Nee, Estimator::Bdpt}) {
+    const Film f = render(wall_room_furnace(true, 1e5, 1.0, 0.5, 5, -1, est), 64);
+    const MeanSE m = film_mean(f);
+    INFO(std::string(to_string(est)) << ": " << m.mean.x << " ± " << m.se.x << " vs " << e);
+    CHECK(agrees(m.mean.x, m.se.x, e, 1e-5));
+    if (est == Estimator::Bdpt) CHECK(std::abs(m.mean.x - e) < 2e-5);
+    CHECK(f.rejected() == 0);
+  }
 }
 
 // The same room of six two-sided emitting quads (the stress matrix's control): a receiver on a wall is a hair to

@@ -147,32 +147,13 @@ SceneDesc ball_caustic() {
   s.camera.fov_deg = 20;
   s.width = s.height = 32;
   s.render.max_bounces = 3;  // the caustic's three scattering events, nothing longer
-  MaterialDesc floor;
-  floor.name = "floor";
-  floor.albedo = Rgb(0.6f);
-  MaterialDesc glass;
-  glass.name = "glass";
-  glass.type = MaterialType::Dielectric;
-  glass.ior = 1.5f;
-  MaterialDesc lamp;
-  lamp.name = "lamp";
-  lamp.albedo = Rgb(0.f);
-  lamp.emission = Rgb(200.f);
-  s.materials = {floor, glass, lamp};
-  ShapeDesc f;
-  f.type = ShapeType::Quad;
-  f.vertices = {DVec3(-10, 0, -10), DVec3(-10, 0, 10), DVec3(10, 0, 10), DVec3(10, 0, -10)};
-  f.material = 0;
-  ShapeDesc ball;
-  ball.type = ShapeType::Sphere;
-  ball.center = {0, 1.2, 0};
-  ball.radius = 1;
-  ball.material = 1;
-  ShapeDesc l;
-  l.type = ShapeType::Quad;  // facing down
-  l.vertices = {DVec3(3.75, 8, -0.25), DVec3(4.25, 8, -0.25), DVec3(4.25, 8, 0.25), DVec3(3.75, 8, 0.25)};
-  l.material = 2;
-  s.shapes = {f, ball, l};
+  s.materials = {stress::material("floor", MaterialType::Diffuse, Rgb(0.6f)),
+                 stress::material("glass", MaterialType::Dielectric, Rgb(1.f)),
+                 stress::material("lamp", MaterialType::Diffuse, Rgb(0.f), Rgb(200.f))};
+  s.shapes = {stress::quad(DVec3(-10, 0, -10), DVec3(-10, 0, 10), DVec3(10, 0, 10), DVec3(10, 0, -10), 0),
+              stress::sphere(DVec3(0, 1.2, 0), 1, 1),
+              stress::quad(DVec3(3.75, 8, -0.25), DVec3(4.25, 8, -0.25), DVec3(4.25, 8, 0.25),  // the lamp,
+                           DVec3(3.75, 8, 0.25), 2)};                                           // facing down
   return s;
 }
 

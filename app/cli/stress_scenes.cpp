@@ -16,10 +16,8 @@ ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int m) {
   return sh;
 }
 
-namespace {
-
-MaterialDesc material(std::string name, MaterialType type, Rgb albedo, Rgb emission = Rgb(0.f),
-                      bool two_sided = false, float ior = 1.5f) {
+MaterialDesc material(std::string name, MaterialType type, Rgb albedo, Rgb emission,
+                      bool two_sided, float ior) {
   MaterialDesc m;
   m.name = std::move(name);
   m.type = type;
@@ -29,6 +27,17 @@ MaterialDesc material(std::string name, MaterialType type, Rgb albedo, Rgb emiss
   m.ior = ior;
   return m;
 }
+
+ShapeDesc sphere(DVec3 c, double r, int m) {
+  ShapeDesc sh;
+  sh.type = ShapeType::Sphere;
+  sh.center = c;
+  sh.radius = r;
+  sh.material = m;
+  return sh;
+}
+
+namespace {
 
 int add_material(SceneDesc& s, MaterialDesc m) {
   s.materials.push_back(std::move(m));
@@ -43,14 +52,6 @@ ShapeDesc triangle(DVec3 a, DVec3 b, DVec3 c, int m) {
   return sh;
 }
 
-ShapeDesc sphere(DVec3 c, double r, int m) {
-  ShapeDesc sh;
-  sh.type = ShapeType::Sphere;
-  sh.center = c;
-  sh.radius = r;
-  sh.material = m;
-  return sh;
-}
 
 // Every scene here samples independently: the film's per-pixel variance, from which every statistical tolerance
 // is derived, is an unbiased estimate of the variance of the mean only for independent samples (the stratified

@@ -14,8 +14,12 @@
 
 namespace pt::stress {
 
-// A quad shape of material m, vertices counter-clockwise seen from the front (scene builders' helper).
+// Scene builders' helpers: a quad shape of material m, vertices counter-clockwise seen from the front; a sphere;
+// a material.
 ShapeDesc quad(DVec3 a, DVec3 b, DVec3 c, DVec3 d, int m);
+ShapeDesc sphere(DVec3 c, double r, int m);
+MaterialDesc material(std::string name, MaterialType type, Rgb albedo, Rgb emission = Rgb(0.f),
+                      bool two_sided = false, float ior = 1.5f);
 
 // ---------------------------------------------------------------------------------------------- scene building
 
