@@ -52,7 +52,6 @@ ShapeDesc triangle(DVec3 a, DVec3 b, DVec3 c, int m) {
   return sh;
 }
 
-
 // Every scene here samples independently: the film's per-pixel variance, from which every statistical tolerance
 // is derived, is an unbiased estimate of the variance of the mean only for independent samples (the stratified
 // Sobol sampler's samples are not).
