@@ -197,6 +197,21 @@ TEST_CASE("invariance: the transform helper moves camera and geometry together")
   }
 }
 
+// The full matrix's scale probes reach copies the tracer refuses (cornell at scale 1e9 has a vertex 1.41e12 from
+// the camera): a refusal must become a row with its reason. The exception used to escape and end the whole run
+// at the first such probe.
+TEST_CASE("invariance: a copy beyond the representable range is refused with its reason, not rendered") {
+  const SceneDesc base = builtin_at("cornell", 8, 8);
+  std::string refusal;
+  CHECK_FALSE(render_unless_refused(transformed(base, 1e9, DVec3(0.0)), 1, 1, refusal).has_value());
+  CHECK(refusal.find("beyond the 1e+12 the tracer represents") != std::string::npos);
+  refusal.clear();
+  const std::optional<Film> f = render_unless_refused(base, 1, 1, refusal);
+  REQUIRE(f.has_value());
+  CHECK(f->total_count() == 64);
+  CHECK(refusal.empty());
+}
+
 // ---------------------------------------------------------------------------------------- 3. huge and tiny spheres
 
 TEST_CASE("huge spheres: a room of six spheres of radius 1e5 renders like the room of quads, without holes") {

@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
-#include <optional>
 
 #include "integrators/integrator.h"
 #include "core/rng.h"
@@ -211,11 +210,10 @@ void invariance(Report& r, const StressOptions& o, Limits& limits) {
       t.render.seed = 1;  // independent of the original's samples
       // A copy beyond the range the tracer represents is refused when it is compiled (scene.cpp's validation):
       // a row of its own (a probe that breaks), not the end of the run.
-      std::optional<Film> rendered;
-      try {
-        rendered.emplace(render(t, spp, o.threads));
-      } catch (const std::invalid_argument& e) {
-        r.add(scenario, what, std::string("refused: ") + e.what(), "rendered", false, kind);
+      std::string refusal;
+      const std::optional<Film> rendered = render_unless_refused(t, spp, o.threads, refusal);
+      if (!rendered) {
+        r.add(scenario, what, "refused: " + refusal, "rendered", false, kind);
         return false;
       }
       const Film& f = *rendered;

@@ -437,6 +437,15 @@ Film render(const SceneDesc& s, int spp, int threads) {
   return film;
 }
 
+std::optional<Film> render_unless_refused(const SceneDesc& s, int spp, int threads, std::string& refusal) {
+  try {
+    return render(s, spp, threads);
+  } catch (const std::invalid_argument& e) {
+    refusal = e.what();
+    return std::nullopt;
+  }
+}
+
 MeanSE film_mean(const Film& f) {
   MeanSE r;
   glm::dvec3 var(0.0);

@@ -6,6 +6,7 @@
 // included, so one builder serves every translation and scale of the matrix. What each scene checks, and why its
 // expected value is what it is, is documented in docs/accuracy.md.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -109,6 +110,9 @@ inline constexpr double kAlpha = 1e-5;
 
 // Renders spp samples per pixel in one pass (threads 0 = all hardware threads).
 Film render(const SceneDesc& s, int spp, int threads = 0);
+// The same, or no film and the reason when the scene is refused (compile_scene throws std::invalid_argument,
+// e.g. for geometry beyond the range the tracer represents): the matrix reports the refusal as a row.
+std::optional<Film> render_unless_refused(const SceneDesc& s, int spp, int threads, std::string& refusal);
 
 // Image mean and its standard error from the film's per-pixel variance (pixels are independent).
 struct MeanSE {
