@@ -398,8 +398,7 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
         if (connectible(s, qs) && connectible(s, pt)) {
           c = qs.beta * vertex_f(s, qs, pt, true) * vertex_f(s, pt, qs, false) * pt.beta;
           if (!is_black(c)) {
-            const Link k = link(pt, qs);
-            c *= std::abs(glm::dot(pt.it.ng, k.w)) * std::abs(glm::dot(qs.it.ng, k.w)) / k.dist2;
+            c *= geometry_term(pt, qs);
             if (!unoccluded<F>(s, pt, qs, count)) c = Rgb(0.f);
           }
         }

@@ -51,10 +51,10 @@ inline Link link(const BdptVertex& a, const BdptVertex& b) {
 // surface; towards a vertex at infinity no distance: densities there are per solid angle).
 inline float geometry_term(const BdptVertex& a, const BdptVertex& b) {
   const Link l = link(a, b);
-  float g = a.infinite || b.infinite ? 1.f : (l.dist2 > 0.f ? 1.f / l.dist2 : 0.f);
-  if (a.on_surface()) g *= std::abs(glm::dot(a.it.ng, l.w));
-  if (b.on_surface()) g *= std::abs(glm::dot(b.it.ng, l.w));
-  return g;
+  const float cos_a = a.on_surface() ? std::abs(glm::dot(a.it.ng, l.w)) : 1.f;
+  const float cos_b = b.on_surface() ? std::abs(glm::dot(b.it.ng, l.w)) : 1.f;
+  if (a.infinite || b.infinite) return cos_a * cos_b;
+  return l.dist2 > 0.f ? cos_a * cos_b / l.dist2 : 0.f;
 }
 
 // A solid-angle density at `from` towards `to` as a density per unit area at `to` (pbrt-v3 ConvertDensity).
