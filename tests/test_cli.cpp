@@ -83,6 +83,9 @@ TEST_CASE("cli: errors name the file, the JSON path and the reason, with exit st
     CHECK(bad.status == 2);
     CHECK(bad.err.find("not s = t = 1") != std::string::npos);
     CHECK(run("render --estimator bdpt --bdpt-strategy 2 --spp 1 --png x.png").status == 2);
+    const Run no_manifold = run("render --estimator mis --no-manifold --spp 1 --png x.png");
+    CHECK(no_manifold.status == 2);
+    CHECK(no_manifold.err.find("--no-manifold: needs --estimator bdpt") != std::string::npos);
     CHECK_FALSE(std::filesystem::exists("x.png"));
   }
   CHECK(run("render --estimator magic").status == 2);

@@ -99,6 +99,9 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->delimiter(',')
       ->expected(2)
       ->check(CLI::NonNegativeNumber);
+  r->add_flag("--no-manifold", o.no_manifold,
+              "Diagnostic for --estimator bdpt: leave out the manifold strategy (next-event estimation through smooth "
+              "spheres), to measure what it gives");
   r->add_option("--save-state", o.save_state,
                 "Also write the film's complete accumulation state here (.ptstate: resumable, mergeable; "
                 "docs/scale-out.md); written on Ctrl-C too");
@@ -262,6 +265,14 @@ int run_render(const RenderOptions& o) {
       return 2;
     }
     desc.render.bdpt_only = {o.bdpt_strategy[0], o.bdpt_strategy[1]};
+  }
+  if (o.no_manifold) {
+    if (desc.render.estimator != Estimator::Bdpt) {
+      std::fprintf(stderr, "error: --no-manifold: needs --estimator bdpt (the scene's estimator is %s)\n",
+                   to_string(desc.render.estimator));
+      return 2;
+    }
+    desc.render.bdpt_manifold = false;
   }
   if (std::string err = validate_scene(desc); !err.empty()) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());

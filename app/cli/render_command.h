@@ -32,6 +32,7 @@ struct RenderOptions {
   bool generic_kernel = false;
   std::string path_loop = "auto";
   std::vector<int> bdpt_strategy;  // s,t: only that strategy, unweighted (diagnostic)
+  bool no_manifold = false;        // bdpt without its manifold strategy (diagnostic)
   std::string save_state;          // write the film's accumulation state here (io/film_state.h)
   std::string resume;              // continue from this state
   std::string sample_range;        // "A:B": render sample indices [A, B) of every pixel

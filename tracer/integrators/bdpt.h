@@ -6,7 +6,10 @@
 // - s = 1: a light sampled from a camera vertex (next-event estimation, lights/light_sampling.h);
 // - t = 1: a light-subpath vertex joined to the eye (light tracing): its contribution lands on whatever pixel
 //   the eye sees the vertex through, a "splat", which the renderer adds after the pass (render/renderer.h);
-// - s, t ≥ 2: the two subpaths' end vertices joined by a shadow ray.
+// - s, t ≥ 2: the two subpaths' end vertices joined by a shadow ray;
+// - manifold: at a camera vertex that no connection can serve (seen through or in a smooth sphere or mirror),
+//   next-event estimation through a smooth sphere, the specular path to a light point solved for
+//   (bdpt_manifold.h; off with RenderSettings::bdpt_manifold).
 // Each is weighted by the power heuristic over all strategies that could have produced the same path,
 // computed from the per-vertex forward and reverse densities by pbrt-v3's ratio recursion (no second copy of
 // the densities per strategy). Strategies through specular vertices are left out of the sum, so caustics seen

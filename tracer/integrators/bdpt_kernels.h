@@ -5,6 +5,7 @@
 #include "integrators/bdpt.h"
 
 #include "geometry/scene_queries.h"
+#include "integrators/bdpt_manifold.h"
 #include "sampling/sample_dimensions.h"
 
 namespace pt {
@@ -18,9 +19,11 @@ struct Options {
         rr_depth(r.russian_roulette_depth),
         only_s(r.bdpt_only.s),
         only_t(r.bdpt_only.t),
-        has_lights(!s.lights.empty()) {}
+        has_lights(!s.lights.empty()),
+        manifold(r.bdpt_manifold && s.features.spheres && only_s < 0) {}
   int max_bounces, rr_depth, only_s, only_t;
   bool has_lights;
+  bool manifold;  // the manifold strategy through smooth spheres (bdpt_manifold.h)
 };
 
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
@@ -377,6 +380,8 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   const bool only = o.only_s >= 0;
   for (int t = 1; t <= nc; ++t) {
     if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;  // long paths: O(nc·nl)
+    if (o.manifold && t >= 3 && manifold_vertex(s, camera, t - 1))
+      L += connect_through_spheres<Sampler, F>(s, rng, camera[t - 1], t, o.max_bounces, count);
     for (int ns = 0; ns <= nl; ++ns) {
       const int depth = ns + t - 2;
       if ((ns == 1 && t == 1) || depth < 0 || depth > o.max_bounces) continue;
@@ -405,6 +410,7 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
       }
       if (is_black(c)) continue;
       if (!only) c *= mis_weight(s, light, camera, sampled, ns, t);
+      if (ns == 0 && o.manifold) c *= path_tracing_share(s, camera, t);
       if (t == 1) splats.push_back({pixel, c});
       else L += c;
     }

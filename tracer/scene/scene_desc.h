@@ -133,6 +133,9 @@ struct RenderSettings {
   struct BdptStrategy {
     int s = -1, t = -1;
   } bdpt_only;
+  // Not part of scene files either: the bidirectional estimator's manifold strategy, next-event estimation
+  // through smooth spheres (integrators/bdpt_manifold.h); off only to measure it (`render --no-manifold`).
+  bool bdpt_manifold = true;
 };
 
 struct EnvironmentDesc {

@@ -1,0 +1,191 @@
+// Specular paths through one sphere between two given points: the geometry of manifold next-event estimation
+// (Hanika, Droske and Fascione 2015, "Manifold Next Event Estimation"; Zeltner, Georgiev and Jakob 2020,
+// "Specular Manifold Sampling", which also treat the unknown number of solutions) for the one shape where the
+// specular constraint reduces to a single unknown.
+//
+// A path from x to y that reflects once off a sphere, or refracts into it and out again, lies in the plane
+// through x, y and the centre c: the incident ray, the normal (radial, through c) and the scattered ray of each
+// event share one plane, and the chord inside shares it with both events. So the path is fixed by one angle α,
+// the direction from x within that plane, and solving for it is a root search in one dimension: every sign
+// change of the angle between the outgoing ray and the direction to y, over a grid of directions across the
+// sphere's silhouette, is refined by regula falsi. Roots closer than one grid step (where two solutions merge at a caustic's
+// fold) can be missed; the estimator stays unbiased because the weight it gives to path tracing for a path asks
+// this same search whether it would have found that path (bdpt_manifold.h).
+//
+// The measure conversion dA_y/dω_x (area on the light per solid angle at x, the "generalized geometry term" of
+// the chain; Hanika et al. derive it from the manifold's tangent space) is taken by central differences of the
+// whole chain's map ω ↦ y in double precision.
+//
+// Everything here is in double: the chain magnifies errors of its entry point (by the sphere's focusing).
+#pragma once
+#include <array>
+
+#include "core/math.h"
+
+namespace pt {
+
+struct SpecularSphere {
+  DVec3 center;
+  double radius;
+  bool refracts;  // true: in and out through the surface (relative index ior); false: one mirror reflection
+  double ior;
+};
+
+// The path from x along unit direction w through the sphere: entry p1, exit p2 (= p1 for a reflection), and
+// the ray leaving the sphere (from p2 along out).
+struct SphereChain {
+  DVec3 p1{0.0}, p2{0.0}, out{0.0};
+};
+
+namespace manifold_detail {
+// Snell refraction of travel direction d at a surface with unit normal n facing the incident side (d·n < 0),
+// eta = n_i/n_t. False under total internal reflection.
+inline bool refract_travel(DVec3 d, DVec3 n, double eta, DVec3& t) {
+  const double cos_i = -glm::dot(d, n);
+  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+  if (sin2_t >= 1.0) return false;
+  t = glm::normalize(eta * d + (eta * cos_i - std::sqrt(1.0 - sin2_t)) * n);
+  return true;
+}
+}  // namespace manifold_detail
+
+// Follows the chain from x (outside the sphere) along unit w. False when w misses the sphere.
+inline bool trace_sphere_chain(const SpecularSphere& s, DVec3 x, DVec3 w, SphereChain& out) {
+  const DVec3 f = x - s.center;
+  const double b = glm::dot(f, w);
+  const double c = glm::dot(f, f) - s.radius * s.radius;
+  if (!(c > 0.0) || !(b < 0.0)) return false;  // x inside, or the sphere behind
+  const DVec3 l = f - b * w;                    // perpendicular from the centre to the ray (stable discriminant)
+  const double disc = s.radius * s.radius - glm::dot(l, l);
+  if (!(disc > 0.0)) return false;
+  const double t = c / (-b + std::sqrt(disc));  // the nearer root, without cancellation
+  out.p1 = x + t * w;
+  const DVec3 n1 = (out.p1 - s.center) / s.radius;
+  if (!s.refracts) {
+    out.p2 = out.p1;
+    out.out = w - 2.0 * glm::dot(w, n1) * n1;
+    return true;
+  }
+  DVec3 inside;
+  if (!manifold_detail::refract_travel(w, n1, 1.0 / s.ior, inside)) return false;
+  const double chord = -2.0 * glm::dot(out.p1 - s.center, inside);
+  if (!(chord > 0.0)) return false;
+  out.p2 = out.p1 + chord * inside;
+  const DVec3 n2 = (out.p2 - s.center) / s.radius;
+  return manifold_detail::refract_travel(inside, -n2, s.ior, out.out);
+}
+
+// Up to kMaxSphereChainRoots directions from x whose chain passes through y.
+inline constexpr int kMaxSphereChainRoots = 4;
+struct SphereChainRoots {
+  std::array<DVec3, kMaxSphereChainRoots> w;
+  int count = 0;
+};
+
+// The grid of the root search: directions across the silhouette, evenly spaced in the angle of incidence on the
+// sphere (where the chain's outgoing direction turns fastest, near grazing, the grid is densest), both grazing
+// ends included. Roots closer than a cell can be missed: pairs of roots close together (near a caustic's fold)
+// are most common from points close to the sphere (the bright caustic at its foot), which get the fine grid.
+inline constexpr int kSphereChainGrid = 97;  // 96 cells (the coarse grid: 12)
+inline constexpr int kSphereChainCoarseStep = 8;     // every 8th point of the fine grid: 13 directions
+inline constexpr double kSphereChainNearDistance = 1.5;  // in radii from the centre: the fine grid within
+
+namespace manifold_detail {
+// sin θ_k of the grid's angles of incidence θ_k, from −90° to 90° (a hair inside: at grazing the chain's entry
+// is ill-conditioned).
+inline const std::array<double, kSphereChainGrid>& incidence_grid() {
+  static const std::array<double, kSphereChainGrid> grid = [] {
+    std::array<double, kSphereChainGrid> g{};
+    const double half = 0.5 * 3.14159265358979323846 * (1.0 - 1e-7);
+    for (int k = 0; k < kSphereChainGrid; ++k) g[k] = std::sin(-half + 2.0 * half * k / (kSphereChainGrid - 1));
+    return g;
+  }();
+  return grid;
+}
+}  // namespace manifold_detail
+
+inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVec3 y) {
+  SphereChainRoots roots;
+  const DVec3 to_c = s.center - x;
+  const double dc2 = glm::dot(to_c, to_c), r2 = s.radius * s.radius;
+  if (!(dc2 > r2)) return roots;
+  const double dc = std::sqrt(dc2);
+  const DVec3 u = to_c / dc;
+  const DVec3 to_y = y - x;
+  const DVec3 side = to_y - glm::dot(to_y, u) * u;
+  const double side_len = glm::length(side);
+  // y on the line through x and the centre: a ring of solutions (measure zero), none taken.
+  if (!(side_len > 1e-12 * glm::length(to_y))) return roots;
+  const DVec3 v = side / side_len;
+  const DVec3 n_plane = glm::cross(u, v);
+  // The unknown: sin α of the direction w = cos α u + sin α v; the angle of incidence θ has sin θ = sin α dc/R.
+  const double sin_alpha_max = s.radius / dc;
+  // A monotone stand-in for the signed angle φ from the chain's outgoing ray to the direction towards y, in the
+  // plane: sin φ while the ray heads towards y, ±(2 − |sin φ|) while it heads away, so that its only zero is at
+  // φ = 0 and its only jump at φ = ±π (a sign change there is rejected below). NaN when w misses.
+  const auto residual = [&](double sa, DVec3& w) {
+    w = std::sqrt(std::max(0.0, 1.0 - sa * sa)) * u + sa * v;
+    SphereChain ch;
+    if (!trace_sphere_chain(s, x, w, ch)) return std::numeric_limits<double>::quiet_NaN();
+    const DVec3 e = y - ch.p2;
+    const double len = glm::length(e);
+    const double sin_phi = glm::dot(glm::cross(ch.out, e), n_plane) / len;
+    if (glm::dot(ch.out, e) >= 0.0) return sin_phi;
+    return std::copysign(2.0 - std::abs(sin_phi), sin_phi);
+  };
+  const auto& grid = manifold_detail::incidence_grid();
+  const int step = dc < kSphereChainNearDistance * s.radius ? 1 : kSphereChainCoarseStep;
+  DVec3 w;
+  double a_prev = sin_alpha_max * grid[0];
+  double g_prev = residual(a_prev, w);
+  for (int i = step; i < kSphereChainGrid && roots.count < kMaxSphereChainRoots; i += step) {
+    const double a = sin_alpha_max * grid[i];
+    const double g = residual(a, w);
+    if (std::isfinite(g_prev) && std::isfinite(g) && (g_prev < 0.0) != (g < 0.0)) {
+      // Regula falsi with the Illinois modification (superlinear, and bracketed: it cannot leave the cell).
+      double lo = a_prev, hi = a, g_lo = g_prev, g_hi = g;
+      int side_kept = 0;
+      double root = a, g_root = g;
+      for (int k = 0; k < 40; ++k) {
+        root = (lo * g_hi - hi * g_lo) / (g_hi - g_lo);
+        g_root = residual(root, w);
+        if (!std::isfinite(g_root) || std::abs(g_root) < 1e-13 || hi - lo < 1e-14 * sin_alpha_max) break;
+        if ((g_root < 0.0) == (g_lo < 0.0)) {
+          lo = root, g_lo = g_root;
+          if (side_kept == -1) g_hi *= 0.5;
+          side_kept = -1;
+        } else {
+          hi = root, g_hi = g_root;
+          if (side_kept == 1) g_lo *= 0.5;
+          side_kept = 1;
+        }
+      }
+      if (std::abs(g_root) < 1e-9) roots.w[roots.count++] = w;
+    }
+    a_prev = a;
+    g_prev = g;
+  }
+  return roots;
+}
+
+// dA/dω: the area swept on the plane through y with unit normal n_y per unit solid angle of directions at x,
+// for the chain leaving x along w (central differences; 0 when the chain is lost within the step).
+inline double sphere_chain_area_per_solid_angle(const SpecularSphere& s, DVec3 x, DVec3 w, DVec3 y, DVec3 n_y) {
+  constexpr double h = 1e-6;
+  const DVec3 a = std::abs(w.x) > 0.9 ? DVec3(0, 1, 0) : DVec3(1, 0, 0);
+  const DVec3 t1 = glm::normalize(glm::cross(w, a)), t2 = glm::cross(w, t1);
+  const auto land = [&](DVec3 dir, DVec3& p) {
+    SphereChain ch;
+    if (!trace_sphere_chain(s, x, glm::normalize(dir), ch)) return false;
+    const double den = glm::dot(ch.out, n_y);
+    if (den == 0.0) return false;
+    p = ch.p2 + (glm::dot(y - ch.p2, n_y) / den) * ch.out;
+    return true;
+  };
+  DVec3 a1, b1, a2, b2;
+  if (!land(w + h * t1, a1) || !land(w - h * t1, b1) || !land(w + h * t2, a2) || !land(w - h * t2, b2)) return 0.0;
+  // Directions w ± h·t normalised are h(1 − h²/3…) apart in angle: a relative 1e-12, below the differences' own.
+  return std::abs(glm::dot(glm::cross(a1 - b1, a2 - b2), n_y)) / (4.0 * h * h);
+}
+
+}  // namespace pt
