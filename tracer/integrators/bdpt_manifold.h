@@ -81,14 +81,17 @@ inline bool pick_chain(const Scene& s, DVec3 x, float u, ChainPick& pick) {
   return true;
 }
 
-// The probability that pick_chain draws the chain through sphere `sphere` (refracting or reflecting) from x.
-inline float chain_probability(const Scene& s, DVec3 x, uint32_t sphere, bool refracts) {
+// The chain through sphere `sphere` (refracting or reflecting) as pick_chain would draw it from x, with the
+// probability that it does. False when pick_chain cannot draw it.
+inline bool find_chain(const Scene& s, DVec3 x, uint32_t sphere, bool refracts, ChainPick& pick) {
   double total = 0.0, mine = 0.0;
   for_each_chain(s, x, [&](uint32_t i, const SpecularSphere& chain, double w) {
     total += w;
-    if (i == sphere && chain.refracts == refracts) mine = w;
+    if (i == sphere && chain.refracts == refracts) mine = w, pick.chain = chain;
   });
-  return total > 0.0 ? static_cast<float>(mine / total) : 0.f;
+  pick.sphere = sphere;
+  pick.prob = total > 0.0 ? static_cast<float>(mine / total) : 0.f;
+  return pick.prob > 0.f;
 }
 
 // A light the strategy samples: a polygon, uniform by area.
@@ -106,19 +109,29 @@ inline bool manifold_vertex(const Scene& s, const std::vector<BdptVertex>& camer
   return true;
 }
 
-// The chain's specular weight T and the probability Π of its lobe choices, from the material as the camera walk
-// samples it, the chain's lobe forced (a smooth dielectric reflects when uc < F). False when the material would
-// not scatter along the chain (grazing, total internal reflection).
-inline bool chain_weight(const Scene& s, const SpecularSphere& sph, uint32_t material, DVec3 w, const SphereChain& ch,
-                         Rgb& T, float& choice) {
-  const Material& m = s.materials[material];
-  T = Rgb(1.f);
-  choice = 1.f;
-  const int events = sph.refracts ? 2 : 1;
+// One solution ω of the chain from x to light point y (normal n_y): the chain, its specular weight T as the
+// camera walk would have applied it (the material sampled with the chain's lobe forced: a smooth dielectric
+// reflects when uc < F), and the densities per solid angle at x of this strategy (p_m; p_choice: of the chain,
+// the light and y) and of path tracing (p_0 = pdf_x(ω) × the chain's lobe-choice probabilities). False when the
+// material would not scatter along the chain (grazing, total internal reflection) or p_m vanishes. The strategy
+// and path tracing's share both read it, so that both weigh a path with the same densities.
+struct ManifoldSolution {
+  SphereChain ch;
+  Rgb T{1.f};
+  float p_m = 0.f, p_0 = 0.f;
+};
+inline bool manifold_solution(const Scene& s, const ChainPick& pick, const BdptVertex& x, DVec3 w, DVec3 y,
+                              DVec3 n_y, float p_choice, ManifoldSolution& out) {
+  const SpecularSphere& sph = pick.chain;
+  const DVec3 xd(x.it.p);
+  if (!trace_sphere_chain(sph, xd, w, out.ch)) return false;
+  const Material& m = s.materials[s.spheres.material[pick.sphere]];
+  float choice = 1.f;
+  out.T = Rgb(1.f);
   DVec3 arrive = w;
-  for (int e = 0; e < events; ++e) {
-    const DVec3 p = e == 0 ? ch.p1 : ch.p2;
-    const DVec3 leave = e == 0 && sph.refracts ? glm::normalize(ch.p2 - ch.p1) : ch.out;
+  for (int e = 0; e < (sph.refracts ? 2 : 1); ++e) {
+    const DVec3 p = e == 0 ? out.ch.p1 : out.ch.p2;
+    const DVec3 leave = e == 0 && sph.refracts ? glm::normalize(out.ch.p2 - out.ch.p1) : out.ch.out;
     const Frame frame = Frame::from_normal(Vec3((p - sph.center) / sph.radius));
     BsdfSample bs;
     const float uc = sph.refracts ? kOneMinusEpsilon : 0.f;
@@ -127,11 +140,16 @@ inline bool chain_weight(const Scene& s, const SpecularSphere& sph, uint32_t mat
       return false;
     // The sampled direction must be the chain's (float against double: a loose bound).
     if (glm::dot(frame.to_world(bs.wi), Vec3(leave)) < 0.9999f) return false;
-    T *= bs.f * std::abs(bs.wi.z);
+    out.T *= bs.f * std::abs(bs.wi.z);
     choice *= bs.pdf;
     arrive = leave;
   }
-  return !is_black(T);
+  if (is_black(out.T)) return false;
+  out.p_m = static_cast<float>(p_choice * sphere_chain_area_per_solid_angle(sph, xd, w, y, n_y));
+  if (!(out.p_m > 0.f) || !std::isfinite(out.p_m)) return false;
+  const Frame frame_x = Frame::from_normal(x.it.ng);
+  out.p_0 = bsdf_pdf(s.materials[x.it.material], frame_x.to_local(x.wo), frame_x.to_local(Vec3(w))) * choice;
+  return true;
 }
 
 // The closest hit along the segment from `from` (skipping `skip`) in direction d must be primitive `prim` at
@@ -172,19 +190,13 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
   const SphereChainRoots roots = solve_sphere_chain(sph, xd, DVec3(y));
   Rgb sum(0.f);
   for (int r = 0; r < roots.count; ++r) {
-    const DVec3 w = roots.w[r];
-    SphereChain ch;
-    if (!trace_sphere_chain(sph, xd, w, ch)) continue;
-    const Vec3 wf(w);
+    const Vec3 wf(roots.w[r]);
+    ManifoldSolution sol;
+    if (!manifold_solution(s, pick, x, roots.w[r], DVec3(y), DVec3(n_y), p_choice, sol)) continue;
+    const SphereChain& ch = sol.ch;
     const Rgb Le = area_light_emission(l, n_y, Vec3(-ch.out));
     const Rgb f = bsdf_eval(mx, wo_x, frame_x.to_local(wf));
     if (is_black(Le) || is_black(f)) continue;
-    Rgb T;
-    float choice;
-    if (!chain_weight(s, sph, s.spheres.material[pick.sphere], w, ch, T, choice)) continue;
-    const float p_m =
-        static_cast<float>(p_choice * sphere_chain_area_per_solid_angle(sph, xd, w, DVec3(y), DVec3(n_y)));
-    if (!(p_m > 0.f) || !std::isfinite(p_m)) continue;
     // Visibility, segment by segment, with the scene's own rays.
     Interaction a, b, c;
     if (!reaches<F>(s, offset_ray_origin(x.it, wf), wf, skip_on_leave(x.it), prim, glm::length(ch.p1 - xd), a, count))
@@ -198,9 +210,8 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
     const Vec3 out(ch.out);
     if (!reaches<F>(s, offset_ray_origin(*exit, out), out, ~0u, l.prim, glm::length(DVec3(y) - ch.p2), c, count))
       continue;
-    const float p_0 = bsdf_pdf(mx, wo_x, frame_x.to_local(wf)) * choice;
-    const float w_m = p_m * p_m / (p_m * p_m + p_0 * p_0);
-    sum += x.beta * f * T * Le * (std::abs(glm::dot(wf, x.it.ng)) * w_m / p_m);
+    const float w_m = sol.p_m * sol.p_m / (sol.p_m * sol.p_m + sol.p_0 * sol.p_0);
+    sum += x.beta * f * sol.T * Le * (std::abs(glm::dot(wf, x.it.ng)) * w_m / sol.p_m);
   }
   return sum;
 }
@@ -222,27 +233,17 @@ inline float path_tracing_share(const Scene& s, const std::vector<BdptVertex>& c
   if (camera[k].delta || !manifold_vertex(s, camera, k)) return 1.f;
   const BdptVertex& x = camera[k];
   const DVec3 xd(x.it.p);
-  const float p_chain = chain_probability(s, xd, i, through);
-  if (!(p_chain > 0.f)) return 1.f;
-  const SpecularSphere sph{s.spheres.center[i], s.spheres.radius[i], through,
-                           static_cast<double>(s.materials[s.spheres.material[i]].ior)};
+  ChainPick pick;
+  if (!find_chain(s, xd, i, through, pick)) return 1.f;
   const DVec3 w0 = glm::normalize(DVec3(camera[k + 1].it.p) - xd);
-  const SphereChainRoots roots = solve_sphere_chain(sph, xd, DVec3(yv.it.p));
+  const SphereChainRoots roots = solve_sphere_chain(pick.chain, xd, DVec3(yv.it.p));
   for (int r = 0; r < roots.count; ++r) {
-    const DVec3 w = roots.w[r];
-    if (glm::dot(w, w0) < 1.0 - 1e-8) continue;  // another solution (distinct ones are far more than 1e-4 apart)
-    SphereChain ch;
-    Rgb T;
-    float choice;
-    if (!trace_sphere_chain(sph, xd, w, ch) || !chain_weight(s, sph, s.spheres.material[i], w, ch, T, choice))
+    if (glm::dot(roots.w[r], w0) < 1.0 - 1e-8) continue;  // another solution (distinct ones lie far more apart)
+    ManifoldSolution sol;
+    if (!manifold_solution(s, pick, x, roots.w[r], DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim]),
+                           pick.prob * s.light_pmf[yv.light] / l.area, sol))
       return 1.f;
-    const float p_m = static_cast<float>(
-        p_chain * s.light_pmf[yv.light] / l.area *
-        sphere_chain_area_per_solid_angle(sph, xd, w, DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim])));
-    if (!(p_m > 0.f) || !std::isfinite(p_m)) return 1.f;
-    const Frame frame = Frame::from_normal(x.it.ng);
-    const float p_0 = bsdf_pdf(s.materials[x.it.material], frame.to_local(x.wo), frame.to_local(Vec3(w))) * choice;
-    return p_0 * p_0 / (p_0 * p_0 + p_m * p_m);
+    return sol.p_0 * sol.p_0 / (sol.p_0 * sol.p_0 + sol.p_m * sol.p_m);
   }
   return 1.f;
 }

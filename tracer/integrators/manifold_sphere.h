@@ -8,9 +8,9 @@
 // event share one plane, and the chord inside shares it with both events. So the path is fixed by one angle α,
 // the direction from x within that plane, and solving for it is a root search in one dimension: every sign
 // change of the angle between the outgoing ray and the direction to y, over a grid of directions across the
-// sphere's silhouette, is refined by regula falsi. Roots closer than one grid step (where two solutions merge at a caustic's
-// fold) can be missed; the estimator stays unbiased because the weight it gives to path tracing for a path asks
-// this same search whether it would have found that path (bdpt_manifold.h).
+// sphere's silhouette, is refined by regula falsi. Roots closer than one grid step (where two solutions merge at
+// a caustic's fold) can be missed; the estimator stays unbiased because the weight it gives to path tracing for
+// a path asks this same search whether it would have found that path (bdpt_manifold.h).
 //
 // The measure conversion dA_y/dω_x (area on the light per solid angle at x, the "generalized geometry term" of
 // the chain; Hanika et al. derive it from the manifold's tangent space) is taken by central differences of the
@@ -86,8 +86,8 @@ struct SphereChainRoots {
 // sphere (where the chain's outgoing direction turns fastest, near grazing, the grid is densest), both grazing
 // ends included. Roots closer than a cell can be missed: pairs of roots close together (near a caustic's fold)
 // are most common from points close to the sphere (the bright caustic at its foot), which get the fine grid.
-inline constexpr int kSphereChainGrid = 97;  // 96 cells (the coarse grid: 12)
-inline constexpr int kSphereChainCoarseStep = 8;     // every 8th point of the fine grid: 13 directions
+inline constexpr int kSphereChainGrid = 97;              // the fine grid: 96 cells
+inline constexpr int kSphereChainCoarseStep = 8;         // every 8th point of the fine grid: 13 directions
 inline constexpr double kSphereChainNearDistance = 1.5;  // in radii from the centre: the fine grid within
 
 namespace manifold_detail {
