@@ -26,14 +26,50 @@ struct Options {
   bool manifold;  // the manifold strategy through smooth spheres (bdpt_manifold.h)
 };
 
+// Splitting the camera subpath at its first vertex when that vertex has two Dirac lobes only (smooth glass:
+// reflection with probability F, refraction with 1 − F, bsdf.h's contract for specular samples). The walk picks
+// one lobe; bdpt_sample then also follows the other and weights each branch by its lobe's probability instead
+// of dividing by it: the lobe choice is integrated exactly (two strata of the lobe-choice dimension, on each of
+// which the path is constant). Without it the glass ball's outside reflection of the light and of the floor's
+// caustic (a few per cent of the camera samples carrying 1/F ≈ 25× weight) was a fifth of bdpt's error on
+// cornell-spheres. Every strategy that makes such a path samples this vertex on the camera side, so its lobe
+// probability is a common factor of their densities and the MIS weights are unchanged.
+struct FirstVertexSplit {
+  float forced_uc = -1.f;  // in: ≥ 0 replaces the lobe-choice value at the first vertex (the second branch)
+  bool active = false;     // out: the first vertex has two Dirac lobes and the walk went on from it
+  float taken_pdf = 1.f;   // out: the probability of the lobe the walk took
+  float other_uc = 0.f;    // out: a lobe-choice value that takes the other lobe
+  float other_pdf = 0.f;   // out: that lobe's probability (taken_pdf + other_pdf = 1)
+};
+
+// At a vertex whose lobes are all Dirac, where `taken` was sampled: finds the other lobe at the two ends of the
+// lobe-choice dimension (which one the BSDF maps where is its own business). No split when there is none
+// (total internal reflection) or the two probabilities do not make up the whole.
+template <MaterialSet kM>
+void find_other_lobe(const Material& m, Vec3 wo, Vec2 u, const BsdfSample& taken, FirstVertexSplit& split) {
+  for (const float uc : {0.f, kOneMinusEpsilon}) {
+    BsdfSample other;
+    if (!bsdf_sample<kM>(m, wo, uc, u, other) || !is_specular(other.flags) || other.flags == taken.flags ||
+        !(other.pdf > 0.f) || std::abs(taken.pdf + other.pdf - 1.f) > 1e-4f)
+      continue;
+    split.active = true;
+    split.taken_pdf = taken.pdf;
+    split.other_uc = uc;
+    split.other_pdf = other.pdf;
+    return;
+  }
+}
+
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
 // absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
 // a miss adds a vertex at infinity when the scene has infinite lights; `features` (camera subpath only; may be
-// null) receives the sample's feature buffers (features.h). Returns false if cancelled.
+// null) receives the sample's feature buffers (features.h); `split` (camera subpath only; may be null) is the
+// first vertex's split, FirstVertexSplit. Returns false if cancelled.
 template <class Sampler, uint32_t F>
 bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, uint32_t skip, Rgb beta,
                  float pdf_dir, bool light_subpath, std::vector<BdptVertex>& path, size_t max_vertices,
-                 PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel) {
+                 PixelFeatures* features, FirstVertexSplit* split, RayCount& count,
+                 const std::atomic<bool>* cancel) {
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   const float beta_scale = max_component(beta);  // roulette judges the throughput relative to the start
   float eta_scale = 1.f;
@@ -81,10 +117,14 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     const size_t cur = prev + 1;
     const Frame frame = Frame::from_normal(v.it.ng);
     const Vec3 wo = frame.to_local(v.wo);
-    const float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
+    const bool first_split = split && bounce == 0;
+    float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
+    if (first_split && split->forced_uc >= 0.f) uc = split->forced_uc;
     const Vec2 u = rng.get_2d(light_subpath ? D::light_direction(bounce) : D::camera_direction(bounce));
     BsdfSample bs;
     if (!bsdf_sample<kM>(m, wo, uc, u, bs) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
+    if (first_split && split->forced_uc < 0.f && is_specular(bs.flags) && !has_non_specular(bsdf_flags<kM>(m)))
+      find_other_lobe<kM>(m, wo, u, bs, *split);
     Rgb f = bs.f;
     float pdf_rev = 0.f;
     if (is_specular(bs.flags)) {
@@ -120,8 +160,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
 // The camera subpath: the eye, then up to max_bounces + 1 surface vertices (the last only to find emission).
 template <class Sampler, uint32_t F>
 bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const Ray& ray,
-                    std::vector<BdptVertex>& path, PixelFeatures* features, RayCount& count,
-                    const std::atomic<bool>* cancel) {
+                    std::vector<BdptVertex>& path, PixelFeatures* features, FirstVertexSplit& split,
+                    RayCount& count, const std::atomic<bool>* cancel) {
   path.clear();
   BdptVertex eye;
   eye.kind = VertexKind::Camera;
@@ -129,7 +169,7 @@ bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const 
   eye.it.ng = Vec3(0.f);
   path.push_back(eye);
   return random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
-                                 static_cast<size_t>(o.max_bounces) + 2, features, count, cancel);
+                                 static_cast<size_t>(o.max_bounces) + 2, features, &split, count, cancel);
 }
 
 // The light subpath: a point on a light chosen ∝ power, then up to max_bounces surface vertices.
@@ -161,7 +201,7 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
   const Ray ray{v.infinite ? es.p : offset_ray_origin(v.it, es.d), es.d};
   const uint32_t skip = v.infinite ? ~0u : skip_on_leave(v.it);
   if (!random_walk<Sampler, F>(s, o, rng, ray, skip, beta, es.pdf_dir, true, path,
-                               static_cast<size_t>(o.max_bounces) + 1, nullptr, count, cancel))
+                               static_cast<size_t>(o.max_bounces) + 1, nullptr, nullptr, count, cancel))
     return false;
   if (v.infinite) {
     // At infinity the origin density is over directions and the first vertex's over the disk's area
@@ -365,7 +405,7 @@ Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint3
   return L;
 }
 
-// One camera sample: both subpaths, every strategy.
+// One camera sample: both subpaths, every strategy; both branches of a split first vertex (FirstVertexSplit).
 template <class Sampler, uint32_t F>
 bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& rng, const Ray& camera_ray,
                  BdptScratch& scratch, std::vector<Splat>& splats, Rgb& L, PixelFeatures* features,
@@ -374,14 +414,15 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   std::vector<BdptVertex>& camera = scratch.camera;
   std::vector<BdptVertex>& light = scratch.light;
   L = Rgb(0.f);
-  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, features, count, cancel)) return false;
+  FirstVertexSplit split;
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, features, split, count, cancel)) return false;
   if (!light_subpath<Sampler, F>(s, o, rng, light, count, cancel)) return false;
-  const int nc = static_cast<int>(camera.size()), nl = static_cast<int>(light.size());
+  const int nl = static_cast<int>(light.size());
   const bool only = o.only_s >= 0;
-  for (int t = 1; t <= nc; ++t) {
-    if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;  // long paths: O(nc·nl)
+  // The strategies with t camera vertices, their contributions scaled by `scale` (a branch's probability).
+  const auto strategies = [&](int t, float scale) {
     if (o.manifold && t >= 3 && manifold_vertex(s, camera, t - 1))
-      L += connect_through_spheres<Sampler, F>(s, rng, camera[t - 1], t, o.max_bounces, count);
+      L += scale * connect_through_spheres<Sampler, F>(s, rng, camera[t - 1], t, o.max_bounces, count);
     for (int ns = 0; ns <= nl; ++ns) {
       const int depth = ns + t - 2;
       if ((ns == 1 && t == 1) || depth < 0 || depth > o.max_bounces) continue;
@@ -412,8 +453,23 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
       if (!only) c *= mis_weight(s, light, camera, sampled, ns, t);
       if (ns == 0 && o.manifold) c *= path_tracing_share(s, camera, t);
       if (t == 1) splats.push_back({pixel, c});
-      else L += c;
+      else L += scale * c;
     }
+  };
+  // Strategies with t ≤ 2 end at the eye or at the first vertex, before the split: they run once.
+  int nc = static_cast<int>(camera.size());
+  for (int t = 1; t <= nc; ++t) {
+    if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;  // long paths: O(nc·nl)
+    strategies(t, t >= 3 && split.active ? split.taken_pdf : 1.f);
+  }
+  if (!split.active) return true;
+  FirstVertexSplit other;
+  other.forced_uc = split.other_uc;
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, nullptr, other, count, cancel)) return false;
+  nc = static_cast<int>(camera.size());
+  for (int t = 3; t <= nc; ++t) {
+    if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;
+    strategies(t, split.other_pdf);
   }
   return true;
 }

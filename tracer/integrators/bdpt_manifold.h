@@ -216,6 +216,9 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
   return sum;
 }
 
+// The angle within which path_tracing_share takes a root for the path it was given, at the least.
+inline constexpr double kManifoldMatchAngle = 2e-3;
+
 // Path tracing's share p_0²/(p_0² + p_M²) of a path it made by hitting a light at camera vertex t − 1, when the
 // manifold strategy could have made the path too; 1 otherwise.
 inline float path_tracing_share(const Scene& s, const std::vector<BdptVertex>& camera, int t) {
@@ -235,17 +238,31 @@ inline float path_tracing_share(const Scene& s, const std::vector<BdptVertex>& c
   const DVec3 xd(x.it.p);
   ChainPick pick;
   if (!find_chain(s, xd, i, through, pick)) return 1.f;
-  const DVec3 w0 = glm::normalize(DVec3(camera[k + 1].it.p) - xd);
+  const DVec3 to_entry = DVec3(camera[k + 1].it.p) - xd;
+  const double entry_dist = glm::length(to_entry);
+  if (!(entry_dist > 0.0)) return 1.f;
+  const DVec3 w0 = to_entry / entry_dist;
   const SphereChainRoots roots = solve_sphere_chain(pick.chain, xd, DVec3(yv.it.p));
+  // The path's own direction is known only to the float rounding of x and of the entry point, which a nearby x
+  // (the caustic at the sphere's foot) turns into angles of 1e-4 and more; near a fold the root for the path's
+  // float y moves further still. So the nearest root stands for the path if it lies within that uncertainty
+  // and the next root, if any, lies well farther.
+  const double tolerance = std::max(kManifoldMatchAngle,
+                                    4.0 * double(glm::length(x.it.p_error) + glm::length(camera[k + 1].it.p_error)) /
+                                        entry_dist);
+  int nearest = -1;
+  double best = kInfinity, second = kInfinity;
   for (int r = 0; r < roots.count; ++r) {
-    if (glm::dot(roots.w[r], w0) < 1.0 - 1e-8) continue;  // another solution (distinct ones lie far more apart)
-    ManifoldSolution sol;
-    if (!manifold_solution(s, pick, x, roots.w[r], DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim]),
-                           pick.prob * s.light_pmf[yv.light] / l.area, sol))
-      return 1.f;
-    return sol.p_0 * sol.p_0 / (sol.p_0 * sol.p_0 + sol.p_m * sol.p_m);
+    const double angle = glm::length(roots.w[r] - w0);  // chord ≈ angle for the small angles that matter
+    if (angle < best) second = best, best = angle, nearest = r;
+    else second = std::min(second, angle);
   }
-  return 1.f;
+  if (nearest < 0 || best > tolerance || second < 2.0 * best) return 1.f;
+  ManifoldSolution sol;
+  if (!manifold_solution(s, pick, x, roots.w[nearest], DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim]),
+                         pick.prob * s.light_pmf[yv.light] / l.area, sol))
+    return 1.f;
+  return sol.p_0 * sol.p_0 / (sol.p_0 * sol.p_0 + sol.p_m * sol.p_m);
 }
 
 }  // namespace bdpt_detail

@@ -8,9 +8,11 @@
 // event share one plane, and the chord inside shares it with both events. So the path is fixed by one angle α,
 // the direction from x within that plane, and solving for it is a root search in one dimension: every sign
 // change of the angle between the outgoing ray and the direction to y, over a grid of directions across the
-// sphere's silhouette, is refined by regula falsi. Roots closer than one grid step (where two solutions merge at
-// a caustic's fold) can be missed; the estimator stays unbiased because the weight it gives to path tracing for
-// a path asks this same search whether it would have found that path (bdpt_manifold.h).
+// sphere's silhouette, is refined by regula falsi, and dips of the residual towards zero between grid points
+// (two roots inside one cell, where solutions merge at a caustic's fold) are followed to their bottom. Roots can
+// still be missed (a pair in a cell whose dip the grid does not show); the estimator stays unbiased because the
+// weight it gives to path tracing for a path asks this same search whether it would have found that path
+// (bdpt_manifold.h).
 //
 // The measure conversion dA_y/dω_x (area on the light per solid angle at x, the "generalized geometry term" of
 // the chain; Hanika et al. derive it from the manifold's tangent space) is taken by central differences of the
@@ -89,6 +91,7 @@ struct SphereChainRoots {
 inline constexpr int kSphereChainGrid = 97;              // the fine grid: 96 cells
 inline constexpr int kSphereChainCoarseStep = 8;         // every 8th point of the fine grid: 13 directions
 inline constexpr double kSphereChainNearDistance = 1.5;  // in radii from the centre: the fine grid within
+inline constexpr double kSphereChainDipDepth = 0.1;      // |residual| at a grid point below which a dip is followed
 
 namespace manifold_detail {
 // sin θ_k of the grid's angles of incidence θ_k, from −90° to 90° (a hair inside: at grazing the chain's entry
@@ -133,37 +136,75 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
     if (glm::dot(ch.out, e) >= 0.0) return sin_phi;
     return std::copysign(2.0 - std::abs(sin_phi), sin_phi);
   };
+  // Regula falsi with the Illinois modification (superlinear, and bracketed: it cannot leave [lo, hi]), for a
+  // bracket whose ends' residuals differ in sign.
+  DVec3 w;
+  const auto refine = [&](double lo, double hi, double g_lo, double g_hi) {
+    int side_kept = 0;
+    double root = hi, g_root = g_hi;
+    for (int k = 0; k < 40; ++k) {
+      root = (lo * g_hi - hi * g_lo) / (g_hi - g_lo);
+      g_root = residual(root, w);
+      if (!std::isfinite(g_root) || std::abs(g_root) < 1e-13 || hi - lo < 1e-14 * sin_alpha_max) break;
+      if ((g_root < 0.0) == (g_lo < 0.0)) {
+        lo = root, g_lo = g_root;
+        if (side_kept == -1) g_hi *= 0.5;
+        side_kept = -1;
+      } else {
+        hi = root, g_hi = g_root;
+        if (side_kept == 1) g_lo *= 0.5;
+        side_kept = 1;
+      }
+    }
+    if (std::abs(g_root) < 1e-9 && roots.count < kMaxSphereChainRoots) roots.w[roots.count++] = w;
+  };
+  // Two roots inside one cell (a caustic's fold, where the chain's image of the directions folds back over y):
+  // the residual dips towards zero and back with no sign change at the grid points. At a grid point where |g|
+  // is a local minimum near zero, successive parabolic interpolation (Brent 1973, ch. 5) follows the dip to its
+  // bottom; if the bottom crosses zero, each side of it brackets one root. Missed pairs were the brightest
+  // fireflies left: path tracing finds those paths, and with no root to match it keeps their whole weight.
+  const auto dip = [&](double l, double m, double r, double g_l, double g_m, double g_r) {
+    const double sign = g_m < 0.0 ? -1.0 : 1.0;
+    for (int k = 0; k < 8; ++k) {
+      const double p = (m - l) * (g_m - g_r), q = (m - r) * (g_m - g_l);
+      const double den = 2.0 * (p - q);
+      if (!(std::abs(den) > 0.0)) return;
+      const double x = m - ((m - l) * p - (m - r) * q) / den;
+      if (!(x > l && x < r) || x == m) return;
+      const double g_x = residual(x, w);
+      if (!std::isfinite(g_x)) return;
+      if (sign * g_x <= 0.0) {
+        refine(l, x, g_l, g_x);
+        refine(x, r, g_x, g_r);
+        return;
+      }
+      if (sign * g_x < sign * g_m) {
+        if (sign * (g_m - g_x) < 1e-3 * sign * g_m) return;  // the bottom, above zero
+        (x < m ? r : l) = m, (x < m ? g_r : g_l) = g_m;
+        m = x, g_m = g_x;
+      } else {
+        (x < m ? l : r) = x, (x < m ? g_l : g_r) = g_x;
+      }
+    }
+  };
   const auto& grid = manifold_detail::incidence_grid();
   const int step = dc < kSphereChainNearDistance * s.radius ? 1 : kSphereChainCoarseStep;
-  DVec3 w;
+  double a_pp = 0.0, g_pp = std::numeric_limits<double>::quiet_NaN();
   double a_prev = sin_alpha_max * grid[0];
   double g_prev = residual(a_prev, w);
   for (int i = step; i < kSphereChainGrid && roots.count < kMaxSphereChainRoots; i += step) {
     const double a = sin_alpha_max * grid[i];
     const double g = residual(a, w);
-    if (std::isfinite(g_prev) && std::isfinite(g) && (g_prev < 0.0) != (g < 0.0)) {
-      // Regula falsi with the Illinois modification (superlinear, and bracketed: it cannot leave the cell).
-      double lo = a_prev, hi = a, g_lo = g_prev, g_hi = g;
-      int side_kept = 0;
-      double root = a, g_root = g;
-      for (int k = 0; k < 40; ++k) {
-        root = (lo * g_hi - hi * g_lo) / (g_hi - g_lo);
-        g_root = residual(root, w);
-        if (!std::isfinite(g_root) || std::abs(g_root) < 1e-13 || hi - lo < 1e-14 * sin_alpha_max) break;
-        if ((g_root < 0.0) == (g_lo < 0.0)) {
-          lo = root, g_lo = g_root;
-          if (side_kept == -1) g_hi *= 0.5;
-          side_kept = -1;
-        } else {
-          hi = root, g_hi = g_root;
-          if (side_kept == 1) g_lo *= 0.5;
-          side_kept = 1;
-        }
+    if (std::isfinite(g_prev) && std::isfinite(g)) {
+      if ((g_prev < 0.0) != (g < 0.0)) {
+        refine(a_prev, a, g_prev, g);
+      } else if (std::isfinite(g_pp) && (g_pp < 0.0) == (g < 0.0) && std::abs(g_prev) < kSphereChainDipDepth &&
+                 std::abs(g_prev) < std::abs(g_pp) && std::abs(g_prev) < std::abs(g)) {
+        dip(a_pp, a_prev, a, g_pp, g_prev, g);
       }
-      if (std::abs(g_root) < 1e-9) roots.w[roots.count++] = w;
     }
-    a_prev = a;
-    g_prev = g;
+    a_pp = a_prev, g_pp = g_prev;
+    a_prev = a, g_prev = g;
   }
   return roots;
 }
