@@ -245,21 +245,26 @@ inline float path_tracing_share(const Scene& s, const std::vector<BdptVertex>& c
   const SphereChainRoots roots = solve_sphere_chain(pick.chain, xd, DVec3(yv.it.p));
   // The path's own direction is known only to the float rounding of x and of the entry point, which a nearby x
   // (the caustic at the sphere's foot) turns into angles of 1e-4 and more; near a fold the root for the path's
-  // float y moves further still. So the nearest root stands for the path if it lies within that uncertainty
-  // and the next root, if any, lies well farther.
+  // float y moves further still, or vanishes: rounding put y just outside the fold, where the search finds a
+  // near root only. So the nearest root or near root stands for the path if it lies within that uncertainty
+  // and the next one, if any, lies well farther. A near root's path is the float image of exact paths just
+  // inside the fold, which the strategy makes with nearly all the weight: taking its density keeps path tracing
+  // from counting them a second time (weight 1 there had made the brightest remaining fireflies).
   const double tolerance = std::max(kManifoldMatchAngle,
                                     4.0 * double(glm::length(x.it.p_error) + glm::length(camera[k + 1].it.p_error)) /
                                         entry_dist);
-  int nearest = -1;
+  const DVec3* nearest = nullptr;
   double best = kInfinity, second = kInfinity;
-  for (int r = 0; r < roots.count; ++r) {
-    const double angle = glm::length(roots.w[r] - w0);  // chord ≈ angle for the small angles that matter
-    if (angle < best) second = best, best = angle, nearest = r;
+  const auto consider = [&](const DVec3& w) {
+    const double angle = glm::length(w - w0);  // chord ≈ angle for the small angles that matter
+    if (angle < best) second = best, best = angle, nearest = &w;
     else second = std::min(second, angle);
-  }
-  if (nearest < 0 || best > tolerance || second < 2.0 * best) return 1.f;
+  };
+  for (int r = 0; r < roots.count; ++r) consider(roots.w[r]);
+  for (int r = 0; r < roots.near_count; ++r) consider(roots.near[r]);
+  if (!nearest || best > tolerance || second < 2.0 * best) return 1.f;
   ManifoldSolution sol;
-  if (!manifold_solution(s, pick, x, roots.w[nearest], DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim]),
+  if (!manifold_solution(s, pick, x, *nearest, DVec3(yv.it.p), DVec3(s.polygons.normal[l.prim]),
                          pick.prob * s.light_pmf[yv.light] / l.area, sol))
     return 1.f;
   return sol.p_0 * sol.p_0 / (sol.p_0 * sol.p_0 + sol.p_m * sol.p_m);
