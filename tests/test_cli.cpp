@@ -9,9 +9,11 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stb_image.h>
 
+#include "cli/instruction_count.h"
 #include "io/image_io.h"
 #include "io/ray_file.h"
 #include "render/metrics.h"
@@ -148,6 +150,33 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0)
     for (const char* scene : {"cornell", "cornell-spheres", "shadertoy", "materials", "sky"})
       CHECK(std::filesystem::file_size(std::string("bench_quick/convergence-") + scene + ".png") > 1000);
+}
+
+TEST_CASE("cli: bench --instructions reads callgrind's total and refuses a binary valgrind cannot run") {
+  // The total as valgrind 3.19 prints it, amid the rest of its log; the PID field varies.
+  const std::string log =
+      "==4242== Callgrind, a call-graph generating cache profiler\n==4242== Events    : Ir\n"
+      "==4242== Collected : 456242331\n==4242==\n==4242== I   refs:      456,242,331\n";
+  CHECK(parse_callgrind_total(log) == std::optional<uint64_t>(456242331ull));
+  CHECK(!parse_callgrind_total("==1== Events : Ir\n==1== I   refs: 12\n"));  // killed before the summary
+  CHECK(!parse_callgrind_total("==1== Collected : 99999999999999999999999\n"));  // out of range, not wrapped
+  // Paths reach /bin/sh quoted: a space and a quote in them stay literal.
+  const std::string cmd = counted_render_command("/opt/my pt/pathtracer", "cornell", "mis", 64, 48, 16, "it's.pfm");
+  CHECK(cmd == "'/opt/my pt/pathtracer' render -q --threads 1 --scene 'cornell' --estimator 'mis' --sampler sobol "
+               "--width 64 --height 48 --spp 16 --pfm 'it'\\''s.pfm'");
+  // Checked before the bench starts (exit 2, nothing written).
+  std::filesystem::remove_all("bench_instr");
+  const Run missing = run("bench --quick --out bench_instr --instructions-binary no/such/pathtracer");
+  CHECK(missing.status == 2);
+  CHECK(missing.err.find("no/such/pathtracer") != std::string::npos);
+  CHECK(!std::filesystem::exists("bench_instr"));
+  if (!this_binary_runs_under_valgrind()) {  // this build uses AVX-512: valgrind would die on its first such op
+    const Run self = run("bench --quick --out bench_instr --instructions");
+    CHECK(self.status == 2);
+    CHECK(self.err.find("--instructions-binary") != std::string::npos);
+    CHECK(self.err.find("x86-64-v3") != std::string::npos);
+    CHECK(!std::filesystem::exists("bench_instr"));
+  }
 }
 
 TEST_CASE("cli: bench rays replays a ray file over [tnear, tfar] and records the scene's own rays") {

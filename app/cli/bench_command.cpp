@@ -4,6 +4,7 @@
 // summary.md (time to relMSE 1e-2 and 1e-3, efficiency, throughput, thread scaling, interactive pass times).
 #include "cli/bench_command.h"
 
+#include "cli/instruction_count.h"
 #include "cli/option_checks.h"
 #include "cli/ray_throughput.h"
 
@@ -56,6 +57,12 @@ void add_bench_command(CLI::App& app, BenchOptions& o) {
   b->add_option("--reference-spp", o.reference_spp, "Samples per pixel of a rendered (cached) reference")
       ->check(whole_in(16, 1LL << 30))
       ->capture_default_str();
+  b->add_flag("--instructions", o.instructions,
+              "Also count instructions per sample of each scene and estimator with valgrind's callgrind (1 thread, "
+              "64 px wide, sobol; needs a binary without AVX-512, see --instructions-binary)");
+  b->add_option("--instructions-binary", o.instructions_binary,
+                "The pathtracer that --instructions runs under valgrind (implies --instructions; default: this "
+                "one, when it was built without AVX-512, e.g. -DPT_ARCH=x86-64-v3)");
 }
 
 namespace {
@@ -230,6 +237,30 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int run_bench(const BenchOptions& o) {
+  // The binary that --instructions counts, checked before any work: a long bench should not fail at its end.
+  std::string counted_binary;
+  if (!o.instructions_binary.empty()) {
+    std::error_code ec;
+    if (!fs::is_regular_file(o.instructions_binary, ec)) {
+      std::fprintf(stderr, "error: --instructions-binary %s: no such file\n", o.instructions_binary.c_str());
+      return 2;
+    }
+    counted_binary = fs::absolute(o.instructions_binary).string();
+  } else if (o.instructions) {
+    if (!this_binary_runs_under_valgrind()) {
+      std::fprintf(stderr,
+                   "error: --instructions: this pathtracer was compiled for AVX-512, which valgrind cannot run; build "
+                   "one with cmake -DPT_ARCH=x86-64-v3 and pass it as --instructions-binary PATH "
+                   "(docs/performance.md, \"Instruction counts\")\n");
+      return 2;
+    }
+    std::error_code ec;
+    counted_binary = fs::read_symlink("/proc/self/exe", ec).string();
+    if (ec) {
+      std::fprintf(stderr, "error: --instructions: cannot find this executable's path: %s\n", ec.message().c_str());
+      return 2;
+    }
+  }
   std::vector<double> budgets;
   const double max_s = o.quick ? 0.5 : o.max_seconds;
   for (double b = o.quick ? 0.0625 : 0.25; b <= max_s * 1.0001; b *= 2) budgets.push_back(b);
@@ -332,6 +363,31 @@ int run_bench(const BenchOptions& o) {
     rays_md += row;
   }
 
+  // Instructions per sample under callgrind: a repeatable figure where wall-clock time is noisy.
+  std::string instructions_md;
+  if (!counted_binary.empty()) {
+    instructions_md = "\n## Instructions per sample (callgrind, 1 thread, 64 px wide, sobol)\n\n"
+                      "Per sample = (count at " + std::to_string(InstructionsPerSample::kHigh) +
+                      " spp − count at 1 spp) / (pixels × " + std::to_string(InstructionsPerSample::kHigh - 1) +
+                      "): set-up cancels. Binary: `" + counted_binary + "`.\n\n"
+                      "| scene | estimator | instructions per sample |\n|---|---|---|\n";
+    for (const std::string& name : o.scenes) {
+      const SceneDesc d = load_scene(name);
+      const int w = 64, h = std::max(1, d.height * 64 / d.width);
+      for (const std::string& est : o.estimators) {
+        std::fprintf(stderr, "%s / %s: counting instructions under valgrind...\n", name.c_str(), est.c_str());
+        const InstructionsPerSample n =
+            count_instructions_per_sample(counted_binary, name, est, w, h, (dir / "callgrind").string());
+        char row[300];
+        if (n.error.empty())
+          std::snprintf(row, sizeof row, "| %s | %s | %.0f |\n", name.c_str(), est.c_str(), n.per_sample);
+        else
+          std::snprintf(row, sizeof row, "| %s | %s | failed: %s |\n", name.c_str(), est.c_str(), n.error.c_str());
+        instructions_md += row;
+      }
+    }
+  }
+
   std::ostringstream md;
   md << "# Run time against error\n\n"
      << "Threads: " << renderer.threads() << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
@@ -359,7 +415,7 @@ int run_bench(const BenchOptions& o) {
                 "ms and %.1f ms).\n",
                 o.quick ? 64 : 256, one, renderer.threads(), many, many / one, renderer.threads(), full_ms.wavefront,
                 quarter_ms.wavefront, full_ms.scalar, quarter_ms.scalar);
-  md << tail << rays_md;
+  md << tail << rays_md << instructions_md;
   if (!plotted) md << "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
   if (!write_report(dir / "summary.md", md.str())) return 1;
   std::printf("%s", md.str().c_str());

@@ -20,6 +20,8 @@ struct BenchOptions {
   double max_seconds = 64.0;
   int threads = 0;
   long long reference_spp = 4096;
+  bool instructions = false;         // add instructions per sample (callgrind) to the summary
+  std::string instructions_binary;  // the pathtracer valgrind runs for them (default: this one); implies the above
 };
 
 void add_bench_command(CLI::App& app, BenchOptions& options);
