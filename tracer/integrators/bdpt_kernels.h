@@ -270,11 +270,16 @@ inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vec
   if (pt) a2.set(&pt->delta, false);
   if (qs) a3.set(&qs->delta, false);
   // Reverse densities of the end vertices and their predecessors, as the other subpath would have made them.
+  // Each segment's unit direction and squared length once: the connection's, and each end's to its predecessor.
+  const Link p_to_q = pt && qs ? link(*pt, *qs) : Link{}, q_to_p = reversed(p_to_q);
+  const Link p_to_pm = pt_minus ? link(*pt, *pt_minus) : Link{}, q_to_qm = qs_minus ? link(*qs, *qs_minus) : Link{};
   Scoped<float> a4, a5, a6, a7;
-  if (pt) a4.set(&pt->pdf_rev, ns > 0 ? pdf_at(s, *qs, qs_minus, *pt) : pdf_light_origin(s, *pt));
-  if (pt_minus) a5.set(&pt_minus->pdf_rev, ns > 0 ? pdf_at(s, *pt, qs, *pt_minus) : pdf_light(s, *pt, *pt_minus));
-  if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, pt_minus, *qs));
-  if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, pt, *qs_minus));
+  if (pt) a4.set(&pt->pdf_rev, ns > 0 ? pdf_at(s, *qs, &q_to_qm, q_to_p, *pt) : pdf_light_origin(s, *pt));
+  if (pt_minus)
+    a5.set(&pt_minus->pdf_rev,
+           ns > 0 ? pdf_at(s, *pt, &p_to_q, p_to_pm, *pt_minus) : pdf_light(s, *pt, p_to_pm, *pt_minus));
+  if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, &p_to_pm, p_to_q, *qs));
+  if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, &q_to_p, q_to_qm, *qs_minus));
 
   const auto remap0 = [](float f) { return f != 0.f ? f : 1.f; };
   // Through a chain of specular vertices the ratio must hold the densities in projected solid angle at the

@@ -57,13 +57,20 @@ inline float geometry_term(const BdptVertex& a, const BdptVertex& b) {
   return l.dist2 > 0.f ? cos_a * cos_b / l.dist2 : 0.f;
 }
 
-// A solid-angle density at `from` towards `to` as a density per unit area at `to` (pbrt-v3 ConvertDensity).
-inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex& to) {
+// link(b, a) from link(a, b): the same numbers negated (b − a is a − b negated exactly, and so is its quotient).
+inline Link reversed(const Link& l) { return {-l.w, l.dist2}; }
+
+// A solid-angle density at `from` towards `to` as a density per unit area at `to` (pbrt-v3 ConvertDensity);
+// `l` is link(from, to).
+inline float to_area_density(float pdf, const Link& l, const BdptVertex& from, const BdptVertex& to) {
   if (to.infinite || from.infinite) return pdf;
-  const Link l = link(from, to);
   if (!(l.dist2 > 0.f)) return 0.f;
   if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, l.w));
   return pdf / l.dist2;
+}
+inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex& to) {
+  if (to.infinite || from.infinite) return pdf;
+  return to_area_density(pdf, link(from, to), from, to);
 }
 
 // BSDF value at surface vertex v towards `next`, for light flowing along the path. v on the camera subpath:
@@ -80,15 +87,15 @@ inline bool connectible(const Scene& s, const BdptVertex& v) {
   return has_non_specular(bsdf_flags(s.materials[v.it.material]));
 }
 
-// Density per unit area at `to` with which light vertex v (or an emitting surface) emits towards it.
-inline float pdf_light(const Scene& s, const BdptVertex& v, const BdptVertex& to) {
+// Density per unit area at `to` with which light vertex v (or an emitting surface) emits towards it; `l` is
+// link(v, to).
+inline float pdf_light(const Scene& s, const BdptVertex& v, const Link& l, const BdptVertex& to) {
   if (v.infinite) {
     const float r = emission_disk_radius(s);
     float pdf = 1.f / (kPi * r * r);
     if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, v.it.ng));
     return pdf;
   }
-  const Link l = link(v, to);
   if (!(l.dist2 > 0.f)) return 0.f;
   float pdf = area_emission_pdf_dir(s.lights[v.light], v.it.ng, l.w) / l.dist2;
   if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, l.w));
@@ -113,18 +120,19 @@ inline Rgb emitted(const Scene& s, const BdptVertex& v) {
 }
 
 // Density per unit area at `next` with which vertex v samples it, v having been reached from `prev` (pbrt-v3
-// Vertex::Pdf). prev is unused for the camera and for lights.
-inline float pdf_at(const Scene& s, const BdptVertex& v, const BdptVertex* prev, const BdptVertex& next) {
-  if (v.kind == VertexKind::Light) return pdf_light(s, v, next);
-  const Vec3 wn = link(v, next).w;
+// Vertex::Pdf). The links from v are passed in (mis_weight computes each once): to_next = link(v, next),
+// to_prev = link(v, prev), unused (and may be null) for the camera and for lights.
+inline float pdf_at(const Scene& s, const BdptVertex& v, const Link* to_prev, const Link& to_next,
+                    const BdptVertex& next) {
+  if (v.kind == VertexKind::Light) return pdf_light(s, v, to_next, next);
   float pdf;
   if (v.kind == VertexKind::Camera) {
-    pdf = s.camera.direction_pdf(wn);
+    pdf = s.camera.direction_pdf(to_next.w);
   } else {
     const Frame frame = Frame::from_normal(v.it.ng);
-    pdf = bsdf_pdf(s.materials[v.it.material], frame.to_local(link(v, *prev).w), frame.to_local(wn));
+    pdf = bsdf_pdf(s.materials[v.it.material], frame.to_local(to_prev->w), frame.to_local(to_next.w));
   }
-  return to_area_density(pdf, v, next);
+  return to_area_density(pdf, to_next, v, next);
 }
 
 }  // namespace bdpt_detail
