@@ -164,6 +164,9 @@ TEST_CASE("cli: bench --instructions reads callgrind's total and refuses a binar
   const std::string cmd = counted_render_command("/opt/my pt/pathtracer", "cornell", "mis", 64, 48, 16, "it's.pfm");
   CHECK(cmd == "'/opt/my pt/pathtracer' render -q --threads 1 --scene 'cornell' --estimator 'mis' --sampler sobol "
                "--width 64 --height 48 --spp 16 --pfm 'it'\\''s.pfm'");
+  // A scene given as a file path names files in the work directory itself, not in subdirectories of it.
+  CHECK(counted_file_stem("scenes/my room.json", "bdpt", 16) == "scenes_my_room.json-bdpt-16");
+  CHECK(counted_file_stem("cornell", "mis", 1) == "cornell-mis-1");
   // Checked before the bench starts (exit 2, nothing written).
   std::filesystem::remove_all("bench_instr");
   const Run missing = run("bench --quick --out bench_instr --instructions-binary no/such/pathtracer");

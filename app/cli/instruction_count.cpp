@@ -1,5 +1,6 @@
 #include "cli/instruction_count.h"
 
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -46,6 +47,13 @@ std::string counted_render_command(const std::string& binary, const std::string&
          std::to_string(height) + " --spp " + std::to_string(spp) + " --pfm " + shell_quote(pfm);
 }
 
+std::string counted_file_stem(const std::string& scene, const std::string& estimator, int spp) {
+  std::string name = scene + "-" + estimator + "-" + std::to_string(spp);
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+  return name;
+}
+
 InstructionsPerSample count_instructions_per_sample(const std::string& binary, const std::string& scene,
                                                     const std::string& estimator, int width, int height,
                                                     const std::string& work_dir) {
@@ -63,7 +71,7 @@ InstructionsPerSample count_instructions_per_sample(const std::string& binary, c
   uint64_t counts[2] = {0, 0};
   const int spps[2] = {1, InstructionsPerSample::kHigh};
   for (int k = 0; k < 2; ++k) {
-    const fs::path stem = fs::path(work_dir) / (scene + "-" + estimator + "-" + std::to_string(spps[k]));
+    const fs::path stem = fs::path(work_dir) / counted_file_stem(scene, estimator, spps[k]);
     const fs::path log = stem.string() + ".log", pfm = stem.string() + ".pfm";
     fs::remove(pfm, ec);  // render never overwrites an output
     const std::string cmd = "valgrind --tool=callgrind --callgrind-out-file=" +
