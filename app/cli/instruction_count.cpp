@@ -86,8 +86,6 @@ InstructionsPerSample count_instructions_per_sample(const std::string& binary, c
     }
     counts[k] = *n;
   }
-  r.at_one = counts[0];
-  r.at_high = counts[1];
   const double samples = static_cast<double>(width) * height * (InstructionsPerSample::kHigh - 1);
   r.per_sample = (static_cast<double>(counts[1]) - static_cast<double>(counts[0])) / samples;
   return r;

@@ -25,7 +25,6 @@ std::string counted_file_stem(const std::string& scene, const std::string& estim
 
 struct InstructionsPerSample {
   double per_sample = 0;  // (count at kHigh spp − count at 1 spp) / (pixels × (kHigh − 1)): set-up cancels
-  uint64_t at_one = 0, at_high = 0;
   std::string error;  // non-empty: the count failed, and why
   static constexpr int kHigh = 16;
 };

@@ -69,7 +69,6 @@ inline float to_area_density(float pdf, const Link& l, const BdptVertex& from, c
   return pdf / l.dist2;
 }
 inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex& to) {
-  if (to.infinite || from.infinite) return pdf;
   return to_area_density(pdf, link(from, to), from, to);
 }
 
