@@ -554,3 +554,62 @@ TEST_CASE("packet: Scene's packet queries answer as its single-ray queries (corn
     CHECK(hits > 1000);
   }
 }
+
+TEST_CASE("packet: shared corners and packets of one axis permutation give the single-ray answers (cornell)") {
+  const auto scene = compile_scene(load_scene("cornell"));
+  const PolygonLanes& lanes = scene->polygon_lanes;
+  // The room, the two blocks and the lamp: 17 polygons with 68 corners, of which 28 are distinct (8 per
+  // block and room, 4 for the lamp); the packet kernels shear each once per packet.
+  REQUIRE(lanes.count == 17);
+  REQUIRE(lanes.shared_corners());
+  CHECK(lanes.corner_xyz[0].size() == 28);
+  for (uint32_t i = 0; i < lanes.count; ++i)
+    for (int k = 0; k < 4; ++k) {
+      const uint16_t c = lanes.corner_of[k][i];
+      for (int a = 0; a < 3; ++a) CHECK(lanes.corner_xyz[a][c] == lanes.coord[k][a][i]);
+    }
+  Pcg32 rng(7, 3);
+  int hits = 0, uniform = 0;
+  for (int batch = 0; batch < 600; ++batch) {
+    // Every lane's direction has its largest component along `axis`, of sign `sign`: one permutation for the
+    // packet (every sixth batch mixes them).
+    const int axis = batch % 3, m = 1 + batch % kLanes;
+    const float sign = batch / 3 % 2 ? -1.f : 1.f;
+    Ray rays[kLanes];
+    float t_max[kLanes];
+    uint32_t skip[kLanes], other[kLanes];
+    for (int l = 0; l < m; ++l) {
+      Vec3 d = random_in(rng, -0.9f, 0.9f);
+      d[axis] = sign;
+      if (batch % 6 == 5 && l == m - 1) d = Vec3(d.z, d.x, -d.y);
+      rays[l] = {random_in(rng, -250, 250) + Vec3(0, 0, 1000), glm::normalize(d)};
+      t_max[l] = l % 3 == 0 ? 300.f : kInfinity;
+      skip[l] = l % 4 == 0 ? static_cast<uint32_t>(batch % lanes.count) : ~0u;
+      other[l] = l % 5 == 0 ? static_cast<uint32_t>((batch + 3) % lanes.count) : ~0u;
+    }
+    RayPacket P;
+    P.load(rays, t_max, skip, other, m);
+    if (batch % 6 != 5 || m == 1) {
+      CHECK(P.perm == 2 * RayShear(rays[0].d).kz + (sign < 0.f ? 1 : 0));
+      ++uniform;
+    }
+    Hit h[kLanes];
+    bool found[kLanes];
+    scene->intersect_packet(rays, t_max, skip, m, h, found);
+    const uint32_t blocked = scene->occluded_packet(rays, t_max, skip, other, m);
+    for (int l = 0; l < m; ++l) {
+      Hit one;
+      const bool f = scene->intersect(rays[l], t_max[l], skip[l], one);
+      INFO("batch " << batch << " lane " << l);
+      REQUIRE(found[l] == f);
+      if (f) {
+        ++hits;
+        CHECK(h[l].t == one.t);
+        CHECK(h[l].prim == one.prim);
+      }
+      CHECK(((blocked >> l) & 1u) == (scene->occluded(rays[l], t_max[l], skip[l], other[l]) ? 1u : 0u));
+    }
+  }
+  CHECK(uniform > 450);
+  CHECK(hits > 2000);
+}

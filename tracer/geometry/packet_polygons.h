@@ -14,6 +14,14 @@
 // settled by the scalar test in double, as in the single-ray kernels. Where two polygons are hit at exactly the
 // same distance, the lowest-numbered one is reported (the single-ray kernel may name the other: the distance,
 // and so the image, is the same up to that tie).
+//
+// Two specialisations keep the bits and cut the work:
+// - Shared corners. Most of a polygon's cost is shearing its corners into the ray's frame (8 operations per
+//   corner), and the polygons of a room share corners (cornell: 28 distinct corners for 68). Where the scene
+//   has few enough distinct corners (PolygonLanes::shared_corners), a packet shears each once, into a table,
+//   and the polygons read theirs from it: the same operations on the same floats, so the same results.
+// - Uniform packets. Where all rays of a packet share their axis permutation (camera rays do), the corner's
+//   coordinates are broadcast instead of chosen lane by lane.
 #pragma once
 #include <cstdint>
 
@@ -32,6 +40,9 @@ struct RayPacket {
   M kx0, kx1, ky0, ky1, kz0, kz1;  // the permutation: lane's kx == 0, kx == 1, etc. (2 otherwise)
   vfloat t_max;            // queries search (0, t_max); inactive lanes hold −inf
   vfloat skip_a, skip_b;   // polygon indices to ignore, as floats (exact below 2^24); −1 for none
+  // The permutation shared by every lane (inactive lanes copy lane 0's ray), as 2 kz + (1 when kx and ky are
+  // swapped), or −1 when the lanes differ.
+  int perm = -1;
 
   // Loads rays [0, n) (n ≤ kLanes). skip_b may be null (closest-hit queries skip one primitive). The per-ray
   // set-up of RayShear runs lane-wise with the same operations (max_dimension's comparisons, 1/d[kz], d·sz).
@@ -56,23 +67,19 @@ inline void RayPacket::load(const Ray* rays, const float* t_max_in, const uint32
                             const uint32_t* skip_b_in, int n) {
   using packet_detail::pick;
   count = n;
-  alignas(64) float v[6][kLanes];
-  alignas(64) float tm[kLanes], sa[kLanes], sb[kLanes];
-  for (int l = 0; l < kLanes; ++l) {
-    const bool on = l < n;
-    const Ray& r = rays[on ? l : 0];
-    for (int k = 0; k < 3; ++k) {
-      v[k][l] = r.o[k];
-      v[3 + k][l] = r.d[k];
-    }
-    tm[l] = on ? t_max_in[l] : -kInfinity;
-    sa[l] = on && skip_a_in[l] != ~0u ? static_cast<float>(skip_a_in[l]) : -1.f;
-    sb[l] = on && skip_b_in && skip_b_in[l] != ~0u ? static_cast<float>(skip_b_in[l]) : -1.f;
-  }
-  const vfloat o[3] = {vfloat(v[0], stdx::vector_aligned), vfloat(v[1], stdx::vector_aligned),
-                       vfloat(v[2], stdx::vector_aligned)};
-  const vfloat d[3] = {vfloat(v[3], stdx::vector_aligned), vfloat(v[4], stdx::vector_aligned),
-                       vfloat(v[5], stdx::vector_aligned)};
+  // Each vector built lane by lane from registers: writing the lanes to memory one float at a time and reading
+  // them back as a vector stalls on store-to-load forwarding.
+  const auto at = [&](int l) { return l < n ? l : 0; };
+  const vfloat o[3] = {vfloat([&](int l) { return rays[at(l)].o.x; }), vfloat([&](int l) { return rays[at(l)].o.y; }),
+                       vfloat([&](int l) { return rays[at(l)].o.z; })};
+  const vfloat d[3] = {vfloat([&](int l) { return rays[at(l)].d.x; }), vfloat([&](int l) { return rays[at(l)].d.y; }),
+                       vfloat([&](int l) { return rays[at(l)].d.z; })};
+  t_max = vfloat([&](int l) { return l < n ? t_max_in[at(l)] : -kInfinity; });
+  const auto skip_lane = [&](const uint32_t* skip, int l) {
+    return l < n && skip && skip[at(l)] != ~0u ? static_cast<float>(skip[at(l)]) : -1.f;
+  };
+  skip_a = vfloat([&](int l) { return skip_lane(skip_a_in, l); });
+  skip_b = vfloat([&](int l) { return skip_lane(skip_b_in, l); });
   const vfloat ax = stdx::abs(d[0]), ay = stdx::abs(d[1]), az = stdx::abs(d[2]);
   // max_dimension: x > y ? (x > z ? 0 : 2) : (y > z ? 1 : 2); then kx = kz + 1, ky = kx + 1 (mod 3).
   const M x_gt_y = ax > ay;
@@ -90,42 +97,80 @@ inline void RayPacket::load(const Ray* rays, const float* t_max_in, const uint32
   stdx::where(flip, kx) = ky;
   stdx::where(flip, ky) = kx_old;
   kx0 = kx == 0.f, kx1 = kx == 1.f, ky0 = ky == 0.f, ky1 = ky == 1.f, kz0 = z0, kz1 = z1;
+  const auto same = [](const M& m) { return stdx::all_of(m) || stdx::none_of(m); };
+  perm = same(kz0) && same(kz1) && same(flip) ? 2 * (kz0[0] ? 0 : kz1[0] ? 1 : 2) + (flip[0] ? 1 : 0) : -1;
   sz = 1.f / dz;
   sx = pick(kx0, kx1, d[0], d[1], d[2]) * sz;
   sy = pick(ky0, ky1, d[0], d[1], d[2]) * sz;
   ox = pick(kx0, kx1, o[0], o[1], o[2]);
   oy = pick(ky0, ky1, o[0], o[1], o[2]);
   oz = pick(kz0, kz1, o[0], o[1], o[2]);
-  t_max = vfloat(tm, stdx::vector_aligned);
-  skip_a = vfloat(sa, stdx::vector_aligned);
-  skip_b = vfloat(sb, stdx::vector_aligned);
 }
 
 namespace packet_detail {
 
 using simd_detail::LaneVertex;
 
-// shear_vertex() of geometry.h for vertex k of polygon i, in every lane.
-[[gnu::always_inline]] inline LaneVertex<vfloat> sheared(const RayPacket& P, const PolygonLanes& L, int k, size_t i) {
-  const float x = L.coord[k][0][i], y = L.coord[k][1][i], z = L.coord[k][2][i];
-  const vfloat px = pick(P.kx0, P.kx1, x, y, z) - P.ox;
-  const vfloat py = pick(P.ky0, P.ky1, x, y, z) - P.oy;
-  const vfloat pz = pick(P.kz0, P.kz1, x, y, z) - P.oz;
+// The permutation numbered `Perm` (RayPacket::perm): kz = Perm / 2, kx = kz + 1 and ky = kx + 1 (mod 3), kx and
+// ky swapped for odd numbers (RayShear, core/ray.h).
+template <int Perm>
+struct Axes {
+  static constexpr int kz = Perm / 2, kx0 = (kz + 1) % 3, ky0 = (kx0 + 1) % 3;
+  static constexpr int kx = Perm % 2 ? ky0 : kx0, ky = Perm % 2 ? kx0 : ky0;
+};
+
+// shear_vertex() of geometry.h for the point (x, y, z), in every lane. Perm −1: each lane's own permutation
+// (chosen by its masks); otherwise every lane's, known at compile time. The coordinates are the same floats
+// either way (a choice is exact), so are the results.
+template <int Perm>
+[[gnu::always_inline]] inline LaneVertex<vfloat> sheared(const RayPacket& P, float x, float y, float z) {
+  vfloat px, py, pz;
+  if constexpr (Perm < 0) {
+    px = pick(P.kx0, P.kx1, x, y, z) - P.ox;
+    py = pick(P.ky0, P.ky1, x, y, z) - P.oy;
+    pz = pick(P.kz0, P.kz1, x, y, z) - P.oz;
+  } else {
+    const float c[3] = {x, y, z};
+    px = vfloat(c[Axes<Perm>::kx]) - P.ox;
+    py = vfloat(c[Axes<Perm>::ky]) - P.oy;
+    pz = vfloat(c[Axes<Perm>::kz]) - P.oz;
+  }
   return {px - P.sx * pz, py - P.sy * pz, P.sz * pz};
 }
 
+// A packet's view of the polygons' corners, sheared: `Shared`, from a table of the distinct corners sheared once
+// per packet (at most PolygonLanes::kMaxSharedCorners of them); otherwise sheared at each use.
+template <int Perm, bool Shared>
+struct ShearedCorners {
+  const RayPacket& P;
+  const PolygonLanes& L;
+  LaneVertex<vfloat> table[Shared ? PolygonLanes::kMaxSharedCorners : 1];
+
+  ShearedCorners(const RayPacket& packet, const PolygonLanes& lanes) : P(packet), L(lanes) {
+    if constexpr (Shared)
+      for (size_t v = 0; v < L.corner_xyz[0].size(); ++v)
+        table[v] = sheared<Perm>(P, L.corner_xyz[0][v], L.corner_xyz[1][v], L.corner_xyz[2][v]);
+  }
+  // Corner k of polygon i: a reference into the table (a copy made the compiler move it through the stack).
+  [[gnu::always_inline]] decltype(auto) operator()(int k, size_t i) const {
+    if constexpr (Shared) return static_cast<const LaneVertex<vfloat>&>(table[L.corner_of[k][i]]);
+    else return sheared<Perm>(P, L.coord[k][0][i], L.coord[k][1][i], L.coord[k][2][i]);
+  }
+};
+
 // Polygon i against every lane: intersect_triangle()/intersect_quad()'s arithmetic, as simd_detail::test_block.
+template <class Corners>
 [[gnu::always_inline]] inline simd_detail::BlockResult<vfloat> test_polygon(const RayPacket& P, const PolygonLanes& L,
-                                                                           size_t i) {
+                                                                           const Corners& corner, size_t i) {
   using simd_detail::edge;
-  const LaneVertex<vfloat> A = sheared(P, L, 0, i), B = sheared(P, L, 1, i), C = sheared(P, L, 2, i);
+  const auto &A = corner(0, i), &B = corner(1, i), &C = corner(2, i);
   const vfloat eab = edge(A, B), ebc = edge(B, C), eca = edge(C, A);
   vfloat lo, hi;
   if (L.triangle[i] > 0.f) {  // the block test's triangle lane: (a, b, c, a), edge d→a replaced by c→a
     lo = stdx::min(stdx::min(eab, ebc), eca);
     hi = stdx::max(stdx::max(eab, ebc), eca);
   } else {
-    const LaneVertex<vfloat> D = sheared(P, L, 3, i);
+    const auto& D = corner(3, i);
     const vfloat ecd = edge(C, D), eda = edge(D, A);
     lo = stdx::min(stdx::min(eab, ebc), stdx::min(ecd, eda));
     hi = stdx::max(stdx::max(eab, ebc), stdx::max(ecd, eda));
@@ -139,18 +184,13 @@ using simd_detail::LaneVertex;
   return r;
 }
 
-}  // namespace packet_detail
-
-// Closest hit of every active lane among the polygons, never reporting the lane's skip_a. On return t[l] is the
-// hit distance (+inf for none) and id[l] the polygon. `scalar_test(lane, i, t_max, hit)` re-tests polygon i for
-// the lane's ray with the scalar routine (zero edge functions).
-template <class ScalarTest>
-inline void closest_polygon_packet(const PolygonLanes& L, const RayPacket& P, float* t_out, uint32_t* id_out,
-                                   const ScalarTest& scalar_test) {
-  using namespace packet_detail;
+template <int Perm, bool Shared, class ScalarTest>
+void closest_polygon_packet(const PolygonLanes& L, const RayPacket& P, float* t_out, uint32_t* id_out,
+                            const ScalarTest& scalar_test) {
+  const ShearedCorners<Perm, Shared> corner(P, L);
   vfloat best(kInfinity), best_id(-1.f);
   for (size_t i = 0; i < L.count; ++i) {
-    simd_detail::BlockResult<vfloat> r = test_polygon(P, L, i);
+    simd_detail::BlockResult<vfloat> r = test_polygon(P, L, corner, i);
     const float fi = static_cast<float>(i);
     stdx::where(P.skip_a == fi, r.t) = kInfinity;
     if (stdx::any_of(r.zero_edge)) [[unlikely]] {
@@ -171,15 +211,13 @@ inline void closest_polygon_packet(const PolygonLanes& L, const RayPacket& P, fl
   }
 }
 
-// Any hit of every active lane among the polygons, ignoring the lane's skip_a and skip_b. Returns the lanes
-// that are occluded as a bit mask (bit l for lane l). Stops as soon as every active lane is occluded.
-template <class ScalarTest>
-inline uint32_t any_polygon_packet(const PolygonLanes& L, const RayPacket& P, const ScalarTest& scalar_test) {
-  using namespace packet_detail;
+template <int Perm, bool Shared, class ScalarTest>
+uint32_t any_polygon_packet(const PolygonLanes& L, const RayPacket& P, const ScalarTest& scalar_test) {
+  const ShearedCorners<Perm, Shared> corner(P, L);
   vfloat::mask_type blocked(false);
   const vfloat::mask_type active = P.t_max > -kInfinity;
   for (size_t i = 0; i < L.count; ++i) {
-    simd_detail::BlockResult<vfloat> r = test_polygon(P, L, i);
+    simd_detail::BlockResult<vfloat> r = test_polygon(P, L, corner, i);
     const float fi = static_cast<float>(i);
     const auto skipped = P.skip_a == fi || P.skip_b == fi;
     blocked = blocked || (r.t < P.t_max && !skipped);
@@ -195,6 +233,45 @@ inline uint32_t any_polygon_packet(const PolygonLanes& L, const RayPacket& P, co
   uint32_t bits = 0;
   for (int l = 0; l < P.count; ++l) bits |= blocked[l] ? 1u << l : 0u;
   return bits;
+}
+
+// Calls run.template operator()<Perm, Shared>() with the packet's specialisation: shared corners where the
+// polygons have them, then the packet's permutation where uniform; per-polygon shearing is left generic (scenes
+// with many distinct corners are not where the packets run).
+template <class Run>
+decltype(auto) with_specialisation(const PolygonLanes& L, const RayPacket& P, const Run& run) {
+  if (!L.shared_corners()) return run.template operator()<-1, false>();
+  switch (P.perm) {
+    case 0: return run.template operator()<0, true>();
+    case 1: return run.template operator()<1, true>();
+    case 2: return run.template operator()<2, true>();
+    case 3: return run.template operator()<3, true>();
+    case 4: return run.template operator()<4, true>();
+    case 5: return run.template operator()<5, true>();
+    default: return run.template operator()<-1, true>();
+  }
+}
+
+}  // namespace packet_detail
+
+// Closest hit of every active lane among the polygons, never reporting the lane's skip_a. On return t[l] is the
+// hit distance (+inf for none) and id[l] the polygon. `scalar_test(lane, i, t_max, hit)` re-tests polygon i for
+// the lane's ray with the scalar routine (zero edge functions).
+template <class ScalarTest>
+inline void closest_polygon_packet(const PolygonLanes& L, const RayPacket& P, float* t_out, uint32_t* id_out,
+                                   const ScalarTest& scalar_test) {
+  packet_detail::with_specialisation(L, P, [&]<int Perm, bool Shared>() {
+    packet_detail::closest_polygon_packet<Perm, Shared>(L, P, t_out, id_out, scalar_test);
+  });
+}
+
+// Any hit of every active lane among the polygons, ignoring the lane's skip_a and skip_b. Returns the lanes
+// that are occluded as a bit mask (bit l for lane l). Stops as soon as every active lane is occluded.
+template <class ScalarTest>
+inline uint32_t any_polygon_packet(const PolygonLanes& L, const RayPacket& P, const ScalarTest& scalar_test) {
+  return packet_detail::with_specialisation(L, P, [&]<int Perm, bool Shared>() {
+    return packet_detail::any_polygon_packet<Perm, Shared>(L, P, scalar_test);
+  });
 }
 
 }  // namespace pt

@@ -17,6 +17,7 @@
 // bound by latency, not by arithmetic.
 #pragma once
 #include <experimental/simd>
+#include <cstring>
 #include <vector>
 
 #include "geometry/geometry.h"
@@ -34,6 +35,14 @@ struct PolygonLanes {
   uint32_t count = 0;
   std::vector<float> coord[4][3];
   std::vector<float> triangle;
+  // The distinct corners (bitwise-equal positions merged) and each polygon's corners as indices into them
+  // (a triangle's unused fourth: its first), for the packet kernels (packet_polygons.h); the corner table stays
+  // empty when there are more than kMaxSharedCorners.
+  static constexpr size_t kMaxSharedCorners = 64;
+  std::vector<float> corner_xyz[3];
+  std::vector<uint16_t> corner_of[4];
+
+  bool shared_corners() const { return !corner_xyz[0].empty(); }
 
   void assign(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
     const size_t n = is_triangle.size();
@@ -46,6 +55,28 @@ struct PolygonLanes {
       }
     triangle.assign(padded, 0.f);
     for (size_t i = 0; i < n; ++i) triangle[i] = is_triangle[i] ? 1.f : 0.f;
+    assign_corners(v, is_triangle);
+  }
+
+ private:
+  void assign_corners(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
+    for (auto& c : corner_xyz) c.clear();
+    for (auto& c : corner_of) c.clear();
+    const size_t n = is_triangle.size();
+    std::vector<Vec3> distinct;
+    const auto index_of = [&](const Vec3& p) {
+      for (size_t j = 0; j < distinct.size(); ++j)
+        if (std::memcmp(&distinct[j], &p, sizeof(Vec3)) == 0) return j;
+      distinct.push_back(p);
+      return distinct.size() - 1;
+    };
+    std::vector<uint16_t> of[4];
+    for (size_t i = 0; i < n && distinct.size() <= kMaxSharedCorners; ++i)
+      for (int k = 0; k < 4; ++k) of[k].push_back(static_cast<uint16_t>(index_of(v[is_triangle[i] && k == 3 ? 0 : k][i])));
+    if (distinct.size() > kMaxSharedCorners) return;
+    for (int k = 0; k < 4; ++k) corner_of[k] = std::move(of[k]);
+    for (const Vec3& p : distinct)
+      for (int a = 0; a < 3; ++a) corner_xyz[a].push_back(p[a]);
   }
 };
 
