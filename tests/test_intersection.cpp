@@ -517,6 +517,34 @@ TEST_CASE("packet: 16 rays against one polygon per step give the scalar tests' d
   }
 }
 
+namespace {
+
+// Scene's packet queries for rays [0, m) against its single-ray queries, lane by lane (closest hit: found, distance
+// and polygon; any hit between skip and other); returns how many lanes hit.
+int check_scene_packet(const Scene& scene, const Ray* rays, const float* t_max, const uint32_t* skip,
+                       const uint32_t* other, int m) {
+  Hit h[kLanes];
+  bool found[kLanes];
+  scene.intersect_packet(rays, t_max, skip, m, h, found);
+  const uint32_t blocked = scene.occluded_packet(rays, t_max, skip, other, m);
+  int hits = 0;
+  for (int l = 0; l < m; ++l) {
+    Hit one;
+    const bool f = scene.intersect(rays[l], t_max[l], skip[l], one);
+    INFO("lane " << l);
+    REQUIRE(found[l] == f);
+    if (f) {
+      ++hits;
+      CHECK(h[l].t == one.t);
+      CHECK(h[l].prim == one.prim);
+    }
+    CHECK(((blocked >> l) & 1u) == (scene.occluded(rays[l], t_max[l], skip[l], other[l]) ? 1u : 0u));
+  }
+  return hits;
+}
+
+}  // namespace
+
 TEST_CASE("packet: Scene's packet queries answer as its single-ray queries (cornell, cornell-spheres)") {
   for (const char* name : {"cornell", "cornell-spheres"}) {
     const auto scene = compile_scene(load_scene(name));
@@ -534,22 +562,8 @@ TEST_CASE("packet: Scene's packet queries answer as its single-ray queries (corn
         skip[l] = l % 4 == 0 ? static_cast<uint32_t>(batch % scene->polygons.size()) : ~0u;
         other[l] = l % 5 == 0 ? static_cast<uint32_t>((batch + 3) % scene->polygons.size()) : ~0u;
       }
-      Hit h[kLanes];
-      bool found[kLanes];
-      scene->intersect_packet(rays, t_max, skip, m, h, found);
-      const uint32_t blocked = scene->occluded_packet(rays, t_max, skip, other, m);
-      for (int l = 0; l < m; ++l) {
-        Hit one;
-        const bool f = scene->intersect(rays[l], t_max[l], skip[l], one);
-        INFO(name << " batch " << batch << " lane " << l);
-        REQUIRE(found[l] == f);
-        if (f) {
-          ++hits;
-          CHECK(h[l].t == one.t);
-          CHECK(h[l].prim == one.prim);
-        }
-        CHECK(((blocked >> l) & 1u) == (scene->occluded(rays[l], t_max[l], skip[l], other[l]) ? 1u : 0u));
-      }
+      INFO(name << " batch " << batch);
+      hits += check_scene_packet(*scene, rays, t_max, skip, other, m);
     }
     CHECK(hits > 1000);
   }
@@ -593,22 +607,8 @@ TEST_CASE("packet: shared corners and packets of one axis permutation give the s
       CHECK(P.perm == 2 * RayShear(rays[0].d).kz + (sign < 0.f ? 1 : 0));
       ++uniform;
     }
-    Hit h[kLanes];
-    bool found[kLanes];
-    scene->intersect_packet(rays, t_max, skip, m, h, found);
-    const uint32_t blocked = scene->occluded_packet(rays, t_max, skip, other, m);
-    for (int l = 0; l < m; ++l) {
-      Hit one;
-      const bool f = scene->intersect(rays[l], t_max[l], skip[l], one);
-      INFO("batch " << batch << " lane " << l);
-      REQUIRE(found[l] == f);
-      if (f) {
-        ++hits;
-        CHECK(h[l].t == one.t);
-        CHECK(h[l].prim == one.prim);
-      }
-      CHECK(((blocked >> l) & 1u) == (scene->occluded(rays[l], t_max[l], skip[l], other[l]) ? 1u : 0u));
-    }
+    INFO("batch " << batch);
+    hits += check_scene_packet(*scene, rays, t_max, skip, other, m);
   }
   CHECK(uniform > 450);
   CHECK(hits > 2000);

@@ -88,7 +88,9 @@ struct FlushDenormals {
 // GCC 12's AVX-512 square root (avx512fintrin.h) passes an uninitialised vector as the masked-off source and
 // warns about it from inside the header; the lanes are all active here.
 #pragma GCC diagnostic push
+#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 template <class V>
 void filter_chunk(const ChunkInput& c, const ChunkOutput& out, const Layout& L, int x, int y, int step,
                   float inv_sigma_a2, float sigma_depth, float sigma_l) {

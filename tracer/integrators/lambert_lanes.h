@@ -82,7 +82,9 @@ struct Vec3Lanes {
 // GCC 12's AVX-512 square root (avx512fintrin.h) passes an undefined vector as the masked-off source and warns
 // about it from inside the header; every lane is computed here.
 #pragma GCC diagnostic push
+#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #pragma GCC diagnostic ignored "-Wuninitialized"
 // The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
 // o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
