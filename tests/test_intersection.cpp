@@ -606,6 +606,8 @@ TEST_CASE("packet: shared corners and packets of one axis permutation give the s
     if (batch % 6 != 5 || m == 1) {
       CHECK(P.perm == 2 * RayShear(rays[0].d).kz + (sign < 0.f ? 1 : 0));
       ++uniform;
+    } else {
+      CHECK(P.perm == -1);
     }
     INFO("batch " << batch);
     hits += check_scene_packet(*scene, rays, t_max, skip, other, m);

@@ -74,9 +74,9 @@ inline void RayPacket::load(const Ray* rays, const float* t_max_in, const uint32
                        vfloat([&](int l) { return rays[at(l)].o.z; })};
   const vfloat d[3] = {vfloat([&](int l) { return rays[at(l)].d.x; }), vfloat([&](int l) { return rays[at(l)].d.y; }),
                        vfloat([&](int l) { return rays[at(l)].d.z; })};
-  t_max = vfloat([&](int l) { return l < n ? t_max_in[at(l)] : -kInfinity; });
+  t_max = vfloat([&](int l) { return l < n ? t_max_in[l] : -kInfinity; });
   const auto skip_lane = [&](const uint32_t* skip, int l) {
-    return l < n && skip && skip[at(l)] != ~0u ? static_cast<float>(skip[at(l)]) : -1.f;
+    return l < n && skip && skip[l] != ~0u ? static_cast<float>(skip[l]) : -1.f;
   };
   skip_a = vfloat([&](int l) { return skip_lane(skip_a_in, l); });
   skip_b = vfloat([&](int l) { return skip_lane(skip_b_in, l); });
