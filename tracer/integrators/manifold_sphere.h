@@ -86,6 +86,7 @@ struct SphereChainRoots {
   // strategy, but where a path-tracing path made in float may lie (bdpt_manifold.h, path_tracing_share).
   std::array<DVec3, kMaxSphereChainRoots> near;
   int near_count = 0;
+  int evaluations = 0;  // chains traced by the search (its cost)
 };
 
 // The grid of the root search: directions across the silhouette, evenly spaced in the angle of incidence on the
@@ -131,8 +132,9 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
   const double sin_alpha_max = s.radius / dc;
   // A monotone stand-in for the signed angle φ from the chain's outgoing ray to the direction towards y, in the
   // plane: sin φ while the ray heads towards y, ±(2 − |sin φ|) while it heads away, so that its only zero is at
-  // φ = 0 and its only jump at φ = ±π (a sign change there is rejected below). NaN when w misses.
+  // φ = 0 and its only jump at φ = ±π (a sign change there is not a root: below). NaN when w misses.
   const auto residual = [&](double sa, DVec3& w) {
+    ++roots.evaluations;
     w = std::sqrt(std::max(0.0, 1.0 - sa * sa)) * u + sa * v;
     SphereChain ch;
     if (!trace_sphere_chain(s, x, w, ch)) return std::numeric_limits<double>::quiet_NaN();
@@ -209,7 +211,11 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
     const double g = residual(a, w);
     if (std::isfinite(g_prev) && std::isfinite(g)) {
       if ((g_prev < 0.0) != (g < 0.0)) {
-        refine(a_prev, a, g_prev, g);
+        // The stand-in is monotone in φ ∈ (−π, π), so across a cell φ turns the shorter way round: through 0 (a
+        // root) when |g_prev| + |g| < 2, else through ±π (the jump, no root). Refining a jump ran regula falsi
+        // to its 40-step limit: on cornell-spheres 77 of every 132 brackets were jumps (none held a root), and
+        // the search evaluated 60 residuals per call instead of 29.
+        if (std::abs(g_prev) + std::abs(g) < 2.0) refine(a_prev, a, g_prev, g);
       } else if (std::isfinite(g_pp) && (g_pp < 0.0) == (g < 0.0) && std::abs(g_prev) < kSphereChainDipDepth &&
                  std::abs(g_prev) < std::abs(g_pp) && std::abs(g_prev) < std::abs(g)) {
         dip(a_pp, a_prev, a, g_pp, g_prev, g);
