@@ -6,6 +6,7 @@
 // fixed seeds, Bonferroni bound at α = 1e-5 over all z-scores and a χ² bound on the mean z².
 #include <doctest/doctest.h>
 
+#include <bit>
 #include <thread>
 
 #include "core/rng.h"
@@ -307,6 +308,35 @@ TEST_CASE("manifold: the sphere chain search does not refine the residual's jump
   CHECK(roots_found > 1000);
   // Measured 28.6 (the 25 grid points, about 6 steps per root); refining the jumps too, 59.1 (the same 1043 roots).
   CHECK(per_search < 36.0);
+}
+
+TEST_CASE("manifold: the search's residual gives the same bits on SIMD lanes as on single doubles") {
+  // The grid is evaluated a vector of directions at a time, the refinement one at a time, from one template
+  // (manifold_detail::plane_residual): the two must agree bit for bit, NaN lanes (misses, total internal
+  // reflection) included, or a bracket's ends would come from two slightly different functions.
+  using vdouble = stdx::native_simd<double>;
+  Pcg32 rng(37, 1);
+  int compared = 0, nan_lanes = 0, mismatches = 0;
+  for (int i = 0; i < 500; ++i) {
+    manifold_detail::ChainPlane plane{1.05 + 3.0 * rng.next_float(), 0.5 + rng.next_float(), 1.5,
+                                      rng.next_float() < 0.5, 6.0 * rng.next_float() - 3.0,
+                                      0.01 + 3.0 * rng.next_float()};
+    const double sa_max = plane.radius / plane.dc;
+    // A tenth of the directions beyond the silhouette: misses.
+    const vdouble sa([&](int) { return sa_max * (2.2 * rng.next_float() - 1.1); });
+    const vdouble g = manifold_detail::plane_residual(plane, sa);
+    for (size_t l = 0; l < vdouble::size(); ++l) {
+      const double one = manifold_detail::plane_residual(plane, static_cast<double>(sa[l]));
+      ++compared;
+      nan_lanes += std::isnan(one);
+      const double lane = g[l];
+      mismatches += std::isnan(one) ? !std::isnan(lane) : std::bit_cast<uint64_t>(one) != std::bit_cast<uint64_t>(lane);
+    }
+  }
+  MESSAGE(compared << " lanes, " << nan_lanes << " NaN");
+  CHECK(nan_lanes > compared / 20);
+  CHECK(nan_lanes < compared / 5);
+  CHECK(mismatches == 0);
 }
 
 namespace {

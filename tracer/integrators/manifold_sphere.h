@@ -21,10 +21,13 @@
 // Everything here is in double: the chain magnifies errors of its entry point (by the sphere's focusing).
 #pragma once
 #include <array>
+#include <experimental/simd>
 
 #include "core/math.h"
 
 namespace pt {
+
+namespace stdx = std::experimental;
 
 struct SpecularSphere {
   DVec3 center;
@@ -112,6 +115,87 @@ inline const std::array<double, kSphereChainGrid>& incidence_grid() {
   }();
   return grid;
 }
+
+// The search's plane (through x, y and the centre) in its own coordinates: x at the origin, the centre at
+// (dc, 0), y at (y_u, y_v) with y_v > 0, a direction of sin α = sa at (√(1 − sa²), sa). In the plane the chain
+// is two-dimensional: trace_sphere_chain's steps with two coordinates instead of three.
+struct ChainPlane {
+  double dc, radius, ior;
+  bool refracts;
+  double y_u, y_v;
+};
+
+// a where m holds, else b: for doubles and for SIMD lanes of doubles.
+inline double select(bool m, double a, double b) { return m ? a : b; }
+template <class V>
+V select(const typename V::mask_type& m, const V& a, const V& b) {
+  V r = b;
+  stdx::where(m, r) = a;
+  return r;
+}
+// max(0, a), 0 for NaN (as std::max(0.0, a)).
+template <class T>
+T positive_part(const T& a) {
+  return select(a > T(0.0), a, T(0.0));
+}
+
+// GCC 12's AVX-512 square root (avx512fintrin.h) passes an undefined vector as the masked-off source and warns
+// about it from inside the header, here and where solve_sphere_chain inlines this; every lane is computed.
+#pragma GCC diagnostic push
+#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+#pragma GCC diagnostic ignored "-Wuninitialized"
+// solve_sphere_chain's residual for the direction of sin α = sa: a monotone stand-in for the signed angle φ
+// from the chain's outgoing ray to the direction towards y, sin φ while the ray heads towards y, ±(2 − |sin φ|)
+// while it heads away, so that its only zero is at φ = 0 and its only jump at φ = ±π. NaN where the direction
+// misses the sphere or total internal reflection stops it. Written once for doubles (the refinement) and for
+// SIMD lanes of doubles (the grid, 8 directions per step with AVX-512; Mitsuba 3 templates its math over the
+// number type likewise): the same operations in either, so the same bits.
+template <class T>
+T plane_residual(const ChainPlane& P, const T& sa) {
+  using std::sqrt;
+  const double r2 = P.radius * P.radius;
+  const T ca = sqrt(positive_part(T(1.0) - sa * sa));
+  // Entry: the nearer root of |t w − c|² = R², without cancellation (trace_sphere_chain).
+  const T disc = T(r2) - (P.dc * P.dc) * (sa * sa);
+  auto ok = disc > T(0.0);
+  const T t = T(P.dc * P.dc - r2) / (P.dc * ca + sqrt(disc));
+  T pu = t * ca, pv = t * sa;
+  T nu = (pu - P.dc) / P.radius, nv = pv / P.radius;
+  T out_u, out_v;
+  if (!P.refracts) {
+    const T dn = ca * nu + sa * nv;
+    out_u = ca - 2.0 * dn * nu;
+    out_v = sa - 2.0 * dn * nv;
+  } else {
+    // Snell in (manifold_detail::refract_travel), along the chord, Snell out; the directions stay unit to
+    // rounding without renormalising.
+    const double eta = 1.0 / P.ior;
+    const T cos_i = -(ca * nu + sa * nv);
+    const T sin2 = (eta * eta) * positive_part(T(1.0) - cos_i * cos_i);
+    ok = ok && sin2 < T(1.0);
+    const T k = eta * cos_i - sqrt(T(1.0) - sin2);
+    const T in_u = eta * ca + k * nu, in_v = eta * sa + k * nv;
+    const T chord = -2.0 * ((pu - P.dc) * in_u + pv * in_v);
+    ok = ok && chord > T(0.0);
+    pu = pu + chord * in_u;
+    pv = pv + chord * in_v;
+    nu = (pu - P.dc) / P.radius;
+    nv = pv / P.radius;
+    const T cos_o = in_u * nu + in_v * nv;
+    const T sin2_o = (P.ior * P.ior) * positive_part(T(1.0) - cos_o * cos_o);
+    ok = ok && sin2_o < T(1.0);
+    const T k_o = P.ior * cos_o - sqrt(T(1.0) - sin2_o);
+    out_u = P.ior * in_u - k_o * nu;
+    out_v = P.ior * in_v - k_o * nv;
+  }
+  const T e_u = P.y_u - pu, e_v = P.y_v - pv;
+  const T sin_phi = (out_u * e_v - out_v * e_u) / sqrt(e_u * e_u + e_v * e_v);
+  const T away = select(sin_phi < T(0.0), T(-2.0) - sin_phi, T(2.0) - sin_phi);
+  const T g = select(out_u * e_u + out_v * e_v >= T(0.0), sin_phi, away);
+  return select(ok, g, T(std::numeric_limits<double>::quiet_NaN()));
+}
 }  // namespace manifold_detail
 
 inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVec3 y) {
@@ -127,32 +211,22 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
   // y on the line through x and the centre: a ring of solutions (measure zero), none taken.
   if (!(side_len > 1e-12 * glm::length(to_y))) return roots;
   const DVec3 v = side / side_len;
-  const DVec3 n_plane = glm::cross(u, v);
   // The unknown: sin α of the direction w = cos α u + sin α v; the angle of incidence θ has sin θ = sin α dc/R.
   const double sin_alpha_max = s.radius / dc;
-  // A monotone stand-in for the signed angle φ from the chain's outgoing ray to the direction towards y, in the
-  // plane: sin φ while the ray heads towards y, ±(2 − |sin φ|) while it heads away, so that its only zero is at
-  // φ = 0 and its only jump at φ = ±π (a sign change there is not a root: below). NaN when w misses.
-  const auto residual = [&](double sa, DVec3& w) {
+  const manifold_detail::ChainPlane plane{dc, s.radius, s.ior, s.refracts, glm::dot(to_y, u), side_len};
+  const auto direction = [&](double sa) { return std::sqrt(std::max(0.0, 1.0 - sa * sa)) * u + sa * v; };
+  const auto residual = [&](double sa) {
     ++roots.evaluations;
-    w = std::sqrt(std::max(0.0, 1.0 - sa * sa)) * u + sa * v;
-    SphereChain ch;
-    if (!trace_sphere_chain(s, x, w, ch)) return std::numeric_limits<double>::quiet_NaN();
-    const DVec3 e = y - ch.p2;
-    const double len = glm::length(e);
-    const double sin_phi = glm::dot(glm::cross(ch.out, e), n_plane) / len;
-    if (glm::dot(ch.out, e) >= 0.0) return sin_phi;
-    return std::copysign(2.0 - std::abs(sin_phi), sin_phi);
+    return manifold_detail::plane_residual(plane, sa);
   };
   // Regula falsi with the Illinois modification (superlinear, and bracketed: it cannot leave [lo, hi]), for a
   // bracket whose ends' residuals differ in sign.
-  DVec3 w;
   const auto refine = [&](double lo, double hi, double g_lo, double g_hi) {
     int side_kept = 0;
     double root = hi, g_root = g_hi;
     for (int k = 0; k < 40; ++k) {
       root = (lo * g_hi - hi * g_lo) / (g_hi - g_lo);
-      g_root = residual(root, w);
+      g_root = residual(root);
       if (!std::isfinite(g_root) || std::abs(g_root) < 1e-13 || hi - lo < 1e-14 * sin_alpha_max) break;
       if ((g_root < 0.0) == (g_lo < 0.0)) {
         lo = root, g_lo = g_root;
@@ -164,7 +238,7 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
         side_kept = 1;
       }
     }
-    if (std::abs(g_root) < 1e-9 && roots.count < kMaxSphereChainRoots) roots.w[roots.count++] = w;
+    if (std::abs(g_root) < 1e-9 && roots.count < kMaxSphereChainRoots) roots.w[roots.count++] = direction(root);
   };
   // Two roots inside one cell (a caustic's fold, where the chain's image of the directions folds back over y):
   // the residual dips towards zero and back with no sign change at the grid points. At a grid point where |g|
@@ -179,7 +253,7 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
       if (!(std::abs(den) > 0.0)) break;
       const double x = m - ((m - l) * p - (m - r) * q) / den;
       if (!(x > l && x < r) || x == m) break;
-      const double g_x = residual(x, w);
+      const double g_x = residual(x);
       if (!std::isfinite(g_x)) break;
       if (sign * g_x <= 0.0) {
         refine(l, x, g_l, g_x);
@@ -197,18 +271,25 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
     }
     // No crossing, but a bottom within kSphereChainNearRoot of zero: no exact path, though a path traced in float
     // near the fold may end here (SphereChainRoots::near).
-    if (std::abs(g_m) < kSphereChainNearRoot && roots.near_count < kMaxSphereChainRoots) {
-      residual(m, w);
-      roots.near[roots.near_count++] = w;
-    }
+    if (std::abs(g_m) < kSphereChainNearRoot && roots.near_count < kMaxSphereChainRoots)
+      roots.near[roots.near_count++] = direction(m);
   };
+  // The grid's residuals first, a SIMD vector of directions at a time (the last vector padded with the last
+  // direction), then the scan for sign changes and dips.
+  using vdouble = stdx::native_simd<double>;
+  constexpr int kW = static_cast<int>(vdouble::size());
+  constexpr int kPadded = (kSphereChainGrid + kW - 1) / kW * kW;
   const auto& grid = manifold_detail::incidence_grid();
+  const auto grid_a = [&](int i) { return sin_alpha_max * grid[std::min(i, kSphereChainGrid - 1)]; };
+  alignas(64) std::array<double, kPadded> grid_g;
+  for (int i = 0; i < kPadded; i += kW)
+    manifold_detail::plane_residual(plane, vdouble([&](int l) { return grid_a(i + l); }))
+        .copy_to(&grid_g[i], stdx::element_aligned);
+  roots.evaluations += kSphereChainGrid;
   double a_pp = 0.0, g_pp = std::numeric_limits<double>::quiet_NaN();
-  double a_prev = sin_alpha_max * grid[0];
-  double g_prev = residual(a_prev, w);
+  double a_prev = grid_a(0), g_prev = grid_g[0];
   for (int i = 1; i < kSphereChainGrid && roots.count < kMaxSphereChainRoots; ++i) {
-    const double a = sin_alpha_max * grid[i];
-    const double g = residual(a, w);
+    const double a = grid_a(i), g = grid_g[i];
     if (std::isfinite(g_prev) && std::isfinite(g)) {
       if ((g_prev < 0.0) != (g < 0.0)) {
         // The stand-in is monotone in φ ∈ (−π, π), so across a cell φ turns the shorter way round: through 0 (a
@@ -226,6 +307,7 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
   }
   return roots;
 }
+#pragma GCC diagnostic pop
 
 // dA/dω: the area swept on the plane through y with unit normal n_y per unit solid angle of directions at x,
 // for the chain leaving x along w (central differences; 0 when the chain is lost within the step).
