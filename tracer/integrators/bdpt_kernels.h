@@ -60,6 +60,79 @@ void find_other_lobe(const Material& m, Vec3 wo, Vec2 u, const BsdfSample& taken
   }
 }
 
+// The MIS weights' ratio recursion (pbrt-v3 MISWeight, §16.3.4, power heuristic: w = p_s² / Σ_i p_i²). The
+// densities of the other strategies follow from the current one's by walking out from the connection, each step
+// multiplying by pdf_rev/pdf_fwd of one vertex; strategies that would have to connect at a specular vertex
+// cannot produce the path and are left out.
+//
+// Specular chains. Between non-specular vertices a (light side) and b (camera side) joined through specular
+// vertices, the ratio of the densities of the strategies on either side of the chain is
+//   A_a p⊥_L(a → a+1) / (B_b p⊥_C(b → b−1)),
+// A and B the area densities made by the light and the camera walk, p⊥ the directional densities per projected
+// solid angle at the chain's ends: the geometry terms of the chain's segments appear on both sides and cancel,
+// as do the specular lobes' Dirac densities (symmetric per projected solid angle; the η² of refraction cancels
+// on entering and leaving). pbrt-v3's recursion keeps the area densities A_{a+1} and B_{b−1} instead, which
+// multiplies that ratio by G(a, a+1)/G(b−1, b): the weights still sum to one (unbiased), but on the glass
+// ball's caustic seen directly (light → glass → glass → floor → eye) they gave path tracing (s = 0) nearly all
+// the weight although light tracing (t = 1) samples it far better. Dividing those two densities by their
+// segment's geometry term restores the ratio (Mitsuba 0.5 converts them to projected solid angle likewise).
+struct RatioStep {
+  float ratio;  // pdf_rev/pdf_fwd of the vertex (zero densities taken as 1: pbrt-v3's remap0)
+  bool counts;  // the strategy that connects just before this vertex can make the path
+};
+inline float remap0(float f) { return f != 0.f ? f : 1.f; }
+// A specular vertex v's area density made by its non-specular neighbour n, divided by G(n, v): the density per
+// projected solid angle at n (the chains above).
+inline float projected(float pdf, const BdptVertex& v, const BdptVertex& n) {
+  const float g = geometry_term(v, n);
+  return pdf > 0.f && g > 0.f ? pdf / g : pdf;
+}
+// Camera vertex i, 0 < i < size − 1 (the eye is never a step).
+inline RatioStep camera_step(const std::vector<BdptVertex>& camera, int i) {
+  float rev = camera[i].pdf_rev, fwd = camera[i].pdf_fwd;
+  if (camera[i].delta) {  // not the connection's end, which mis_weight marks non-specular
+    if (!camera[i + 1].delta) rev = projected(rev, camera[i], camera[i + 1]);
+    if (!camera[i - 1].delta) fwd = projected(fwd, camera[i], camera[i - 1]);
+  }
+  return {remap0(rev) / remap0(fwd), !camera[i].delta && !camera[i - 1].delta};
+}
+// Light vertex i, 0 ≤ i < size − 1 (no light is a Dirac: every kind has an extent).
+inline RatioStep light_step(const std::vector<BdptVertex>& light, int i) {
+  float rev = light[i].pdf_rev, fwd = light[i].pdf_fwd;
+  if (light[i].delta) {
+    if (!light[i - 1].delta) fwd = projected(fwd, light[i], light[i - 1]);
+    if (!light[i + 1].delta) rev = projected(rev, light[i], light[i + 1]);
+  }
+  return {remap0(rev) / remap0(fwd), !light[i].delta && !(i > 0 && light[i - 1].delta)};
+}
+
+// The recursion's sums over the vertices no strategy edits, once per subpath instead of once per strategy. A
+// strategy edits only its two end vertices and their predecessors (new reverse densities, the ends made
+// non-specular), so for a strategy with t camera vertices the camera side of the sum is
+//   Σ_{i ≤ t−1, counts} (ρ_{t−1} ρ_{t−2} · Π_{j=i..t−3} ρ_j)² = [its own two steps] + (ρ_{t−1} ρ_{t−2})² S_{t−3},
+//   S_k = Σ_{i ≤ k, counts} Π_{j=i..k} ρ_j² = ρ_k² (counts_k + S_{k−1}),
+// ρ_j the step ratios of the subpath as walked (the same for every strategy that leaves j three or more
+// vertices from its end); the light side likewise. Kept in double: a product of ratios of area densities can
+// leave float's range where the strategy's own two steps would bring it back. Georgiev's recursive MIS for
+// vertex connection and merging ("Implementing Vertex Connection and Merging", 2012) carries the same sums along
+// the walk. Call once a subpath is complete (its densities final).
+inline void camera_mis_prefix(std::vector<BdptVertex>& camera) {
+  double sum = 0.0;
+  for (int k = 1; k + 1 < static_cast<int>(camera.size()); ++k) {
+    const RatioStep step = camera_step(camera, k);
+    sum = static_cast<double>(step.ratio) * step.ratio * ((step.counts ? 1.0 : 0.0) + sum);
+    camera[k].mis_prefix = sum;
+  }
+}
+inline void light_mis_prefix(std::vector<BdptVertex>& light) {
+  double sum = 0.0;
+  for (int k = 0; k + 1 < static_cast<int>(light.size()); ++k) {
+    const RatioStep step = light_step(light, k);
+    sum = static_cast<double>(step.ratio) * step.ratio * ((step.counts ? 1.0 : 0.0) + sum);
+    light[k].mis_prefix = sum;
+  }
+}
+
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
 // absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
 // a miss adds a vertex at infinity when the scene has infinite lights; `features` (camera subpath only; may be
@@ -168,8 +241,11 @@ bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const 
   eye.it.p = ray.o;
   eye.it.ng = Vec3(0.f);
   path.push_back(eye);
-  return random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
-                                 static_cast<size_t>(o.max_bounces) + 2, features, &split, count, cancel);
+  if (!random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
+                               static_cast<size_t>(o.max_bounces) + 2, features, &split, count, cancel))
+    return false;
+  camera_mis_prefix(path);
+  return true;
 }
 
 // The light subpath: a point on a light chosen ∝ power, then up to max_bounces surface vertices.
@@ -212,6 +288,7 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
     }
     path[0].pdf_fwd = infinite_lights_origin_pdf(s, -es.d);
   }
+  light_mis_prefix(path);
   return true;
 }
 
@@ -237,39 +314,23 @@ class Scoped {
   T saved_{};
 };
 
-// The power-heuristic weight of strategy (s, t) for the path it made (pbrt-v3 MISWeight, §16.3.4, with squared
-// ratios: w = p_s² / Σ_i p_i²). The densities of the other strategies follow from the current one's by walking
-// out from the connection, each step multiplying by pdf_rev/pdf_fwd of one vertex; strategies that would have
-// to connect at a specular vertex cannot produce the path and are left out. `sampled` replaces the end vertex
-// of the subpath that the strategy sampled afresh (s = 1: the light point; t = 1: the eye).
-//
-// Specular chains. Between non-specular vertices a (light side) and b (camera side) joined through specular
-// vertices, the ratio of the densities of the strategies on either side of the chain is
-//   A_a p⊥_L(a → a+1) / (B_b p⊥_C(b → b−1)),
-// A and B the area densities made by the light and the camera walk, p⊥ the directional densities per projected
-// solid angle at the chain's ends: the geometry terms of the chain's segments appear on both sides and cancel,
-// as do the specular lobes' Dirac densities (symmetric per projected solid angle; the η² of refraction cancels
-// on entering and leaving). pbrt-v3's recursion keeps the area densities A_{a+1} and B_{b−1} instead, which
-// multiplies that ratio by G(a, a+1)/G(b−1, b): the weights still sum to one (unbiased), but on the glass
-// ball's caustic seen directly (light → glass → glass → floor → eye) they gave path tracing (s = 0) nearly all
-// the weight although light tracing (t = 1) samples it far better. Dividing those two densities by their
-// segment's geometry term restores the ratio (Mitsuba 0.5 converts them to projected solid angle likewise).
-inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
-                        const BdptVertex& sampled, int ns, int nt) {
-  if (ns + nt == 2) return 1.f;
-  BdptVertex* qs = ns > 0 ? &light[ns - 1] : nullptr;
-  BdptVertex* pt = nt > 0 ? &camera[nt - 1] : nullptr;
+// Sets the reverse densities of strategy (s, t)'s end vertices and their predecessors as the other subpath
+// would have made them and marks the ends non-specular, then calls weigh(pt, qs) with the two end vertices
+// (either may be null); the edits are undone on return. `sampled` is the end vertex the strategy sampled
+// afresh (s = 1: the light point; t = 1: the eye), which stands in for the subpath's first vertex: a copy of it
+// is the end, the subpaths stay as they are.
+template <class Weigh>
+float with_strategy_edits(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
+                          const BdptVertex& sampled, int ns, int nt, const Weigh& weigh) {
+  BdptVertex fresh;
+  if (ns == 1 || nt == 1) fresh = sampled;
+  BdptVertex* qs = ns == 1 ? &fresh : ns > 0 ? &light[ns - 1] : nullptr;
+  BdptVertex* pt = nt == 1 ? &fresh : nt > 0 ? &camera[nt - 1] : nullptr;
   BdptVertex* qs_minus = ns > 1 ? &light[ns - 2] : nullptr;
   BdptVertex* pt_minus = nt > 1 ? &camera[nt - 2] : nullptr;
-
-  Scoped<BdptVertex> a1;
-  if (ns == 1) a1.set(qs, sampled);
-  else if (nt == 1) a1.set(pt, sampled);
-  // The connection's end vertices are not specular for this strategy, whatever was sampled there.
   Scoped<bool> a2, a3;
   if (pt) a2.set(&pt->delta, false);
   if (qs) a3.set(&qs->delta, false);
-  // Reverse densities of the end vertices and their predecessors, as the other subpath would have made them.
   // Each segment's unit direction and squared length once: the connection's, and each end's to its predecessor.
   const Link p_to_q = pt && qs ? link(*pt, *qs) : Link{}, q_to_p = reversed(p_to_q);
   const Link p_to_pm = pt_minus ? link(*pt, *pt_minus) : Link{}, q_to_qm = qs_minus ? link(*qs, *qs_minus) : Link{};
@@ -280,38 +341,60 @@ inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vec
            ns > 0 ? pdf_at(s, *pt, &p_to_q, p_to_pm, *pt_minus) : pdf_light(s, *pt, p_to_pm, *pt_minus));
   if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, &p_to_pm, p_to_q, *qs));
   if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, &q_to_p, q_to_qm, *qs_minus));
+  return weigh(static_cast<const BdptVertex*>(pt), static_cast<const BdptVertex*>(qs));
+}
 
-  const auto remap0 = [](float f) { return f != 0.f ? f : 1.f; };
-  // Through a chain of specular vertices the ratio must hold the densities in projected solid angle at the
-  // chain's ends (below); `projected` divides a specular vertex's area density, made by its non-specular
-  // neighbour n, by G(n, v).
-  const auto projected = [](float pdf, const BdptVertex& v, const BdptVertex& n) {
-    const float g = geometry_term(v, n);
-    return pdf > 0.f && g > 0.f ? pdf / g : pdf;
-  };
-  float sum = 0.f;
-  float r = 1.f;
-  for (int i = nt - 1; i > 0; --i) {
-    float rev = camera[i].pdf_rev, fwd = camera[i].pdf_fwd;
-    if (camera[i].delta) {  // i < nt − 1: the connection's end is not specular
-      if (!camera[i + 1].delta) rev = projected(rev, camera[i], camera[i + 1]);
-      if (!camera[i - 1].delta) fwd = projected(fwd, camera[i], camera[i - 1]);
-    }
-    r *= remap0(rev) / remap0(fwd);
-    if (!camera[i].delta && !camera[i - 1].delta) sum += r * r;
-  }
-  r = 1.f;
-  for (int i = ns - 1; i >= 0; --i) {
-    float rev = light[i].pdf_rev, fwd = light[i].pdf_fwd;
-    if (light[i].delta) {  // 0 < i < ns − 1: no light is a Dirac (every kind has an extent), nor the end
-      if (!light[i - 1].delta) fwd = projected(fwd, light[i], light[i - 1]);
-      if (!light[i + 1].delta) rev = projected(rev, light[i], light[i + 1]);
-    }
-    r *= remap0(rev) / remap0(fwd);
-    const bool delta_before = i > 0 && light[i - 1].delta;
-    if (!light[i].delta && !delta_before) sum += r * r;
-  }
-  return 1.f / (1.f + sum);
+// The steps of a strategy's own end vertices (non-specular for it): pt = camera[nt − 1], t ≥ 2, and qs =
+// light[ns − 1], s ≥ 1 (for s = 1 the sampled light point).
+inline RatioStep camera_end_step(const std::vector<BdptVertex>& camera, const BdptVertex& pt, int nt) {
+  return {remap0(pt.pdf_rev) / remap0(pt.pdf_fwd), !camera[nt - 2].delta};
+}
+inline RatioStep light_end_step(const std::vector<BdptVertex>& light, const BdptVertex& qs, int ns) {
+  return {remap0(qs.pdf_rev) / remap0(qs.pdf_fwd), !(ns > 1 && light[ns - 2].delta)};
+}
+
+// The power-heuristic weight of strategy (s, t) for the path it made: the strategy's own end vertices and
+// their predecessors stepped through, the rest of each subpath from its mis_prefix (camera_mis_prefix and
+// light_mis_prefix must have run on both subpaths).
+inline float mis_weight(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
+                        const BdptVertex& sampled, int ns, int nt) {
+  if (ns + nt == 2) return 1.f;
+  return with_strategy_edits(s, light, camera, sampled, ns, nt, [&](const BdptVertex* pt, const BdptVertex* qs) {
+    double sum = 0.0;
+    float r = 1.f;
+    const auto add = [&](RatioStep step) {
+      r *= step.ratio;
+      if (step.counts) sum += r * r;
+    };
+    if (nt >= 2) add(camera_end_step(camera, *pt, nt));
+    if (nt >= 3) add(camera_step(camera, nt - 2));
+    if (nt >= 4) sum += static_cast<double>(r) * r * camera[nt - 3].mis_prefix;
+    r = 1.f;
+    if (ns >= 1) add(light_end_step(light, *qs, ns));
+    if (ns >= 2) add(light_step(light, ns - 2));
+    if (ns >= 3) sum += static_cast<double>(r) * r * light[ns - 3].mis_prefix;
+    return static_cast<float>(1.0 / (1.0 + sum));
+  });
+}
+
+// The same weight by walking both subpaths vertex by vertex (pbrt-v3's form, O(s + t) per strategy): the
+// reference the tests hold mis_weight to.
+inline float mis_weight_by_walking(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
+                                   const BdptVertex& sampled, int ns, int nt) {
+  if (ns + nt == 2) return 1.f;
+  return with_strategy_edits(s, light, camera, sampled, ns, nt, [&](const BdptVertex* pt, const BdptVertex* qs) {
+    float sum = 0.f, r = 1.f;
+    const auto add = [&](RatioStep step) {
+      r *= step.ratio;
+      if (step.counts) sum += r * r;
+    };
+    if (nt >= 2) add(camera_end_step(camera, *pt, nt));
+    for (int i = nt - 2; i > 0; --i) add(camera_step(camera, i));
+    r = 1.f;
+    if (ns >= 1) add(light_end_step(light, *qs, ns));
+    for (int i = ns - 2; i >= 0; --i) add(light_step(light, i));
+    return 1.f / (1.f + sum);
+  });
 }
 
 // The shadow ray between two vertices (neither at infinity): from a's surface towards b's, both ends pushed off

@@ -26,6 +26,9 @@ struct BdptVertex {
   Vec3 wo{0.f};           // unit direction towards the previous vertex of its own subpath
   Rgb beta{1.f};          // the subpath's throughput up to and including this vertex's arrival
   float pdf_fwd = 0.f, pdf_rev = 0.f;
+  // The MIS weights' sum over the strategies that split the subpath at this vertex or nearer its start, relative
+  // to the strategy that splits it just after this vertex (bdpt_kernels.h, mis_prefix_sums).
+  double mis_prefix = 0.0;
 
   bool on_surface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && !infinite); }
   bool emits() const { return kind == VertexKind::Light || light >= 0; }
