@@ -6,9 +6,9 @@
 // A path from x to y that reflects once off a sphere, or refracts into it and out again, lies in the plane
 // through x, y and the centre c: the incident ray, the normal (radial, through c) and the scattered ray of each
 // event share one plane, and the chord inside shares it with both events. So the path is fixed by one angle α,
-// the direction from x within that plane, and solving for it is a root search in one dimension: every sign
-// change of the angle between the outgoing ray and the direction to y, over a grid of directions across the
-// sphere's silhouette, is refined by regula falsi, and dips of the residual towards zero between grid points
+// the direction from x within that plane, and solving for it is a root search in one dimension (traced in the
+// plane's two coordinates): every zero crossing of the angle between the outgoing ray and the direction to y,
+// over a grid of directions across the sphere's silhouette, is refined by regula falsi, and dips of the residual towards zero between grid points
 // (two roots inside one cell, where solutions merge at a caustic's fold) are followed to their bottom. Roots can
 // still be missed (a pair in a cell whose dip the grid does not show); the estimator stays unbiased because the
 // weight it gives to path tracing for a path asks this same search whether it would have found that path
