@@ -301,6 +301,16 @@ TEST_CASE("bdpt: the camera path splits at a first glass vertex, so the lamp's r
 
 // The manifold strategy (integrators/bdpt_manifold.h, manifold_sphere.h).
 
+namespace {
+// A point in the cube [−3, 3]³ outside the unit sphere (by rejection), for random chain configurations.
+DVec3 point_outside_unit_sphere(Pcg32& rng) {
+  for (;;) {
+    const DVec3 p(6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0);
+    if (glm::length(p) > 1.05) return p;
+  }
+}
+}  // namespace
+
 TEST_CASE("manifold: every root of the sphere chain search passes through the target point") {
   // Random configurations around a unit sphere (fixed seed): x and y outside it, the chain reflecting or
   // refracting (ior 1.5). Every root's chain, followed forward, must pass y within 1e-9 of the distances.
@@ -309,13 +319,7 @@ TEST_CASE("manifold: every root of the sphere chain search passes through the ta
   Pcg32 rng(17, 1);
   int mirror_found = 0, mirror_cases = 0, glass_roots = 0;
   for (int i = 0; i < 2000; ++i) {
-    const auto outside = [&] {
-      for (;;) {
-        const DVec3 p(6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0);
-        if (glm::length(p) > 1.05) return p;
-      }
-    };
-    const DVec3 x = outside(), y = outside();
+    const DVec3 x = point_outside_unit_sphere(rng), y = point_outside_unit_sphere(rng);
     for (const bool refracts : {false, true}) {
       const SpecularSphere sph{DVec3(0.0), 1.0, refracts, 1.5};
       const SphereChainRoots roots = solve_sphere_chain(sph, x, y);
@@ -356,13 +360,7 @@ TEST_CASE("manifold: the sphere chain search does not refine the residual's jump
   Pcg32 rng(31, 1);
   long evaluations = 0, searches = 0, roots_found = 0;
   for (int i = 0; i < 1000; ++i) {
-    const auto outside = [&] {
-      for (;;) {
-        const DVec3 p(6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0, 6.0 * rng.next_float() - 3.0);
-        if (glm::length(p) > 1.05) return p;
-      }
-    };
-    const DVec3 x = outside(), y = outside();
+    const DVec3 x = point_outside_unit_sphere(rng), y = point_outside_unit_sphere(rng);
     for (const bool refracts : {false, true}) {
       const SphereChainRoots roots = solve_sphere_chain(SpecularSphere{DVec3(0.0), 1.0, refracts, 1.5}, x, y);
       evaluations += roots.evaluations;

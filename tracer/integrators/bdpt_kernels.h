@@ -116,22 +116,17 @@ inline RatioStep light_step(const std::vector<BdptVertex>& light, int i) {
 // leave float's range where the strategy's own two steps would bring it back. Georgiev's recursive MIS for
 // vertex connection and merging ("Implementing Vertex Connection and Merging", 2012) carries the same sums along
 // the walk. Call once a subpath is complete (its densities final).
-inline void camera_mis_prefix(std::vector<BdptVertex>& camera) {
+template <class Step>
+void mis_prefix_sums(std::vector<BdptVertex>& path, int first, const Step& step) {
   double sum = 0.0;
-  for (int k = 1; k + 1 < static_cast<int>(camera.size()); ++k) {
-    const RatioStep step = camera_step(camera, k);
-    sum = static_cast<double>(step.ratio) * step.ratio * ((step.counts ? 1.0 : 0.0) + sum);
-    camera[k].mis_prefix = sum;
+  for (int k = first; k + 1 < static_cast<int>(path.size()); ++k) {
+    const RatioStep st = step(path, k);
+    sum = static_cast<double>(st.ratio) * st.ratio * ((st.counts ? 1.0 : 0.0) + sum);
+    path[k].mis_prefix = sum;
   }
 }
-inline void light_mis_prefix(std::vector<BdptVertex>& light) {
-  double sum = 0.0;
-  for (int k = 0; k + 1 < static_cast<int>(light.size()); ++k) {
-    const RatioStep step = light_step(light, k);
-    sum = static_cast<double>(step.ratio) * step.ratio * ((step.counts ? 1.0 : 0.0) + sum);
-    light[k].mis_prefix = sum;
-  }
-}
+inline void camera_mis_prefix(std::vector<BdptVertex>& camera) { mis_prefix_sums(camera, 1, camera_step); }
+inline void light_mis_prefix(std::vector<BdptVertex>& light) { mis_prefix_sums(light, 0, light_step); }
 
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
 // absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
