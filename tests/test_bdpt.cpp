@@ -203,7 +203,8 @@ TEST_CASE("bdpt: the MIS weights from per-subpath sums equal those walked vertex
       for (int k = 0; k < 16; ++k) {
         const SobolSampler rng(static_cast<uint64_t>(pixel), static_cast<uint64_t>(k), 5);
         const Vec2 j = rng.get_2d(SampleDimensions::kCameraJitter);
-        const Ray ray = sc.camera.generate_ray(static_cast<float>(pixel % 8) + j.x, static_cast<float>(pixel / 8) + j.y);
+        const Ray ray =
+            sc.camera.generate_ray(static_cast<float>(pixel % 8) + j.x, static_cast<float>(pixel / 8) + j.y);
         bdpt_detail::FirstVertexSplit split;
         REQUIRE(bdpt_detail::camera_subpath<SobolSampler, kAllFeatures>(sc, o, rng, ray, scratch.camera, nullptr, split,
                                                                         count, nullptr));
@@ -220,12 +221,13 @@ TEST_CASE("bdpt: the MIS weights from per-subpath sums equal those walked vertex
               possible = pt.emits();
             } else if (t == 1) {
               uint32_t px = 0;
-              possible = bdpt_detail::connectible(sc, scratch.light[ns - 1]) &&
-                         !is_black(bdpt_detail::connect_eye<kAllFeatures>(sc, scratch.light[ns - 1], sampled, px, count));
+              const BdptVertex& qs = scratch.light[ns - 1];
+              possible = bdpt_detail::connectible(sc, qs) &&
+                         !is_black(bdpt_detail::connect_eye<kAllFeatures>(sc, qs, sampled, px, count));
             } else if (ns == 1) {
               possible = bdpt_detail::connectible(sc, pt) &&
-                         !is_black(bdpt_detail::connect_light_sample<SobolSampler, kAllFeatures>(sc, rng, pt, t, sampled,
-                                                                                                 count));
+                         !is_black(bdpt_detail::connect_light_sample<SobolSampler, kAllFeatures>(sc, rng, pt, t,
+                                                                                                 sampled, count));
             } else {
               possible = bdpt_detail::connectible(sc, pt) && bdpt_detail::connectible(sc, scratch.light[ns - 1]);
             }

@@ -8,8 +8,9 @@
 // event share one plane, and the chord inside shares it with both events. So the path is fixed by one angle α,
 // the direction from x within that plane, and solving for it is a root search in one dimension (traced in the
 // plane's two coordinates): every zero crossing of the angle between the outgoing ray and the direction to y,
-// over a grid of directions across the sphere's silhouette, is refined by regula falsi, and dips of the residual towards zero between grid points
-// (two roots inside one cell, where solutions merge at a caustic's fold) are followed to their bottom. Roots can
+// over a grid of directions across the sphere's silhouette, is refined by regula falsi, and dips of the
+// residual towards zero between grid points (two roots inside one cell, where solutions merge at a caustic's
+// fold) are followed to their bottom. Roots can
 // still be missed (a pair in a cell whose dip the grid does not show); the estimator stays unbiased because the
 // weight it gives to path tracing for a path asks this same search whether it would have found that path
 // (bdpt_manifold.h).
