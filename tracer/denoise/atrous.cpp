@@ -22,6 +22,7 @@
 #include "denoise/denoiser.h"
 
 #include "core/math.h"
+#include "core/simd_sqrt_warnings.h"
 #include "denoise/exp_neg.h"
 
 #include <algorithm>
@@ -85,12 +86,7 @@ struct FlushDenormals {
 
 // One chunk of V::size() pixels starting at (x, y), all 25 taps of level `step`; writes the filtered
 // illumination and variance of the lanes inside the image to the output planes.
-// GCC 12's AVX-512 square root (avx512fintrin.h) passes an uninitialised vector as the masked-off source and
-// warns about it from inside the header; the lanes are all active here.
-#pragma GCC diagnostic push
-#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
+PT_SIMD_SQRT_WARNINGS_OFF  // the lanes are all active here
 template <class V>
 void filter_chunk(const ChunkInput& c, const ChunkOutput& out, const Layout& L, int x, int y, int step,
                   float inv_sigma_a2, float sigma_depth, float sigma_l) {
@@ -138,7 +134,7 @@ void filter_chunk(const ChunkInput& c, const ChunkOutput& out, const Layout& L, 
   store(out.e0, s0 * inv), store(out.e1, s1 * inv), store(out.e2, s2 * inv);
   store(out.vl, tl * inv * inv);
 }
-#pragma GCC diagnostic pop
+PT_SIMD_SQRT_WARNINGS_ON
 
 }  // namespace
 

@@ -15,6 +15,7 @@
 #pragma once
 #include <cstdint>
 
+#include "core/simd_sqrt_warnings.h"
 #include "geometry/simd_polygons.h"
 #include "integrators/integrator_kernels.h"
 
@@ -79,13 +80,7 @@ struct Vec3Lanes {
 
 }  // namespace lane_detail
 
-// GCC 12's AVX-512 square root (avx512fintrin.h) passes an undefined vector as the masked-off source and warns
-// about it from inside the header; every lane is computed here.
-#pragma GCC diagnostic push
-#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-#pragma GCC diagnostic ignored "-Wuninitialized"
+PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
 // The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
 // o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
 // live paths of a batch share one depth).
@@ -374,7 +369,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   }
 }
 
-#pragma GCC diagnostic pop
+PT_SIMD_SQRT_WARNINGS_ON
 
 }  // namespace integrator_detail
 }  // namespace pt

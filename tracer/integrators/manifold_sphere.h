@@ -25,6 +25,7 @@
 #include <experimental/simd>
 
 #include "core/math.h"
+#include "core/simd_sqrt_warnings.h"
 
 namespace pt {
 
@@ -140,13 +141,7 @@ T positive_part(const T& a) {
   return select(a > T(0.0), a, T(0.0));
 }
 
-// GCC 12's AVX-512 square root (avx512fintrin.h) passes an undefined vector as the masked-off source and warns
-// about it from inside the header, here and where solve_sphere_chain inlines this; every lane is computed.
-#pragma GCC diagnostic push
-#ifndef __clang__  // a GCC-only warning: clang (the fuzz build) would warn that it does not know it
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-#pragma GCC diagnostic ignored "-Wuninitialized"
+PT_SIMD_SQRT_WARNINGS_OFF  // through solve_sphere_chain, which inlines the lanes' residual
 // solve_sphere_chain's residual for the direction of sin α = sa: a monotone stand-in for the signed angle φ
 // from the chain's outgoing ray to the direction towards y, sin φ while the ray heads towards y, ±(2 − |sin φ|)
 // while it heads away, so that its only zero is at φ = 0 and its only jump at φ = ±π. NaN where the direction
@@ -308,7 +303,7 @@ inline SphereChainRoots solve_sphere_chain(const SpecularSphere& s, DVec3 x, DVe
   }
   return roots;
 }
-#pragma GCC diagnostic pop
+PT_SIMD_SQRT_WARNINGS_ON
 
 // dA/dω: the area swept on the plane through y with unit normal n_y per unit solid angle of directions at x,
 // for the chain leaving x along w (central differences; 0 when the chain is lost within the step).
