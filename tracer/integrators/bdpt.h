@@ -34,9 +34,19 @@ struct Splat {
   Rgb value;
 };
 
+// A branch of the eye's pure-specular chains: a vertex reached through specular vertices only, the throughput
+// up to it and its scattering event's index (bdpt_kernels.h, specular_chain_emission).
+struct SpecularBranch {
+  Interaction it;
+  Vec3 wo;
+  Rgb beta;
+  uint32_t bounce;
+};
+
 // Per-thread working memory of the estimator, kept between samples (no allocation per sample once grown).
 struct BdptScratch {
   std::vector<BdptVertex> camera, light;
+  std::vector<SpecularBranch> branches;
 };
 
 // Estimates the radiance along camera_ray (t ≥ 2 strategies, returned in L) and appends the light-traced

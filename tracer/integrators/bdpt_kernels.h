@@ -488,6 +488,93 @@ Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint3
   return L;
 }
 
+// Paths on which every vertex between the eye and the light is specular (E S+ L: the light in the mirror ball,
+// through the glass ball, behind the glass's internal reflections). Every edge of such a path touches a Dirac
+// vertex, so no connection, light tracing or manifold search makes it: the camera walk's hit (s = 0) is its only
+// estimator, with weight 1. A walk picks one Fresnel lobe per glass vertex, so it finds the light behind an
+// internal reflection with probability F ≈ 4 % and a weight of 1: a pixel's light-coloured firefly (Le/spp,
+// the brightest in bdpt's 10-s renders of cornell-spheres). Here these paths are summed over both lobes of every
+// glass vertex instead (a tree of chains, each branch weighted by its lobe's f·|cos θ|, which is F or 1 − F, in
+// place of dividing by the probability of picking it), so the Fresnel choices add no variance; bdpt_sample
+// leaves these paths out of the walk's s = 0 term. A branch whose throughput falls below kSpecularTreeRoulette
+// goes on with probability throughput / kSpecularTreeRoulette (Russian roulette, unbiased; it keeps the tree
+// small when internal reflections repeat). `camera` is the camera subpath (its first hit is the tree's root).
+inline constexpr float kSpecularTreeRoulette = 0.05f;
+
+inline bool pure_specular(const Scene& s, const Interaction& it) {
+  const uint32_t flags = bsdf_flags(s.materials[it.material]);
+  return is_specular(flags) && !has_non_specular(flags);
+}
+
+template <class Sampler, uint32_t F>
+Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng, const std::vector<BdptVertex>& camera,
+                            std::vector<SpecularBranch>& stack, RayCount& count) {
+  Rgb sum(0.f);
+  if (camera.size() < 2 || camera[1].kind != VertexKind::Surface || !pure_specular(s, camera[1].it) ||
+      o.max_bounces < 1)
+    return sum;
+  stack.clear();
+  stack.push_back({camera[1].it, camera[1].wo, Rgb(1.f), 0});
+  while (!stack.empty()) {
+    const SpecularBranch b = stack.back();
+    stack.pop_back();
+    const Material& m = s.materials[b.it.material];
+    const Frame frame = Frame::from_normal(b.it.ng);
+    const Vec3 wo = frame.to_local(b.wo);
+    // The vertex's Dirac lobes: the two ends of the lobe-choice dimension (find_other_lobe's rule).
+    BsdfSample lobes[2];
+    int n = 0;
+    for (const float uc : {0.f, kOneMinusEpsilon}) {
+      BsdfSample bs;
+      if (bsdf_sample(m, wo, uc, Vec2(0.5f), bs) && bs.pdf > 0.f && bs.wi.z != 0.f && is_specular(bs.flags) &&
+          (n == 0 || bs.flags != lobes[0].flags))
+        lobes[n++] = bs;
+    }
+    for (int k = 0; k < n; ++k) {
+      const BsdfSample& bs = lobes[k];
+      // One lobe: the walk's own weight f|cos|/pdf (pdf 1 but for rounding); two: each its f|cos|.
+      Rgb beta = b.beta * bs.f * (n == 1 ? std::abs(bs.wi.z) / bs.pdf : std::abs(bs.wi.z));
+      const float q = max_component(beta) / kSpecularTreeRoulette;
+      if (q < 1.f) {
+        if (!(rng.get_1d(D::camera_roulette(b.bounce)) < q)) continue;
+        beta /= q;
+      }
+      if (is_black(beta) || !is_finite(beta)) continue;
+      const Vec3 wi = frame.to_world(bs.wi);
+      const Ray ray{offset_ray_origin(b.it, wi), wi};
+      ++count.rays;
+      Hit h;
+      BdptVertex v;
+      if (!intersect_scene<F>(s, ray, kInfinity, skip_on_leave(b.it), h)) {
+        if (s.infinite_lights.empty()) continue;
+        v.kind = VertexKind::Light;
+        v.infinite = true;
+        v.it.ng = -ray.d;
+        v.wo = -ray.d;
+        sum += beta * emitted(s, v);
+        continue;
+      }
+      v.it = make_interaction<F>(s, ray, h);
+      v.wo = -ray.d;
+      v.light = s.light_of_prim[v.it.prim];
+      if (v.emits()) sum += beta * emitted(s, v);
+      // The next vertex scatters event bounce + 1, within max_bounces events in all (the walk's limit).
+      if (b.bounce + 2 <= static_cast<uint32_t>(o.max_bounces) && pure_specular(s, v.it))
+        stack.push_back({v.it, v.wo, beta, b.bounce + 1});
+    }
+  }
+  return sum;
+}
+
+// Whether the camera subpath reaches vertex t − 1 through pure-specular vertices only (t ≥ 3): the paths
+// specular_chain_emission sums.
+inline bool specular_chain_to(const Scene& s, const std::vector<BdptVertex>& camera, int t) {
+  if (t < 3) return false;
+  for (int i = 1; i <= t - 2; ++i)
+    if (camera[i].kind != VertexKind::Surface || !pure_specular(s, camera[i].it)) return false;
+  return true;
+}
+
 // One camera sample: both subpaths, every strategy; both branches of a split first vertex (FirstVertexSplit).
 template <class Sampler, uint32_t F>
 bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& rng, const Ray& camera_ray,
@@ -502,6 +589,9 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   if (!light_subpath<Sampler, F>(s, o, rng, light, count, cancel)) return false;
   const int nl = static_cast<int>(light.size());
   const bool only = o.only_s >= 0;
+  // The eye's pure-specular chains to a light, summed over their lobes (off for a single strategy's image).
+  const bool chains = !only;
+  if (chains) L += specular_chain_emission<Sampler, F>(s, o, rng, camera, scratch.branches, count);
   // The strategies with t camera vertices, their contributions scaled by `scale` (a branch's probability).
   const auto strategies = [&](int t, float scale) {
     if (o.manifold && t >= 3 && manifold_vertex(s, camera, t - 1))
@@ -516,7 +606,7 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
       Rgb c(0.f);
       uint32_t pixel = 0;
       if (ns == 0) {
-        if (pt.emits()) c = pt.beta * emitted(s, pt);
+        if (pt.emits() && !(chains && specular_chain_to(s, camera, t))) c = pt.beta * emitted(s, pt);
       } else if (t == 1) {
         const BdptVertex& qs = light[ns - 1];
         if (connectible(s, qs)) c = connect_eye<F>(s, qs, sampled, pixel, count);
