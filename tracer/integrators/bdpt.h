@@ -2,7 +2,8 @@
 //
 // Per camera sample, one camera subpath and one light subpath (a light chosen ∝ power, a point and a direction
 // from lights/light_emission.h), then every connection strategy (s light vertices, t camera vertices):
-// - s = 0: the camera subpath found a light by itself;
+// - s = 0: the camera subpath found a light by itself (through specular vertices only, E S+ L: summed over
+//   both lobes of every glass vertex instead, specular_chain_emission in bdpt_kernels.h);
 // - s = 1: a light sampled from a camera vertex (next-event estimation, lights/light_sampling.h);
 // - t = 1: a light-subpath vertex joined to the eye (light tracing): its contribution lands on whatever pixel
 //   the eye sees the vertex through, a "splat", which the renderer adds after the pass (render/renderer.h);
