@@ -191,7 +191,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     const Vec2 u = rng.get_2d(light_subpath ? D::light_direction(bounce) : D::camera_direction(bounce));
     BsdfSample bs;
     if (!bsdf_sample<kM>(m, wo, uc, u, bs) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
-    if (first_split && split->forced_uc < 0.f && is_specular(bs.flags) && !has_non_specular(bsdf_flags<kM>(m)))
+    if (first_split && split->forced_uc < 0.f && is_specular(bs.flags) && only_specular(bsdf_flags<kM>(m)))
       find_other_lobe<kM>(m, wo, u, bs, *split);
     Rgb f = bs.f;
     float pdf_rev = 0.f;
@@ -502,8 +502,7 @@ Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint3
 inline constexpr float kSpecularTreeRoulette = 0.05f;
 
 inline bool pure_specular(const Scene& s, const Interaction& it) {
-  const uint32_t flags = bsdf_flags(s.materials[it.material]);
-  return is_specular(flags) && !has_non_specular(flags);
+  return only_specular(bsdf_flags(s.materials[it.material]));
 }
 
 template <class Sampler, uint32_t F>

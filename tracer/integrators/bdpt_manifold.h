@@ -42,7 +42,7 @@ void for_each_chain(const Scene& s, DVec3 x, Visit&& visit) {
   for (uint32_t i = 0; i < s.spheres.size(); ++i) {
     const Material& m = s.materials[s.spheres.material[i]];
     const uint32_t flags = bsdf_flags(m);
-    if (!is_specular(flags) || has_non_specular(flags) || s.light_of_prim[s.sphere_begin() + i] >= 0) continue;
+    if (!only_specular(flags) || s.light_of_prim[s.sphere_begin() + i] >= 0) continue;
     SpecularSphere chain{s.spheres.center[i], s.spheres.radius[i], false, static_cast<double>(m.ior)};
     const DVec3 to_c = chain.center - x;
     const double sin2 = chain.radius * chain.radius / glm::dot(to_c, to_c);

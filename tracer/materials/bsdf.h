@@ -43,6 +43,8 @@ inline Vec3 front(Vec3 w, bool flip) { return flip ? Vec3(w.x, w.y, -w.z) : w; }
 // True when the BSDF has a lobe that eval/pdf can see (diffuse or glossy): light sampling makes sense there.
 inline bool has_non_specular(uint32_t flags) { return (flags & (kBsdfDiffuse | kBsdfGlossy)) != 0; }
 inline bool is_specular(uint32_t flags) { return (flags & kBsdfSpecular) != 0; }
+// Only Dirac lobes (smooth mirror, smooth glass): nothing to connect to or evaluate, a direction is only drawn.
+inline bool only_specular(uint32_t flags) { return is_specular(flags) && !has_non_specular(flags); }
 inline bool is_transmissive(uint32_t flags) { return (flags & kBsdfTransmission) != 0; }
 
 // The lobes this material has (a union over its lobes: plastic with a smooth coat is Specular|Diffuse).
