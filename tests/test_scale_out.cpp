@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -144,8 +145,10 @@ TEST_CASE("scale-out: state files that are truncated, corrupted, padded, of anot
   flipped[good.size() / 2] ^= 0x10;
   refused(flipped, "checksum");
   std::string version = good;
-  version[8] = 2;
-  refused(version, "version 2");
+  version[8] = 3;
+  refused(version, "version 3");
+  version[8] = 1;  // the scene hash of version 1 was another function
+  refused(version, "version 1");
   refused("P3\n16 16\n255\n", "not a pathtracer state file");
   refused("", "not a pathtracer state file");
 
@@ -163,6 +166,38 @@ TEST_CASE("scale-out: state files that are truncated, corrupted, padded, of anot
   FilmStateInfo mixed = info;
   mixed.mixed_seeds = true;
   CHECK(resume_problem(mixed, d).find("different seeds") != std::string::npos);
+}
+
+TEST_CASE("scale-out: the scene hash sees every field a shape uses, survives the JSON round trip and ignores the seed") {
+  const SceneDesc d = small("cornell-spheres");
+  const uint64_t h = scene_content_hash(d);
+  const auto differs = [&](const char* what, const auto& edit) {
+    SceneDesc e = d;
+    edit(e);
+    INFO(what);
+    CHECK(scene_content_hash(e) != h);
+  };
+  size_t quad = 0, sphere = 0;
+  while (d.shapes[quad].type != ShapeType::Quad) ++quad;
+  while (d.shapes[sphere].type != ShapeType::Sphere) ++sphere;
+  const auto ulp = [](double x) { return std::nextafter(x, 1e300); };
+  differs("a quad's 4th vertex, one ulp", [&](SceneDesc& e) { e.shapes[quad].vertices[3].z = ulp(e.shapes[quad].vertices[3].z); });
+  differs("a quad's 1st vertex, one ulp", [&](SceneDesc& e) { e.shapes[quad].vertices[0].x = ulp(e.shapes[quad].vertices[0].x); });
+  differs("a sphere's radius, one ulp", [&](SceneDesc& e) { e.shapes[sphere].radius = ulp(e.shapes[sphere].radius); });
+  differs("a sphere's centre, one ulp", [&](SceneDesc& e) { e.shapes[sphere].center.y = ulp(e.shapes[sphere].center.y); });
+  differs("a shape's material", [&](SceneDesc& e) { e.shapes[quad].material = (e.shapes[quad].material + 1) % static_cast<int>(e.materials.size()); });
+  differs("a quad made a triangle", [&](SceneDesc& e) { e.shapes[quad].type = ShapeType::Triangle; });
+  differs("two shapes swapped", [&](SceneDesc& e) { std::swap(e.shapes[quad], e.shapes[sphere]); });
+  differs("a shape removed", [&](SceneDesc& e) { e.shapes.pop_back(); });
+  differs("a material's albedo", [&](SceneDesc& e) { e.materials[0].albedo.x *= 0.5f; });
+  differs("the bounces", [&](SceneDesc& e) { e.render.max_bounces += 1; });
+  // Fields a shape's type does not use are not written to JSON, so they do not enter the hash either.
+  SceneDesc same = d;
+  same.render.seed = 12345;
+  same.shapes[sphere].vertices[0] = DVec3(1, 2, 3);
+  same.shapes[quad].radius = 9;
+  CHECK(scene_content_hash(same) == h);
+  CHECK(scene_content_hash(parse_scene(scene_to_json(d), "round trip")) == h);
 }
 
 TEST_CASE("scale-out: merging refuses overlapping sample ranges of one seed and other scenes, and marks several seeds") {

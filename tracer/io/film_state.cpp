@@ -85,10 +85,29 @@ uint64_t film_state_checksum(std::string_view body) {
 }
 
 uint64_t scene_content_hash(const SceneDesc& scene) {
-  SceneDesc unseeded = scene;  // the seed is kept apart: renders with other seeds may still be merged
-  unseeded.render.seed = 0;
-  const std::string json = scene_to_json(unseeded);
-  return fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
+  // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
+  // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
+  // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}};
+  head.render.seed = 0;
+  const std::string json = scene_to_json(head);
+  uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
+  std::string record;
+  for (const ShapeDesc& shape : scene.shapes) {
+    record.clear();
+    put_le_u32(record, static_cast<uint32_t>(shape.type));
+    put_le_u32(record, static_cast<uint32_t>(shape.material));
+    // The fields the shape's type uses, as the writer does (parse_scene(scene_to_json(s)) keeps the hash).
+    if (shape.type == ShapeType::Sphere) {
+      for (int a = 0; a < 3; ++a) put_f64(record, shape.center[a]);
+      put_f64(record, shape.radius);
+    } else {
+      for (int k = 0; k < (shape.type == ShapeType::Quad ? 4 : 3); ++k)
+        for (int a = 0; a < 3; ++a) put_f64(record, shape.vertices[k][a]);
+    }
+    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+  }
+  return h;
 }
 
 FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name) {

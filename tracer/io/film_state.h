@@ -1,7 +1,7 @@
 // A film's complete accumulation state on disk (`render --save-state`, `--resume`, `pathtracer merge`): per
 // pixel the sample count, the next sample index and the exact double running sums of Film (mean and second
 // moment, and the feature and half buffers when kept), with what it was rendered from, so that a resumed render
-// is bit-identical to an uninterrupted one. docs/scale-out.md documents the format (version 1):
+// is bit-identical to an uninterrupted one. docs/scale-out.md documents the format (version 2):
 //
 //   "PTSTATE\0"  u32 version  u32 header_bytes  header  arrays  u64 checksum
 //
@@ -23,7 +23,8 @@ struct FilmStateError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-inline constexpr uint32_t kFilmStateVersion = 1;
+// Version 2: the scene hash reads shapes by their bits (version 1 hashed their JSON).
+inline constexpr uint32_t kFilmStateVersion = 2;
 
 // What a state was rendered from, besides the film itself.
 struct FilmStateInfo {
@@ -37,9 +38,10 @@ struct FilmStateInfo {
   std::string scene_name;      // for messages
 };
 
-// FNV-1a 64 of the scene as scene_to_json writes it with the seed set to 0 (geometry, materials, camera, film
-// size, environment and the render settings that change samples: estimator, sampler, bounces, Russian
-// roulette); the seed is compared on its own. An environment map enters by its file name, not its pixels.
+// FNV-1a 64 of the scene without its shapes as scene_to_json writes it with the seed set to 0 (materials,
+// camera, film size, environment and the render settings that change samples: estimator, sampler, bounces,
+// Russian roulette), continued over each shape's binary record (docs/scale-out.md); the seed is compared on its
+// own. An environment map enters by its file name, not its pixels.
 uint64_t scene_content_hash(const SceneDesc& scene);
 FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name);
 
