@@ -22,6 +22,7 @@
 #include "denoise/denoiser.h"
 #include "render/progressive.h"
 #include "render/film.h"
+#include "io/film_state.h"
 #include "io/image_io.h"
 #include "io/safe_file.h"
 #include "render/metrics.h"
@@ -83,12 +84,6 @@ struct Series {
   double msamples_per_s = 0, mrays_per_s = 0;
 };
 
-uint64_t fnv1a(const std::string& s) {
-  uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ULL;
-  return h;
-}
-
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 Image film_image(const Film& f) { return Image{f.width(), f.height(), f.mean_image()}; }
@@ -105,10 +100,12 @@ Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions&
   desc.render.estimator = Estimator::Mis;
   desc.render.seed = 0x5eed;
   const long long spp = o.quick ? 1024 : o.reference_spp;
+  // The key: the scene's content hash (io/film_state.h; the seed is fixed above), then the sample count.
   char key[32];
-  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(fnv1a(scene_to_json(desc) + std::to_string(spp))));
+  std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(scene_content_hash(desc)));
   const fs::path path = fs::path(o.cache_dir) / (name + "-" + std::to_string(desc.width) + "x" +
-                                                 std::to_string(desc.height) + "-" + key + ".pfm");
+                                                 std::to_string(desc.height) + "-" + key + "-" +
+                                                 std::to_string(spp) + "spp.pfm");
   label = "mis " + std::to_string(spp) + " spp, cached as " + path.filename().string();
   if (fs::exists(path)) return read_pfm(path.string());
   std::fprintf(stderr, "rendering the reference of %s (%lld spp, cached as %s)...\n", name.c_str(), spp, path.c_str());
