@@ -1,9 +1,11 @@
 #include "viewer/view_command.h"
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 
 #include "cli/option_checks.h"
 #include "cli/scene_arg.h"
+#include "viewer/viewer_script.h"
 #include "viewer/viewer_window.h"
 
 namespace pt {
@@ -49,6 +51,9 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
                 "Every S seconds make an edit (orbit the camera / change the first material's albedo) to time "
                 "edit-to-image latency")
       ->check(finite_in(0, 1e6));
+  v->add_option("--script", o.script,
+                "Timed actions, one per line: SECONDS ACTION [ARGS] (orbit DX DY, emission MATERIAL STRENGTH, "
+                "quit); docs/viewer.md");
   v->add_option("--max-fps", o.max_fps, "UI frame cap when the display does not sync; 0 = none")
       ->check(finite_in(0, 1e4))
       ->capture_default_str();
@@ -67,6 +72,15 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
 int run_view(const ViewOptions& o) {
   const std::optional<SceneDesc> desc = load_scene_arg(o.scene);
   if (!desc) return 2;
+  std::vector<ScriptAction> script;
+  if (!o.script.empty()) {
+    try {
+      script = read_viewer_script(o.script);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: --script: %s\n", e.what());
+      return 2;
+    }
+  }
   SessionSettings settings;
   settings.threads = o.threads;
   settings.preview_divisor = o.preview_divisor;
@@ -74,7 +88,7 @@ int run_view(const ViewOptions& o) {
   if (o.spp) settings.stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) settings.stop.seconds = *o.time_seconds;
   if (o.target_relmse) settings.stop.relmse = *o.target_relmse;
-  return run_viewer_window(o, *desc, settings);
+  return run_viewer_window(o, *desc, settings, std::move(script));
 }
 
 }  // namespace pt

@@ -27,6 +27,7 @@ struct ViewOptions {
   std::string screenshot;   // write the window's last frame here (PNG)
   bool stats = false;       // print frame-time and edit-latency figures at exit
   double bench_edits = 0.0; // every this many seconds, make an edit (camera nudge / albedo change) to time it
+  std::string script;       // timed actions (viewer_script.h), read before the window opens
   double max_fps = 120.0;   // UI frame cap when the display does not sync (0: none)
   bool hide_ui = false;
   bool continuous = false;  // redraw every frame even when nothing changed (measuring; as during a drag)

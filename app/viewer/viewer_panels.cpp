@@ -13,6 +13,7 @@
 
 #include "scene/scene_json.h"
 #include "core/thread_pool.h"
+#include "viewer/relmse_axis.h"
 #include "viewer/viewer_model.h"
 
 namespace pt {
@@ -185,25 +186,23 @@ void relmse_plot(const std::vector<RelMsePoint>& h) {
     dl->AddText(ImVec2(p0.x + 6, p0.y + 6), ImGui::GetColorU32(ImGuiCol_TextDisabled), text);
     return;
   }
-  double lo = std::log10(h.front().relmse), hi = lo;
-  for (const RelMsePoint& q : h) {
-    const double l = std::log10(q.relmse);
-    lo = std::min(lo, l);
-    hi = std::max(hi, l);
-  }
-  lo = std::floor(lo);
-  hi = std::max(std::ceil(hi), lo + 1.0);
+  const RelMseAxis axis = relmse_axis(h);
   const double t_max = std::max(h.back().seconds, 1e-9);
   auto map = [&](const RelMsePoint& q) {
-    return ImVec2(p0.x + static_cast<float>(q.seconds / t_max) * size.x,
-                  p1.y - static_cast<float>((std::log10(q.relmse) - lo) / (hi - lo)) * size.y);
+    return ImVec2(p0.x + static_cast<float>(std::clamp(q.seconds / t_max, 0.0, 1.0)) * size.x,
+                  p1.y - static_cast<float>(axis.fraction(q.relmse)) * size.y);
   };
   const ImU32 grid = ImGui::GetColorU32(ImGuiCol_Border), text = ImGui::GetColorU32(ImGuiCol_TextDisabled);
-  for (double d = lo; d <= hi; d += 1.0) {
-    const float y = p1.y - static_cast<float>((d - lo) / (hi - lo)) * size.y;
+  if (!axis.any_positive) {  // nothing to put on a log scale: say why instead
+    dl->AddText(ImVec2(p0.x + 6, p0.y + 6), text,
+                axis.any_zero ? "relMSE 0: the image is black (exact)" : "relMSE: no estimate yet");
+    return;
+  }
+  for (int d = axis.lo; d <= axis.hi; ++d) {
+    const float y = p1.y - static_cast<float>(axis.fraction(std::pow(10.0, d))) * size.y;
     dl->AddLine(ImVec2(p0.x, y), ImVec2(p1.x, y), grid);
     char label[16];
-    std::snprintf(label, sizeof label, "1e%d", static_cast<int>(d));
+    std::snprintf(label, sizeof label, "1e%d", d);
     dl->AddText(ImVec2(p0.x + 3, std::min(y, p1.y - ImGui::GetTextLineHeight())), text, label);
   }
   ImVec2 prev = map(h.front());

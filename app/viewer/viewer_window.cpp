@@ -122,7 +122,8 @@ struct FrameTimes {
 
 // Ctrl-C / SIGTERM: save the image so far (as the S key does), then close the window normally, so --stats still
 // prints and the session stops cleanly. A second signal exits at once (InterruptScope).
-int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const InterruptScope& interrupts) {
+int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const InterruptScope& interrupts,
+             ViewerScript script) {
   GlPresenter presenter;  // throws GlError
   ImGuiIO& io = ImGui::GetIO();
   DisplayFrame front;
@@ -165,6 +166,10 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     seen_events = events;
     if (o.bench_edits > 0.0 && ms_between(t0, start) * 1e-3 >= o.bench_edits * (bench_index + 1))
       scripted_edit(model, bench_index++, static_cast<float>(image_height));
+    script.run_due(ms_between(t0, start) * 1e-3, [&](const ScriptAction& a) {
+      if (const std::string err = apply_script_action(model, a); !err.empty())
+        std::fprintf(stderr, "warning: --script line %d (%s): %s\n", a.line, enum_name(a.verb), err.c_str());
+    });
 
     const Clock::time_point upload_start = Clock::now();
     const bool new_image = model.session().take_frame(front);  // never waits for a pass
@@ -292,7 +297,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
 
 }  // namespace
 
-int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const SessionSettings& settings) {
+int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const SessionSettings& settings,
+                      std::vector<ScriptAction> script) {
   glfwSetErrorCallback(on_glfw_error);
   const InterruptScope interrupts;
   if (!glfwInit()) {
@@ -379,7 +385,7 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
       model.recent = &recent;
       if (std::filesystem::is_regular_file(o.scene)) recent.add(o.scene);
       model.ui_visible = !o.hide_ui;
-      rc = run_loop(window, model, o, interrupts);
+      rc = run_loop(window, model, o, interrupts, ViewerScript(std::move(script)));
     } catch (const GlError& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
       rc = 2;

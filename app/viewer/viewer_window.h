@@ -4,10 +4,13 @@
 #pragma once
 #include "render/render_session.h"
 #include "viewer/view_command.h"
+#include "viewer/viewer_script.h"
 
 namespace pt {
 
-// Opens the window, builds the ViewerModel for `scene`, runs until closed (or --frames). Exit status as run_view.
-int run_viewer_window(const ViewOptions& options, const SceneDesc& scene, const SessionSettings& settings);
+// Opens the window, builds the ViewerModel for `scene`, runs until closed (or --frames), applying the script's
+// actions when they fall due. Exit status as run_view.
+int run_viewer_window(const ViewOptions& options, const SceneDesc& scene, const SessionSettings& settings,
+                      std::vector<ScriptAction> script = {});
 
 }  // namespace pt

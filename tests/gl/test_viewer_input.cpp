@@ -530,3 +530,27 @@ TEST_CASE("viewer: a saved scene joins the recent files, and a new session saves
   CHECK(std::string(ui.state.save_scene_path) == (dir / "work" / "shadertoy.json").string());
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("viewer input: with the light switched off live, the panels draw the black film's relMSE history in a "
+          "bounded frame") {
+  // Before, the relMSE plot's axis loop never ended on a history of zeros: this frame never returned.
+  SessionSettings settings = few_samples();
+  settings.stop.spp = 0;
+  settings.stop.seconds = 1.0;  // many passes: a plot needs two points from kRelMseStopMinSpp on
+  ViewerModel model(small("cornell"), "cornell", settings);
+  Ui ui(model);
+  REQUIRE(model.set_emission(material_index(model, "light"), Rgb(1.f), 0.f));
+  REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  std::vector<RelMsePoint> history;
+  model.session().copy_history(history);
+  std::erase_if(history, [](const RelMsePoint& q) { return q.spp < kRelMseStopMinSpp; });
+  REQUIRE(history.size() >= 2);
+  CHECK(history.back().relmse == 0.0);
+  CHECK(model.session().stats().estimated_relmse == 0.0);
+  for (int i = 0; i < 3; ++i) ui.frame();
+  const ImDrawData* dd = ImGui::GetDrawData();
+  REQUIRE(dd != nullptr);
+  MESSAGE("panel frame over a black film: " << dd->TotalVtxCount << " vertices");
+  CHECK(dd->TotalVtxCount < 200000);
+  CHECK(model.window_title(model.session().stats()).find("relMSE 0.0e+00") != std::string::npos);
+}

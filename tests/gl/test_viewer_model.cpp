@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <thread>
 
 #include "io/image_io.h"
@@ -13,7 +14,9 @@
 #include "scene/scene.h"
 #include "../frame_helpers.h"
 #include "scene/scene_json.h"
+#include "viewer/relmse_axis.h"
 #include "viewer/viewer_model.h"
+#include "viewer/viewer_script.h"
 
 using namespace pt;
 using pt::test::block_mean;
@@ -338,4 +341,80 @@ TEST_CASE("viewer: pick finds the material under an image point, double-click's 
   REQUIRE(centre);
   CHECK(centre->material == red);
   CHECK(glm::length(centre->point - left->point) < 1.0);
+}
+
+TEST_CASE("viewer: the relMSE plot's axis is finite and bounded for every history a film can give") {
+  // Before, the axis loop ran from floor(log10(0)) = -inf: a black film froze the window.
+  auto axis = [](std::initializer_list<double> values) {
+    std::vector<RelMsePoint> h;
+    double t = 0.0;
+    for (double v : values) h.push_back({t += 1.0, v, 16});
+    return relmse_axis(h);
+  };
+  auto bounded = [](const RelMseAxis& a) {
+    return a.hi > a.lo && a.hi - a.lo <= RelMseAxis::kMaxDecades && a.lo >= RelMseAxis::kLowest &&
+           a.hi <= RelMseAxis::kHighest;
+  };
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  const RelMseAxis black = axis({0.0, 0.0, 0.0});
+  CHECK(bounded(black));
+  CHECK_FALSE(black.any_positive);
+  CHECK(black.any_zero);
+  for (const RelMseAxis& a : {axis({}), axis({inf, nan}), axis({0.0, 1e-300}), axis({4.9e-324}), axis({1e300, 1e-3}),
+                              axis({1e-3, 0.0, inf, 2e-4}), axis({1e-3})})
+    CHECK(bounded(a));
+  // An ordinary history: the decades just around it, each value placed by its logarithm.
+  const RelMseAxis a = axis({0.04, 0.011, 0.0023});
+  CHECK(a.lo == -3);
+  CHECK(a.hi == -1);
+  CHECK(a.fraction(1e-2) == doctest::Approx(0.5));
+  CHECK(a.fraction(0.0) == 0.0);
+  CHECK(a.fraction(inf) == 1.0);
+  CHECK(a.fraction(nan) == 1.0);
+  CHECK(a.fraction(1e9) == 1.0);
+  // A span wider than the axis allows keeps its low end (where the newest estimates are).
+  const RelMseAxis wide = axis({1e8, 1e-30});
+  CHECK(wide.lo == -30);
+  CHECK(wide.hi == -30 + RelMseAxis::kMaxDecades);
+}
+
+TEST_CASE("viewer: --script lines parse into timed actions, a bad line is refused with its file and line") {
+  const std::vector<ScriptAction> a =
+      parse_viewer_script("# a demo\n0.5 orbit 0.25 -0.1\n\n2 emission light 0  # lights out\n2 quit\n", "demo.txt");
+  REQUIRE(a.size() == 3);
+  CHECK(a[0].verb == ScriptVerb::Orbit);
+  CHECK(a[0].at_seconds == 0.5);
+  CHECK(a[0].x == 0.25);
+  CHECK(a[0].y == -0.1);
+  CHECK(a[1].verb == ScriptVerb::Emission);
+  CHECK(a[1].name == "light");
+  CHECK(a[1].line == 4);
+  CHECK(a[2].verb == ScriptVerb::Quit);
+  auto error = [](const std::string& text) {
+    try {
+      parse_viewer_script(text, "s.txt");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  CHECK(error("1 orbit 1\n") == "s.txt:1: missing DY");
+  CHECK(error("1 orbit 1 2\n0.5 quit\n").rfind("s.txt:2: the time goes back", 0) == 0);
+  CHECK(error("x quit\n") == "s.txt:1: the time in seconds: 'x' is not a finite number");
+  CHECK(error("1 dance\n").rfind("s.txt:1: unknown action 'dance' (orbit, emission, quit)", 0) == 0);
+  CHECK(error("1 quit now\n") == "s.txt:1: unexpected 'now' after the action");
+  CHECK(error("1 emission light nan\n") == "s.txt:1: STRENGTH: 'nan' is not a finite number");
+  CHECK(error("-1 quit\n") == "s.txt:1: the time must be >= 0");
+
+  // Applied through the model's own actions: the light goes out, an unknown material is reported.
+  ViewerModel model(small_cornell(), "cornell", stop_at(1));
+  const size_t light = material_index(model, "light");
+  CHECK(apply_script_action(model, a[1]) == "");
+  CHECK(model.scene().materials[light].emission == Rgb(0.f));
+  ScriptAction missing = a[1];
+  missing.name = "lamp";
+  CHECK(apply_script_action(model, missing) == "no material named 'lamp'");
+  const DVec3 before = model.camera().camera().position;
+  CHECK(apply_script_action(model, a[0]) == "");
+  CHECK(glm::length(model.camera().camera().position - before) > 1.0);
 }
