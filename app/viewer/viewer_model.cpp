@@ -432,6 +432,15 @@ bool ViewerModel::open_file(const std::string& path) {
   return false;
 }
 
+std::string ViewerModel::suggested_save_path() const {
+  namespace fs = std::filesystem;
+  if (!scene_file_.empty()) return scene_file_;
+  const fs::path plain = fs::path(output_dir) / (scene_name_ + ".json");
+  std::error_code ec;
+  if (!fs::exists(plain, ec) && !ec) return plain.string();
+  return unique_output_stem(output_dir, scene_name_, {".json"}) + ".json";
+}
+
 bool ViewerModel::save_scene(const std::string& path, bool replace) {
   namespace fs = std::filesystem;
   if (path.empty()) {

@@ -132,6 +132,10 @@ class ViewerModel {
   RecentFiles* recent = nullptr;  // scene files loaded successfully are added here (the window owns it)
   // The file the scene was loaded from ("" for a built-in scene), or last saved to: Save offers it again.
   const std::string& scene_file() const { return scene_file_; }
+  // What Save offers: the file the user opened or saved to (replacing it asks first); a built-in scene has no
+  // file, so it gets a name that does not exist yet in output_dir (NAME.json, else NAME-0001.json, ...). Never
+  // another existing file: only one the user chose may be offered for replacement.
+  std::string suggested_save_path() const;
   // Never replaces an existing file unless `replace` (the panels ask the user first); creates missing folders.
   bool save_scene(const std::string& path, bool replace = false);
   // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and

@@ -573,6 +573,25 @@ void edit_row(ViewerModel& model) {
   if (ImGui::Button("Revert to file")) model.revert();
 }
 
+// Save offers model.suggested_save_path() until the user types another path: after each load (a new scene or
+// file), and again whenever a suggested file has appeared meanwhile, so a file the user never chose is never
+// offered for replacement.
+void refresh_save_path(const ViewerModel& model, PanelState& state) {
+  const std::string key = model.scene_name() + "\n" + model.scene_file() + "\n" + model.output_dir;
+  std::error_code ec;
+  const bool stale = state.save_path_suggested && model.scene_file() != state.save_scene_path &&
+                     std::filesystem::exists(state.save_scene_path, ec);
+  if (key == state.known_scene && !stale) return;
+  if (!state.save_path_suggested && model.scene_name() + "\n" + model.scene_file() ==
+                                        state.known_scene.substr(0, state.known_scene.rfind('\n'))) {
+    state.known_scene = key;  // only the output folder changed: a path the user typed stays
+    return;
+  }
+  state.known_scene = key;
+  state.save_path_suggested = true;
+  copy_string(state.save_scene_path, sizeof state.save_scene_path, model.suggested_save_path());
+}
+
 // The film size, independent of the window: presets and typed values.
 void resolution_field(ViewerModel& model, PanelState& state) {
   static const int kPresets[][2] = {{256, 256}, {512, 512}, {1024, 1024}, {640, 360}, {1280, 720}, {1920, 1080}};
@@ -620,7 +639,7 @@ void scene_section(ViewerModel& model, PanelState& state) {
     ImGui::EndCombo();
   }
   ImGui::TextDisabled("or drop a .json scene or an .exr/.hdr/.pfm map on the window");
-  ImGui::InputText("save as", state.save_scene_path, sizeof state.save_scene_path);
+  if (ImGui::InputText("save as", state.save_scene_path, sizeof state.save_scene_path)) state.save_path_suggested = false;
   note_item(state, "save as");
   ImGui::SameLine();
   // An existing file is replaced only when the user says so.
@@ -676,7 +695,7 @@ void discard_question(ViewerModel& model, PanelState& state) {
   };
   if (quitting) ImGui::TextUnformatted("The scene has edits that are not saved. Quit anyway?");
   else ImGui::Text("The scene has edits that are not saved. Open %s anyway?", next.c_str());
-  ImGui::InputText("scene file", state.save_scene_path, sizeof state.save_scene_path);
+  if (ImGui::InputText("scene file", state.save_scene_path, sizeof state.save_scene_path)) state.save_path_suggested = false;
   std::error_code ec;
   const bool exists = std::filesystem::exists(state.save_scene_path, ec);
   if (exists) ImGui::TextColored(ImVec4(1.f, 0.8f, 0.3f, 1.f), "exists: saving replaces it");
@@ -685,6 +704,7 @@ void discard_question(ViewerModel& model, PanelState& state) {
     if (model.save_scene(state.save_scene_path, exists)) proceed();
     close();
   }
+  note_item(state, "Save first");
   ImGui::SameLine();
   if (ImGui::Button(quitting ? "Quit without saving" : "Open without saving")) {
     proceed();
@@ -760,22 +780,12 @@ void setup_viewer_style(float content_scale) {
 float panel_width() { return kPanelWidth * g_ui_scale; }
 
 float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown) {
+  refresh_save_path(model, state);
   if (!model.ui_visible) {
     discard_question(model, state);  // also with the panels hidden
     return 0.f;
   }
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
-  // Save offers the file the scene came from (asking before replacing it); a built-in scene is saved as
-  // NAME.json in the folder last used.
-  if (const std::string key = model.scene_name() + "\n" + model.scene_file(); key != state.known_scene) {
-    state.known_scene = key;
-    std::filesystem::path folder = std::filesystem::path(state.save_scene_path).parent_path();
-    // Across sessions: the folder of the scene file used last (the recent list keeps saves too).
-    if (folder.empty() && model.recent && !model.recent->paths().empty())
-      folder = std::filesystem::path(model.recent->paths().front()).parent_path();
-    copy_string(state.save_scene_path, sizeof state.save_scene_path,
-                !model.scene_file().empty() ? model.scene_file() : (folder / (model.scene_name() + ".json")).string());
-  }
   const ImGuiIO& io = ImGui::GetIO();
   const float width = std::min(panel_width(), io.DisplaySize.x);
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - width, 0.f));

@@ -39,7 +39,8 @@ struct PanelState {
   bool expand_all = false;  // open every section and material (tests render all of the UI this way)
   bool confirm_replace = false;
   uint64_t shown_selection = 0;
-  std::string known_scene;  // scene name + file the save path was last chosen for  // the last image click the panels have opened and scrolled to  // "scene file exists: replace?" is open
+  std::string known_scene;  // scene name + file the save path was last chosen for
+  bool save_path_suggested = true;  // save_scene_path is the model's suggestion, not typed by the user
   FieldMemory typing;               // the field being typed into
   std::vector<FieldMemory> refused;  // fields whose value the model refused
   // Tests: with record_items, the screen rectangle (min x, min y, max x, max y) of each named widget, by

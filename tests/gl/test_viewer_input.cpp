@@ -232,6 +232,7 @@ TEST_CASE("viewer input: Save never replaces an existing scene file without aski
 
   Ui ui(model);
   std::snprintf(ui.state.save_scene_path, sizeof ui.state.save_scene_path, "%s", path.c_str());
+  ui.state.save_path_suggested = false;  // as typed into the field: the user chose this existing file
   ui.click("Save");
   CHECK(read_text(path) == "precious");  // before: replaced silently
   CHECK(ui.any_popup_open());
@@ -512,7 +513,7 @@ TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dr
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("viewer: a saved scene joins the recent files, and a new session saves a built-in scene into its folder") {
+TEST_CASE("viewer: a saved scene joins the recent files; a built-in scene's save goes into the output folder") {
   const std::filesystem::path dir = std::filesystem::absolute("viewer_folder_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   const std::string store = (dir / "recent.txt").string();
@@ -526,8 +527,59 @@ TEST_CASE("viewer: a saved scene joins the recent files, and a new session saves
   ViewerModel next(small("shadertoy"), "shadertoy", few_samples());  // a later session, a built-in scene
   RecentFiles recent(store);
   next.recent = &recent;
-  Ui ui(next);  // the constructor draws a first frame (with "scene.json", no folder, as the default path)
-  CHECK(std::string(ui.state.save_scene_path) == (dir / "work" / "shadertoy.json").string());
+  next.output_dir = (dir / "out").string();
+  Ui ui(next);
+  CHECK(std::string(ui.state.save_scene_path) == (dir / "out" / "shadertoy.json").string());
+  // A suggested name that appears meanwhile (another program, another viewer) is never offered for replacement.
+  std::filesystem::create_directories(dir / "out");
+  { std::ofstream(dir / "out" / "shadertoy.json") << "written by someone else"; }
+  ui.frame();
+  CHECK(std::string(ui.state.save_scene_path) == (dir / "out" / "shadertoy-0001.json").string());
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("viewer input: after a scene file, a built-in scene's save-as and quit question offer a new file in the "
+          "output folder, never a file the user did not open") {
+  // Before: with scenes/cornell-bunny.json opened and then the built-in `materials` loaded, the save-as field
+  // and the quit question named scenes/materials.json, and "Replace and quit" replaced it.
+  const std::filesystem::path dir = std::filesystem::absolute("viewer_saveas_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "scenes");
+  std::filesystem::create_directories(dir / "out");
+  const std::string opened = (dir / "scenes" / "mine.json").string();
+  const std::string bystander = (dir / "scenes" / "materials.json").string();
+  { std::ofstream(opened) << scene_to_json(small("cornell")); }
+  { std::ofstream(bystander) << "the repository's materials scene"; }
+  { std::ofstream(dir / "out" / "materials.json") << "an earlier save"; }
+
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  RecentFiles recent((dir / "recent.txt").string());
+  model.recent = &recent;
+  model.output_dir = (dir / "out").string();
+  Ui ui(model);
+  REQUIRE(model.load(opened));
+  ui.frame();
+  CHECK(std::string(ui.state.save_scene_path) == opened);  // the file the user opened is offered (it asks first)
+
+  REQUIRE(model.load("materials"));  // a built-in scene: it has no file
+  ui.frame();
+  const std::filesystem::path offered = ui.state.save_scene_path;
+  CHECK(offered.parent_path() == dir / "out");
+  CHECK_FALSE(std::filesystem::exists(offered));  // never an existing file: not out/materials.json either
+  CHECK(offered.filename().string().rfind("materials", 0) == 0);
+
+  // Quitting over an edit asks; its save button writes the new file and nothing else.
+  MaterialDesc m = model.scene().materials[0];
+  m.albedo = m.albedo * 0.5f;
+  REQUIRE(model.set_material(0, m));
+  ui.press(GLFW_KEY_ESCAPE);
+  REQUIRE(model.confirm_quit);
+  ui.frame();
+  ui.click("Save first");
+  CHECK(model.quit_requested);
+  CHECK(read_text(bystander) == "the repository's materials scene");
+  CHECK(read_text((dir / "out" / "materials.json").string()) == "an earlier save");
+  CHECK(read_text(offered.string()).find("\"materials\"") != std::string::npos);
   std::filesystem::remove_all(dir);
 }
 
