@@ -20,7 +20,7 @@ constexpr double kHalfTurn = glm::pi<double>();  // radians
 }  // namespace
 
 ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, const SessionSettings& settings)
-    : settings_(settings) {
+    : settings_(settings), launch_settings_(settings) {
   adopt(scene, scene_name);
   session_ = std::make_unique<RenderSession>(scene_, settings_);
   last_edit_generation_ = session_->stats().generation;
@@ -31,7 +31,7 @@ ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, 
 void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   scene_ = loaded_ = scene;
   scene_name_ = name;
-  unsaved_edits_ = false;
+  state_id_ = saved_state_id_ = 0;
   pick_scene_.reset();
   selection_.reset();
   undo_.clear();
@@ -84,7 +84,6 @@ bool ViewerModel::commit(const SceneEdit& edit) {
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) remember("material " + std::to_string(m->index), false);
   else if (std::holds_alternative<EnvironmentDesc>(edit)) remember("environment", false);
   apply_edit(scene_, edit);
-  if (!std::holds_alternative<CameraDesc>(edit)) unsaved_edits_ = true;
   note_edit(session_->edit(edit));
   return true;
 }
@@ -121,7 +120,6 @@ bool ViewerModel::set_render(const RenderSettings& render) {
   }
   remember("render", false);
   scene_.render = render;
-  unsaved_edits_ = true;
   note_edit(session_->set_render(render));
   return true;
 }
@@ -253,7 +251,6 @@ bool ViewerModel::set_geometry(SceneDesc edited, const std::string& what) {
   remember(what, true);
   scene_ = std::move(edited);
   pick_scene_.reset();
-  unsaved_edits_ = true;
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
   note_edit(session_->set_scene(scene_));
   return true;
@@ -312,7 +309,11 @@ ViewerModel::UndoStep ViewerModel::step_of(const SceneDesc& d, std::vector<Emiss
   return s;
 }
 
-ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const { return step_of(scene_, emission_, geometry); }
+ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const {
+  UndoStep s = step_of(scene_, emission_, geometry);
+  s.state_id = state_id_;
+  return s;
+}
 
 void ViewerModel::remember(const std::string& what, bool geometry) {
   if (restoring_) return;
@@ -321,11 +322,13 @@ void ViewerModel::remember(const std::string& what, bool geometry) {
                          (!geometry || undo_.back().shapes);
   last_undo_time_ = now;
   redo_.clear();
-  if (same_drag) return;
-  last_undo_what_ = what;
-  undo_.push_back(undo_step(geometry));
-  constexpr size_t kMaxUndo = 256;
-  if (undo_.size() > kMaxUndo) undo_.erase(undo_.begin());
+  if (!same_drag) {  // a drag is one step (save_scene ends it)
+    last_undo_what_ = what;
+    undo_.push_back(undo_step(geometry));
+    constexpr size_t kMaxUndo = 256;
+    if (undo_.size() > kMaxUndo) undo_.erase(undo_.begin());
+  }
+  state_id_ = next_state_id_++;  // the edit about to be applied makes a new state
 }
 
 void ViewerModel::restore(const UndoStep& s) {
@@ -341,7 +344,7 @@ void ViewerModel::restore(const UndoStep& s) {
     pick_scene_.reset();
   }
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
-  unsaved_edits_ = true;
+  state_id_ = s.state_id;
   last_undo_what_.clear();
   note_edit(session_->set_scene(scene_));
   restoring_ = false;
@@ -364,8 +367,7 @@ bool ViewerModel::redo() { return step(redo_, undo_, "redone"); }
 void ViewerModel::revert() {
   redo_.clear();
   undo_.push_back(undo_step(true));
-  restore(step_of(loaded_, emission_of(loaded_.materials), true));
-  unsaved_edits_ = false;
+  restore(step_of(loaded_, emission_of(loaded_.materials), true));  // the loaded state: id 0
   reset_camera();
   set_status("reverted to the scene as loaded", false);
 }
@@ -388,13 +390,25 @@ void ViewerModel::set_paused(bool paused) {
 
 bool ViewerModel::load(const std::string& spec) {
   SceneDesc loaded;
-  try {
-    loaded = load_scene(spec);
-  } catch (const std::exception& e) {  // SceneError, and anything else a broken file might raise
-    set_status(e.what(), true);
-    return false;
+  if (read_ahead_ && read_ahead_->first == spec) {
+    loaded = std::move(read_ahead_->second);
+  } else {
+    try {
+      loaded = load_scene(spec);
+    } catch (const std::exception& e) {  // SceneError, and anything else a broken file might raise
+      set_status(e.what(), true);
+      return false;
+    }
   }
+  read_ahead_.reset();
   adopt(loaded, scene_short_name(spec));  // load_scene validated it
+  // Stop conditions and the A/B snapshot belong to a scene: a new one starts from the command line's conditions
+  // (threads and the preview stay the user's).
+  settings_.stop = launch_settings_.stop;
+  session_->set_settings(settings_);
+  snapshot.reset();
+  snapshot_requested = false;
+  present.snapshot_view = SnapshotView::Off;
   note_edit(session_->set_scene(scene_));
   set_status("loaded " + spec, false);
   scene_file_ = std::filesystem::is_regular_file(spec) ? spec : "";
@@ -404,7 +418,16 @@ bool ViewerModel::load(const std::string& spec) {
 }
 
 void ViewerModel::request_load(const std::string& spec) {
-  if (unsaved_edits_) confirm_load = spec;
+  // Read first: a missing or broken file is reported at once, without asking about the edits it would replace.
+  SceneDesc read;
+  try {
+    read = load_scene(spec);
+  } catch (const std::exception& e) {
+    set_status(e.what(), true);
+    return;
+  }
+  read_ahead_.emplace(spec, std::move(read));
+  if (has_unsaved_edits()) confirm_load = spec;
   else load(spec);
 }
 
@@ -461,7 +484,8 @@ bool ViewerModel::save_scene(const std::string& path, bool replace) {
     set_status(std::string("scene not saved: ") + e.what(), true);
     return false;
   }
-  unsaved_edits_ = false;
+  saved_state_id_ = state_id_;
+  last_undo_what_.clear();  // the next edit is a step of its own, even within a drag's second
   scene_file_ = path;
   set_status("saved scene " + path, false);
   if (recent)  // a saved scene is one to open again, and its folder the next save's default
@@ -514,7 +538,7 @@ void ViewerModel::shortcut(Shortcut s) {
 
 std::string ViewerModel::window_title(const SessionStats& st) const {
   char buf[160];
-  int n = std::snprintf(buf, sizeof buf, "%s%s - %llu spp, %.1f s", scene_name_.c_str(), unsaved_edits_ ? "*" : "",
+  int n = std::snprintf(buf, sizeof buf, "%s%s - %llu spp, %.1f s", scene_name_.c_str(), has_unsaved_edits() ? "*" : "",
                         static_cast<unsigned long long>(st.spp), st.seconds);
   if (st.spp >= kRelMseStopMinSpp && std::isfinite(st.estimated_relmse) && n > 0 && n < static_cast<int>(sizeof buf))
     n += std::snprintf(buf + n, sizeof buf - n, ", relMSE %.1e", st.estimated_relmse);
@@ -523,7 +547,7 @@ std::string ViewerModel::window_title(const SessionStats& st) const {
 }
 
 void ViewerModel::request_quit() {
-  if (unsaved_edits_) confirm_quit = true;
+  if (has_unsaved_edits()) confirm_quit = true;
   else quit_requested = true;
 }
 

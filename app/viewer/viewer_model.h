@@ -123,7 +123,8 @@ class ViewerModel {
 
   // --- Files. Errors land in status(), never in an exception.
   bool load(const std::string& spec);  // a built-in name or a .json path
-  // Load, unless the scene has unsaved edits: then ask first (confirm_load holds the spec while the panels ask).
+  // Reads the scene, then loads it, unless the scene has unsaved edits: then asks first (confirm_load holds the
+  // spec while the panels ask, and load() takes the scene already read). A file that cannot be read never asks.
   void request_load(const std::string& spec);
   std::optional<std::string> confirm_load;
   // A file dropped on the window (or opened by name): a scene (.json) loads (asking first as above); an
@@ -159,7 +160,8 @@ class ViewerModel {
   // were not saved. Camera moves are views, not edits: they never make the viewer ask.
   void request_quit();
   bool confirm_quit = false;  // the panels show "quit without saving?" while this is set
-  bool has_unsaved_edits() const { return unsaved_edits_; }
+  // The scene differs from the state last loaded or saved (undoing back to that state clears it).
+  bool has_unsaved_edits() const { return state_id_ != saved_state_id_; }
 
   // "NAME[*] - 128 spp, 12.3 s, relMSE 1.2e-03 - pathtracer" (* = unsaved edits; relMSE from
   // kRelMseStopMinSpp on): the window title, so the render's state shows in the task bar.
@@ -187,6 +189,7 @@ class ViewerModel {
     RenderSettings render;
     int width = 0, height = 0;
     std::shared_ptr<const std::vector<ShapeDesc>> shapes;  // null: the geometry was not changed by this step
+    uint64_t state_id = 0;  // which scene state this is (state_id_ below)
   };
   // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.
   void remember(const std::string& what, bool geometry);
@@ -210,8 +213,12 @@ class ViewerModel {
   CameraController camera_;
   SessionSettings settings_;
   bool paused_ = false;
-  bool unsaved_edits_ = false;
+  // Every scene state an edit makes gets a new id; undo and redo bring back a state's id with the state. The
+  // scene is saved when its id is the one last loaded or saved; the loaded state's id is 0 (revert returns there).
+  uint64_t state_id_ = 0, saved_state_id_ = 0, next_state_id_ = 1;
+  SessionSettings launch_settings_;  // the command line's: each scene loaded starts from its stop conditions
   std::string scene_file_;
+  std::optional<std::pair<std::string, SceneDesc>> read_ahead_;  // request_load's scene, while the panels ask
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
   std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
   std::optional<Selection> selection_;

@@ -606,3 +606,90 @@ TEST_CASE("viewer input: with the light switched off live, the panels draw the b
   CHECK(dd->TotalVtxCount < 200000);
   CHECK(model.window_title(model.session().stats()).find("relMSE 0.0e+00") != std::string::npos);
 }
+
+TEST_CASE("viewer: undoing back to the file's state (or the last save) clears the unsaved mark, redo sets it again") {
+  // Before, the `*` stayed after undoing every edit, and quitting asked about edits that were gone.
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  MaterialDesc m = model.scene().materials[0];
+  m.albedo = m.albedo * 0.5f;
+  REQUIRE(model.set_material(0, m));
+  CHECK(model.has_unsaved_edits());
+  CHECK(model.window_title(model.session().stats()).rfind("cornell*", 0) == 0);
+  REQUIRE(model.undo());
+  CHECK_FALSE(model.has_unsaved_edits());
+  CHECK(model.window_title(model.session().stats()).rfind("cornell -", 0) == 0);
+  model.request_quit();
+  CHECK(model.quit_requested);  // nothing to ask about
+  model.quit_requested = false;
+  REQUIRE(model.redo());
+  CHECK(model.has_unsaved_edits());
+
+  // After a save, the saved state is the clean one: undo past it is an edit again, redo back to it is not.
+  const std::filesystem::path dir = "viewer_clean_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  RenderSettings r = model.scene().render;
+  r.max_bounces = 7;
+  REQUIRE(model.set_render(r));
+  REQUIRE(model.save_scene((dir / "s.json").string()));
+  CHECK_FALSE(model.has_unsaved_edits());
+  r.max_bounces = 8;  // within a second of the last render edit, but after the save: its own step
+  REQUIRE(model.set_render(r));
+  CHECK(model.has_unsaved_edits());
+  REQUIRE(model.undo());
+  CHECK(model.scene().render.max_bounces == 7);
+  CHECK_FALSE(model.has_unsaved_edits());
+  REQUIRE(model.undo());
+  CHECK(model.has_unsaved_edits());
+  REQUIRE(model.redo());
+  CHECK_FALSE(model.has_unsaved_edits());
+  // Revert goes to the scene as loaded, which is not what was saved.
+  model.revert();
+  CHECK(model.has_unsaved_edits());
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("viewer: stop conditions and the A/B snapshot belong to a scene: loading another starts from the "
+          "command line's conditions and no snapshot") {
+  SessionSettings launch = few_samples();
+  launch.stop.spp = 0;
+  launch.stop.seconds = 30.0;  // as `view --time 30`
+  ViewerModel model(small("cornell"), "cornell", launch);
+  SessionSettings edited = model.session_settings();
+  edited.stop.relmse = 5e-3;
+  edited.stop.seconds = 0.0;
+  model.set_session_settings(edited);
+  model.snapshot = SnapshotInfo{24, 24, 16};
+  model.present.snapshot_view = SnapshotView::Snapshot;
+  REQUIRE(model.snapshot_usable());
+  REQUIRE(model.load("cornell-spheres"));
+  CHECK(model.session_settings().stop.relmse == 0.0);  // before: 5e-3 carried over
+  CHECK(model.session_settings().stop.seconds == 30.0);
+  CHECK(model.session().settings().stop.relmse == 0.0);
+  CHECK_FALSE(model.snapshot.has_value());  // before: the Cornell box's snapshot stayed, B flipped to it
+  CHECK(model.present.snapshot_view == SnapshotView::Off);
+  // The threads are the user's, not the scene's: they stay.
+  CHECK(model.session_settings().threads == launch.threads);
+}
+
+TEST_CASE("viewer: loading a missing or broken file over unsaved edits reports the error without asking first") {
+  const std::filesystem::path dir = "viewer_badload_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  { std::ofstream(dir / "broken.json") << "{\"shapes\": ["; }
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  MaterialDesc m = model.scene().materials[0];
+  m.albedo = m.albedo * 0.5f;
+  REQUIRE(model.set_material(0, m));
+  for (const std::string& bad : {(dir / "missing.json").string(), (dir / "broken.json").string()}) {
+    CAPTURE(bad);
+    model.request_load(bad);
+    CHECK_FALSE(model.confirm_load.has_value());  // before: "Open anyway?" first, then the error
+    CHECK(model.status_is_error());
+    CHECK(model.status().find(bad) != std::string::npos);
+    CHECK(model.scene_name() == "cornell");
+    CHECK(model.has_unsaved_edits());
+  }
+  model.request_load("cornell-spheres");  // a good one still asks
+  CHECK(model.confirm_load.has_value());
+  std::filesystem::remove_all(dir);
+}
