@@ -119,9 +119,11 @@ TEST_CASE("session: an edit restarts accumulation at once and the new image show
 
   for (MaterialDesc& m : desc.materials)
     if (m.name == "white") m.albedo = Rgb(0.95f);
+  session.set_paused(true);  // no pass of the new generation can finish before the check below (not a race)
   const uint64_t g1 = session.set_scene(desc);
   CHECK(g1 == g0 + 1);
   const SessionStats right_after = session.stats();
+  session.set_paused(false);
   CHECK(right_after.generation == g1);
   CHECK(right_after.spp == 0);  // at once, not after the next pass
   CHECK(!right_after.done);

@@ -49,7 +49,7 @@ void add_bench_rays_command(CLI::App& bench, BenchRaysOptions& o) {
   CLI::App* r = bench.add_subcommand(
       "rays", "Ray-casting throughput on a ray file (--rays), or record the scene's own path rays (--record)");
   r->add_option("--scene", o.scene,
-                "Scene: a built-in name (cornell, cornell-spheres, shadertoy, materials, sky) or a .json file path")
+                scene_arg_help())
       ->capture_default_str();
   auto* rays = r->add_option("--rays", o.rays_file, "Replay this ray file (PTRAYS01, docs/performance.md)");
   auto* record = r->add_option("--record", o.record_file, "Write the scene's own diffuse path rays to this file");

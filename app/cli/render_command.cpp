@@ -34,7 +34,7 @@ namespace pt {
 void add_render_command(CLI::App& app, RenderOptions& o) {
   CLI::App* r = app.add_subcommand("render", "Render a scene headless to PNG (tone-mapped) and PFM (linear radiance)");
   r->add_option("--scene", o.scene,
-                "Scene: a built-in name (cornell, cornell-spheres, shadertoy, materials, sky) or a .json file path")
+                scene_arg_help())
       ->capture_default_str();
   r->add_option("--width", o.width, "Image width in pixels (overrides the scene's film.width)")->check(whole_in(1, 16384));
   r->add_option("--height", o.height, "Image height in pixels (overrides film.height)")->check(whole_in(1, 16384));

@@ -12,4 +12,7 @@ namespace pt {
 // status 2 (invalid input).
 std::optional<SceneDesc> load_scene_arg(const std::string& spec);
 
+// The scene option's --help text, naming every built-in scene (builtin_scene_names(): one list, never retyped).
+std::string scene_arg_help();
+
 }  // namespace pt

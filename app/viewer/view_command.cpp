@@ -12,7 +12,7 @@ namespace pt {
 
 void add_view_command(CLI::App& app, ViewOptions& o) {
   CLI::App* v = app.add_subcommand("view", "Interactive viewer: progressive rendering in a window with live controls");
-  v->add_option("scene", o.scene, "Scene: a built-in name (cornell, cornell-spheres, shadertoy) or a .json file path")
+  v->add_option("scene", o.scene, scene_arg_help())
       ->capture_default_str();
   v->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads")
       ->check(whole_in(0, 1024))

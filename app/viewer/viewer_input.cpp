@@ -148,6 +148,43 @@ void draw_pixel_probe(ViewerModel& model, const DisplayFrame& frame, const Image
   ImGui::EndTooltip();
 }
 
+namespace {
+
+bool valid_key(int key) { return key >= 0 && key < static_cast<int>(IM_ARRAYSIZE(ImGuiIO{}.KeysDown)); }
+
+// The modifier flags from the key state, as the GLFW backend computes them.
+void update_modifiers(ImGuiIO& io) {
+  io.KeyCtrl = io.KeysDown[GLFW_KEY_LEFT_CONTROL] || io.KeysDown[GLFW_KEY_RIGHT_CONTROL];
+  io.KeyShift = io.KeysDown[GLFW_KEY_LEFT_SHIFT] || io.KeysDown[GLFW_KEY_RIGHT_SHIFT];
+  io.KeyAlt = io.KeysDown[GLFW_KEY_LEFT_ALT] || io.KeysDown[GLFW_KEY_RIGHT_ALT];
+  io.KeySuper = io.KeysDown[GLFW_KEY_LEFT_SUPER] || io.KeysDown[GLFW_KEY_RIGHT_SUPER];
+}
+
+}  // namespace
+
+static_assert(KeyEvents::kPress == GLFW_PRESS && KeyEvents::kRelease == GLFW_RELEASE);
+
+void KeyEvents::on_key(int key, int action) {
+  if (action == kPress && valid_key(key)) pressed_.push_back(key);
+}
+
+void KeyEvents::before_frame(ImGuiIO& io) {
+  for (int key : pressed_)
+    if (!io.KeysDown[key]) {  // pressed and already released: down for this frame
+      io.KeysDown[key] = true;
+      release_after_.push_back(key);
+    }
+  pressed_.clear();
+  if (!release_after_.empty()) update_modifiers(io);
+}
+
+void KeyEvents::after_frame(ImGuiIO& io) {
+  if (release_after_.empty()) return;
+  for (int key : release_after_) io.KeysDown[key] = false;
+  release_after_.clear();
+  update_modifiers(io);
+}
+
 bool viewer_input_held(const ImGuiIO& io) {
   for (bool down : io.MouseDown)
     if (down) return true;

@@ -4,6 +4,8 @@
 #pragma once
 #include <imgui.h>
 
+#include <vector>
+
 #include "viewer/viewer_model.h"
 
 namespace pt {
@@ -37,6 +39,26 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
 // The pixel under the last click: its mean, error, sample count and the material and object there, in a
 // tooltip while the pointer rests near the click. Call after handle_viewer_input, within the ImGui frame.
 void draw_pixel_probe(ViewerModel& model, const DisplayFrame& frame, const ImageArea& image);
+
+// Key presses from the platform's event callbacks, so that none is lost. ImGui 1.86 reads keys as the state
+// io.KeysDown holds when a frame starts: a key pressed and released between two frames (a quick tap, or a slow
+// frame on a software GL) was never seen, and Ctrl+Z or Enter in a field were sometimes lost. Here every key
+// pressed since the last frame reads as down for one frame, with the modifiers pressed with it; a key released
+// meanwhile is released after that frame (as ImGui 1.87's input queue does).
+class KeyEvents {
+ public:
+  static constexpr int kPress = 1, kRelease = 0;  // GLFW_PRESS, GLFW_RELEASE (GLFW_REPEAT = 2 is ignored)
+  // From the key callback, in event order, after or before the backend updated io.KeysDown.
+  void on_key(int key, int action);
+  // Just before ImGui::NewFrame().
+  void before_frame(ImGuiIO& io);
+  // Just after the frame's input was handled (after ImGui::Render()).
+  void after_frame(ImGuiIO& io);
+
+ private:
+  std::vector<int> pressed_;        // since the last frame
+  std::vector<int> release_after_;  // held down for the current frame only
+};
 
 // Keys and buttons whose holding keeps the view changing without new events (GLFW repeats keys only after a
 // delay), so the window keeps drawing.

@@ -523,7 +523,10 @@ void ViewerModel::shortcut(Shortcut s) {
     case Shortcut::Reset: restart(); break;
     case Shortcut::Pause: set_paused(!paused_); break;
     case Shortcut::Save: save_requested = true; break;
-    case Shortcut::Help: help_open = !help_open; break;
+    case Shortcut::Help:
+      help_open = !help_open;
+      scroll_to_help = help_open;
+      break;
     case Shortcut::Quit: request_quit(); break;
     case Shortcut::ToggleUi: ui_visible = !ui_visible; break;
     case Shortcut::KeepSnapshot: snapshot_requested = true; break;

@@ -148,6 +148,7 @@ class ViewerModel {
   PresentSettings present;
   ImageZoom zoom;
   bool help_open = false, ui_visible = true, quit_requested = false;
+  bool scroll_to_help = false;  // F1 opened Help: the panels scroll it into view once
   bool save_requested = false;  // the window saves (it alone can read the displayed pixels back)
   bool snapshot_requested = false;  // the window keeps the next full-resolution frame as the A/B snapshot
   std::optional<SnapshotInfo> snapshot;  // set by the window when it kept one

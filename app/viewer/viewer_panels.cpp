@@ -727,9 +727,13 @@ void output_section(ViewerModel& model, PanelState& state, const ShownImage& sho
   ImGui::TextDisabled("PNG: the image as shown; PFM: linear mean radiance");
 }
 
-void help_section(ViewerModel& model) {
+void help_section(ViewerModel& model, PanelState& state) {
   ImGui::SetNextItemOpen(model.help_open);
   model.help_open = ImGui::CollapsingHeader("Help [F1]");
+  note_item(state, "Help");
+  // Opened with F1: bring it into view, since it is the last section and usually below the fold.
+  if (model.help_open && model.scroll_to_help) ImGui::SetScrollHereY(0.f);
+  model.scroll_to_help = false;
   if (!model.help_open) return;
   static const char* const rows[][2] = {
       {"left drag", "orbit around the pivot"},     {"click", "select the material and object; pixel values"},
@@ -743,13 +747,19 @@ void help_section(ViewerModel& model) {
       {"Ctrl+wheel / Ctrl+drag", "zoom / pan the image"}, {"F / 1", "fit the image / 1:1"},
       {"K / B", "keep an A/B snapshot / flip to it"},
       {"Esc", "close a list / cancel typing; else quit (asks if the scene has unsaved edits)"}};
-  if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingFixedFit)) {
+  // Both columns wrap inside the panel's width (a fixed-fit table ran past the panel's edge and was clipped).
+  if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingStretchProp)) {
+    ImGui::TableSetupColumn("input", ImGuiTableColumnFlags_WidthStretch, 0.4f);
+    ImGui::TableSetupColumn("action", ImGuiTableColumnFlags_WidthStretch, 0.6f);
+    int row = 0;
     for (const auto& r : rows) {
       ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(r[0]);
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(r[1]);
+      for (const char* text : r) {
+        ImGui::TableNextColumn();
+        ImGui::TextWrapped("%s", text);
+        note_item(state, ("help " + std::to_string(row) + (text == r[0] ? " input" : " action")).c_str());
+      }
+      ++row;
     }
     ImGui::EndTable();
   }
@@ -817,7 +827,7 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
   environment_section(model, state);
   scene_section(model, state);
   output_section(model, state, shown);
-  help_section(model);
+  help_section(model, state);
   if (model.selection()) state.shown_selection = model.selection()->serial;
   ImGui::PopItemWidth();
   ImGui::End();

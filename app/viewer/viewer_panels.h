@@ -40,7 +40,8 @@ struct PanelState {
   bool confirm_replace = false;
   uint64_t shown_selection = 0;
   std::string known_scene;  // scene name + file the save path was last chosen for
-  bool save_path_suggested = true;  // save_scene_path is the model's suggestion, not typed by the user
+  bool save_path_suggested = true;
+  bool help_was_open = false;  // the Help section was open last frame (opening it scrolls to it)  // save_scene_path is the model's suggestion, not typed by the user
   FieldMemory typing;               // the field being typed into
   std::vector<FieldMemory> refused;  // fields whose value the model refused
   // Tests: with record_items, the screen rectangle (min x, min y, max x, max y) of each named widget, by

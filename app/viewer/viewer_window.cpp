@@ -40,7 +40,12 @@ void on_glfw_error(int, const char* description) { g_glfw_error = description ? 
 void on_cursor(GLFWwindow*, double, double) { ++g_input_events; }
 void on_button(GLFWwindow*, int, int, int) { ++g_input_events; }
 void on_scroll(GLFWwindow*, double, double) { ++g_input_events; }
-void on_key(GLFWwindow*, int, int, int, int) { ++g_input_events; }
+// Presses are kept until a frame has seen them (KeyEvents: a quick tap between two frames is not lost).
+KeyEvents g_keys;
+void on_key(GLFWwindow*, int key, int, int action, int) {
+  g_keys.on_key(key, action);
+  ++g_input_events;
+}
 void on_char(GLFWwindow*, unsigned) { ++g_input_events; }
 void on_size(GLFWwindow*, int, int) { ++g_input_events; }
 // The window system lost the window's pixels (restored from minimised, uncovered, resized): redraw at once,
@@ -211,6 +216,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       const Clock::time_point ui_start = Clock::now();
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
+      g_keys.before_frame(io);
       ImGui::NewFrame();
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(window, &fb_w, &fb_h);
@@ -234,6 +240,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       shown.frame_ms = smoothed_ms;
       draw_viewer_panels(model, panels, shown);
       ImGui::Render();
+      g_keys.after_frame(io);
       times.ui.add(ms_between(ui_start, Clock::now()));
 
       glViewport(0, 0, fb_w, fb_h);

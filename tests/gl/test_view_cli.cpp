@@ -31,6 +31,18 @@ TEST_CASE("view cli: --help lists view, without a display it says so and exits 2
   const Run view_help = run("", "view --help");
   CHECK(view_help.status == 0);
   CHECK(view_help.out.find("--screenshot") != std::string::npos);
+  // The scene list in each command's --help is exactly the built-in scenes (before: view named three of five).
+  auto listed = [](const std::string& help) {
+    const std::string open = "built-in name (";
+    const size_t from = help.find(open), to = help.find(')', from);
+    std::vector<std::string> names;
+    if (from == std::string::npos || to == std::string::npos) return names;
+    std::istringstream in(help.substr(from + open.size(), to - from - open.size()));
+    for (std::string n; std::getline(in, n, ',');) names.push_back(n.substr(n.find_first_not_of(' ')));
+    return names;
+  };
+  CHECK(listed(view_help.out) == pt::builtin_scene_names());
+  CHECK(listed(run("", "render --help").out) == pt::builtin_scene_names());
 
   const Run r = run("env -u DISPLAY -u WAYLAND_DISPLAY", "view --frames 1");
   INFO(r.out << r.err);
