@@ -24,6 +24,7 @@ enum class SnapshotView { Off, Snapshot, Split };
 struct PresentSettings {
   DisplaySettings display;        // exposure and tone map of the colour view
   ViewMode mode = ViewMode::Colour;
+  bool denoise = false;  // the colour view shows the denoised image (denoise_view) where the frame has one
   DenoiseView denoise_view = DenoiseView::Denoised;
   SnapshotView snapshot_view = SnapshotView::Off;
   // Relative standard errors from 10^error_log10_min to 10^error_log10_max span the colour map (clamped beyond).

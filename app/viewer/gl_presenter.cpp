@@ -173,7 +173,7 @@ namespace {
 bool same(const PresentSettings& a, const PresentSettings& b) {
   return a.display.exposure_ev == b.display.exposure_ev && a.display.tone_map == b.display.tone_map &&
          a.mode == b.mode && a.error_log10_min == b.error_log10_min && a.error_log10_max == b.error_log10_max &&
-         a.denoise_view == b.denoise_view && a.snapshot_view == b.snapshot_view;
+         a.denoise == b.denoise && a.denoise_view == b.denoise_view && a.snapshot_view == b.snapshot_view;
 }
 
 }  // namespace
@@ -198,7 +198,7 @@ void GlPresenter::update_display(const PresentSettings& s) {
   glUniform1i(loc_tone_map_, static_cast<int>(s.display.tone_map));
   glUniform2f(loc_error_range_, s.error_log10_min, s.error_log10_max);
   glUniform1f(loc_count_max_, max_count_);
-  glUniform1f(loc_denoised_from_u_, has_denoised_ ? denoised_from_u(s.denoise_view) : 2.f);
+  glUniform1f(loc_denoised_from_u_, has_denoised_ && s.denoise ? denoised_from_u(s.denoise_view) : 2.f);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, image_tex_);
   glActiveTexture(GL_TEXTURE1);

@@ -23,6 +23,7 @@ ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, 
     : settings_(settings), launch_settings_(settings) {
   adopt(scene, scene_name);
   session_ = std::make_unique<RenderSession>(scene_, settings_);
+  present.denoise = settings_.denoise;
   last_edit_generation_ = session_->stats().generation;
   last_edit_time_ = std::chrono::steady_clock::now();
   latency_pending_ = true;  // the first image counts as the answer to "open the scene"
@@ -374,6 +375,12 @@ void ViewerModel::revert() {
 
 void ViewerModel::set_session_settings(const SessionSettings& settings) {
   settings_ = settings;
+  session_->set_settings(settings_);
+}
+
+void ViewerModel::set_denoise(bool on) {
+  present.denoise = on;
+  settings_.denoise = on;
   session_->set_settings(settings_);
 }
 

@@ -119,6 +119,9 @@ class ViewerModel {
   void set_session_settings(const SessionSettings& settings);
   void restart();
   void set_paused(bool paused);
+  // Denoising is a view: the colour view shows the denoised image and the session denoises its film, without
+  // restarting the accumulation (present.denoise and the session's setting change together).
+  void set_denoise(bool on);
   bool paused() const { return paused_; }
 
   // --- Files. Errors land in status(), never in an exception.

@@ -316,7 +316,7 @@ void render_section(ViewerModel& model, PanelState& state) {
   relmse_plot(state.history);
 }
 
-void display_section(ViewerModel& model, const PanelState& state, const ShownImage& shown) {
+void display_section(ViewerModel& model, PanelState& state, const ShownImage& shown) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Display", ImGuiTreeNodeFlags_DefaultOpen)) return;
   PresentSettings& p = model.present;
@@ -347,13 +347,14 @@ void display_section(ViewerModel& model, const PanelState& state, const ShownIma
       ImGui::TextDisabled("waiting for a full image");
     }
   }
-  // Denoising: the session gathers the feature buffers and denoises on its render thread (turning it on
-  // restarts the accumulation); the view picks the raw film, the denoised image, or both halves side by side.
-  SessionSettings ss = model.session_settings();
-  if (ImGui::Checkbox("denoise", &ss.denoise)) model.set_session_settings(ss);
+  // Denoising is a view: the session denoises its film on the render thread (toggling never restarts the
+  // accumulation); the view picks the raw film, the denoised image, or both halves side by side.
+  bool denoise = p.denoise;
+  if (ImGui::Checkbox("denoise", &denoise)) model.set_denoise(denoise);
+  note_item(state, "denoise");
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Feature-guided a-trous filter (docs/denoising.md); saved PFMs stay the raw estimate");
-  if (ss.denoise) {
+  if (p.denoise) {
     ImGui::SameLine();
     radio_row(p.denoise_view, {"raw", "denoised", "split"});
   }

@@ -754,3 +754,28 @@ TEST_CASE("viewer input: a key pressed and released between two frames still act
   CHECK(model.scene().render.max_bounces == 9);
   CHECK(model.last_edit_generation() == before + 1);
 }
+
+TEST_CASE("viewer input: the denoise box is a view: ticking it keeps the film's samples and shows a denoised image") {
+  SessionSettings s = few_samples();
+  s.stop.spp = 6;
+  ViewerModel model(small("cornell"), "cornell", s);
+  Ui ui(model);
+  REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  const SessionStats before = model.session().stats();
+  ui.click("denoise");
+  CHECK(model.present.denoise);
+  CHECK(model.session_settings().denoise);
+  // Before, the click restarted the accumulation: generation + 1, 0 spp.
+  CHECK(model.session().stats().generation == before.generation);
+  CHECK(model.session().stats().spp == before.spp);
+  CHECK(model.last_edit_generation() == before.generation);
+  DisplayFrame f;
+  const auto start = std::chrono::steady_clock::now();
+  while (f.denoised.empty() && std::chrono::steady_clock::now() - start < std::chrono::seconds(30))
+    if (!model.session().take_frame(f)) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  CHECK(f.denoised.size() == 3u * 24 * 24);
+  CHECK(f.spp == before.spp);
+  ui.click("denoise");  // and off again: still the same accumulation
+  CHECK_FALSE(model.present.denoise);
+  CHECK(model.session().stats().generation == before.generation);
+}

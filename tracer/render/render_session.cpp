@@ -71,6 +71,7 @@ struct RenderSession::Worker {
   Clock::time_point next_denoise;
   FilmPlanes planes;             // film planes handed to the denoiser
   Denoiser denoiser;             // keeps its working planes between denoises
+  bool denoise_now = false;      // denoising was just turned on: denoise the current film without a pass
 };
 
 RenderSession::RenderSession(const SceneDesc& scene, const SessionSettings& settings) {
@@ -150,10 +151,8 @@ uint64_t RenderSession::restart() {
 void RenderSession::set_settings(const SessionSettings& settings) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    const bool start_denoising = settings.denoise && !settings_.denoise;
     settings_ = settings;
     settings_changed_ = true;
-    if (start_denoising) request_restart_locked();  // the film must gather features from its first sample
   }
   wake_.notify_all();
 }
@@ -224,6 +223,7 @@ void RenderSession::run() {
     bool restart = false;
     if (!take_requests(w, restart)) return;
     if (!prepare(w, restart)) continue;
+    if (w.denoise_now) republish_denoised(w);
     const bool preview = w.need_preview;
     int spp = 1;
     if (!begin_pass(w, preview, spp)) continue;
@@ -247,6 +247,7 @@ bool RenderSession::take_requests(Worker& w, bool& restart) {
   });
   if (quit_) return false;
   if (settings_changed_) {
+    w.denoise_now = w.denoise_now || (settings_.denoise && !w.settings.denoise);
     w.settings = settings_;
     settings_changed_ = false;
     std::string reason;
@@ -316,7 +317,7 @@ bool RenderSession::prepare(Worker& w, bool restart) {
     }
     w.edits.clear();
     if (restart && w.scene_ok) {
-      w.film.enable_features(w.settings.denoise);
+      w.film.enable_features(true);  // always: denoising can be turned on at any time without a restart
       w.film.reset(w.desc.width, w.desc.height);
       w.film_spp = 0;
       const int divisor = w.settings.preview_divisor > 0 ? w.settings.preview_divisor
@@ -422,6 +423,18 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
     // else: an edit arrived meanwhile and this image is already stale.
   }
   changed_.notify_all();
+}
+
+// Denoising was turned on: the current film (if it has samples) is denoised and published now, not after the next
+// pass, which may be half a second away or never come (a finished render sleeps).
+void RenderSession::republish_denoised(Worker& w) {
+  w.denoise_now = false;
+  if (!w.scene_ok || w.need_preview || w.film_spp == 0 || w.film.width() != w.desc.width) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (w.generation != requested_generation_ || stats_.generation != w.generation) return;
+  }
+  publish(w, false, Clock::now(), 0, 0);
 }
 
 // Fills f.denoised: a fresh denoise of the film when the last one is old enough, when it belongs to an earlier

@@ -34,11 +34,12 @@ struct SessionSettings {
   // exceed ~20 ms, divisor chosen to make the preview take ~10 ms), 1 = never, N ≥ 2 = always 1/N.
   int preview_divisor = 0;
   bool background_priority = true;  // render threads at a lower OS priority than the (UI) owner thread
-  // Denoise the published frames (denoise/denoiser.h): the film keeps its feature buffers, and after a pass the
-  // render thread fills DisplayFrame::denoised, at most about a third of its time (a newer denoise waits until
-  // twice the last one's duration has passed; the last pass before a stop condition is always denoised, with the
-  // final-frame filter, denoise_regression, where the passes get the viewer's à-trous filter).
-  // Turning it on restarts the accumulation (the film must gather features from the first sample).
+  // Denoise the published frames (denoise/denoiser.h): after a pass the render thread fills
+  // DisplayFrame::denoised, at most about a third of its time (a newer denoise waits until twice the last one's
+  // duration has passed; the last pass before a stop condition is always denoised, with the final-frame filter,
+  // denoise_regression, where the passes get the viewer's à-trous filter). The session's film always keeps its
+  // feature buffers (about 3 % of a sample's time), so turning this on does not restart the accumulation: the
+  // current film is denoised and published at once, and turning it off only stops denoising.
   bool denoise = false;
 };
 
@@ -125,6 +126,7 @@ class RenderSession {
   template <class Change>
   uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
+  void republish_denoised(Worker& w);
   void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
                       uint64_t rays);
