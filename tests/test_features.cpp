@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "integrators/feature_pass.h"
 #include "scene/scene_json.h"
 #include "test_helpers.h"
 
@@ -203,6 +204,54 @@ TEST_CASE("film halves: one sample of each pair per half, and each half covers t
     // 0.5). For independent samples A − mean = (A − B)/2 with A, B binomial shares of 32: E|A − mean| ≈ 0.05,
     // and the 16-pixel average has a standard deviation ≈ 0.01, so 0.15 lies ten of them away.
     CHECK(sum_abs_dev / s.height < 0.15);
+  }
+}
+
+}  // namespace pt
+
+namespace pt {
+
+TEST_CASE("feature pass: the viewer's guide has the scene's albedos, the floor's normal and the back wall's depth at "
+          "each pixel's centre, through glass and mirrors") {
+  for (const Specular object : {Specular::MirrorBall, Specular::GlassBall, Specular::GlassPane}) {
+    CAPTURE(static_cast<int>(object));
+    const SceneDesc desc = room_scene(Estimator::Mis, object);
+    const auto scene = compile_scene(desc);
+    const Camera& cam = scene->camera;
+    ThreadPool pool(2);
+    FeatureImage g;
+    trace_feature_image(*scene, desc.render, pool, g);
+    REQUIRE(g.width == desc.width);
+    REQUIRE(g.height == desc.height);
+    const bool pane = object == Specular::GlassPane;
+    const Rgb ball_tint = object == Specular::MirrorBall ? kMirrorTint : Rgb(1.f);
+    int walls = 0, through = 0;
+    for (int y = 0; y < g.height; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * g.width + x;
+        const Ray centre = cam.generate_ray(x + 0.5f, y + 0.5f);
+        const bool behind = pane || ray_hits_ball(centre, kBallCenter);
+        const Rgb a(g.albedo[3 * i], g.albedo[3 * i + 1], g.albedo[3 * i + 2]);
+        const Rgb want = behind ? ball_tint * kRoomAlbedo : kRoomAlbedo;  // clear glass: the likelier lobe, tint 1
+        for (int c = 0; c < 3; ++c) CHECK(a[c] == doctest::Approx(want[c]).epsilon(1e-5));
+        (behind ? through : walls) += 1;
+        CHECK(g.emission[3 * i] == 0.f);  // the lamp is out of view
+        if (y >= desc.height - 3 && !behind) {
+          CHECK(g.normal[3 * i] == 0.f);
+          CHECK(g.normal[3 * i + 1] == 1.f);
+          CHECK(g.normal[3 * i + 2] == 0.f);
+        }
+        // The pixel centre's ray alone, so the analytic distance holds to float rounding.
+        if (y >= 5 && y < 9 && x >= 4 && x < 12) {
+          const double first_z = pane ? kPaneZ : kBackWallZ;
+          if (pane || !ray_hits_ball(centre, kBallCenter)) {
+            const DVec3 d(centre.d);
+            CHECK(g.depth[i] == doctest::Approx(-first_z * glm::length(d) / std::abs(d.z)).epsilon(1e-5));
+          }
+        }
+      }
+    CHECK(through >= 4);
+    CHECK(walls + through == g.width * g.height);
   }
 }
 

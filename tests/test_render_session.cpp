@@ -330,6 +330,40 @@ TEST_CASE("session: a preview pass at reduced resolution comes first after a res
   CHECK(f.width == 256);
 }
 
+TEST_CASE("session: with preview_denoise the preview is a clean frame at full resolution, with its times") {
+  SessionSettings settings = settings_with(2, 4);
+  settings.preview_denoise = true;
+  RenderSession session(small_cornell(256, 16), settings);
+  // A preview lasts until the first full pass replaces it; under load the poll may miss one, so restart until
+  // one is seen (each restart begins with a preview).
+  DisplayFrame f;
+  bool seen = false;
+  for (int attempt = 0; attempt < 20 && !seen; ++attempt) {
+    if (attempt > 0) session.restart();
+    seen = wait_frame(session, f, [](const DisplayFrame& fr) { return fr.preview; }, 3.0);
+  }
+  REQUIRE(seen);
+  CHECK(f.width == 256);  // the raw preview would be 64 × 64
+  CHECK(f.height == 256);
+  CHECK(f.spp == 1);
+  CHECK(f.max_count == 1.f);
+  CHECK(f.preview_times.pass > 0.0);
+  CHECK(f.preview_times.guide > 0.0);
+  CHECK(f.preview_times.upsample > 0.0);
+  size_t finite = 0, lit = 0;
+  for (size_t i = 0; i < f.count.size(); ++i) {
+    CHECK(f.count[i] == 0.f);  // no samples of its own
+    finite += std::isfinite(f.rgba[4 * i]) && std::isfinite(f.rgba[4 * i + 1]) && std::isfinite(f.rgba[4 * i + 2]);
+    lit += f.rgba[4 * i] > 0.f;
+    CHECK(f.rgba[4 * i + 3] == DisplayFrame::kUnknownError);
+  }
+  CHECK(finite == f.count.size());
+  CHECK(lit > f.count.size() / 2);
+  REQUIRE(wait_frame(session, f, [](const DisplayFrame& fr) { return !fr.preview; }));
+  CHECK(f.width == 256);
+  CHECK(f.preview_times.total() == 0.0);
+}
+
 TEST_CASE("session: changing the thread count does not restart, and the image stays exact") {
   const SceneDesc desc = small_cornell();
   SessionSettings s = settings_with(6);
@@ -390,7 +424,7 @@ TEST_CASE("session: with denoising the final frame carries the final-frame denoi
   CHECK(f.denoised != color);  // it did filter
 }
 
-TEST_CASE("session: turning denoising on keeps the accumulation and denoises the current film at once; frames "
+TEST_CASE("session: turning denoising on keeps the accumulation and denoises the current film at once, and frames "
           "without it carry no denoised image") {
   const SceneDesc desc = small_cornell();
   RenderSession session(desc, settings_with(4));

@@ -28,9 +28,11 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("--mode", o.mode, "View: colour | error (relative standard error heat map) | samples")
       ->check(CLI::IsMember({"colour", "error", "samples"}))
       ->capture_default_str();
-  v->add_flag("--denoise", o.denoise,
-              "Denoise the display (feature-guided a-trous filter on the render thread; docs/denoising.md)");
-  v->add_option("--denoise-view", o.denoise_view, "With --denoise: raw | denoised | split (raw left, denoised right)")
+  v->add_flag("--denoise,!--no-denoise", o.denoise,
+              "Denoise the display (default; feature-guided filters on the render thread, docs/denoising.md); "
+              "--no-denoise shows the raw film")
+      ->capture_default_str();
+  v->add_option("--denoise-view", o.denoise_view, "While denoising: raw | denoised | split (raw left, denoised right)")
       ->check(CLI::IsMember({"raw", "denoised", "split"}))
       ->capture_default_str();
   v->add_option("--output-dir", o.output_dir, "Folder for saved images (S key)")->capture_default_str();
@@ -38,6 +40,9 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
                 "Resolution divisor of the first pass after each change; 0 = automatic, 1 = off")
       ->check(whole_in(0, 64))
       ->capture_default_str();
+  v->add_flag("--raw-preview", o.raw_preview,
+              "While the view changes, show the raw 1-spp preview (magnified) instead of the clean one (denoised and "
+              "upsampled along a full-resolution guide; docs/viewer.md)");
   v->add_option("--seconds", o.seconds, "Quit after S seconds (0 = when the window is closed)")
       ->check(finite_in(0, 1e7));
   v->add_option("--frames", o.frames, "Quit after N UI frames, drawn continuously (0 = when the window is closed)")
@@ -53,7 +58,7 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
       ->check(finite_in(0, 1e6));
   v->add_option("--script", o.script,
                 "Timed actions, one per line: SECONDS ACTION [ARGS] (orbit DX DY, emission MATERIAL STRENGTH, "
-                "quit); docs/viewer.md");
+                "screenshot FILE, quit); docs/viewer.md");
   v->add_option("--max-fps", o.max_fps, "UI frame cap when the display does not sync; 0 = none")
       ->check(finite_in(0, 1e4))
       ->capture_default_str();
@@ -84,6 +89,7 @@ int run_view(const ViewOptions& o) {
   SessionSettings settings;
   settings.threads = o.threads;
   settings.preview_divisor = o.preview_divisor;
+  settings.preview_denoise = !o.raw_preview;
   settings.denoise = o.denoise;
   if (o.spp) settings.stop.spp = static_cast<uint64_t>(*o.spp);
   if (o.time_seconds) settings.stop.seconds = *o.time_seconds;

@@ -19,7 +19,8 @@ struct ViewOptions {
   std::string mode = "colour";
   std::string output_dir = ".";
   int preview_divisor = 0;
-  bool denoise = false;          // start with denoising on
+  bool raw_preview = false;  // show the raw 1-spp preview instead of the clean (denoised, upsampled) one
+  bool denoise = true;           // denoising on (--no-denoise: off)
   std::string denoise_view = "denoised";
   // Scripted and measured runs.
   long long frames = 0;     // quit after this many UI frames, drawn continuously (0: run until closed)

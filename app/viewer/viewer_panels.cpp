@@ -358,6 +358,12 @@ void display_section(ViewerModel& model, PanelState& state, const ShownImage& sh
     ImGui::SameLine();
     radio_row(p.denoise_view, {"raw", "denoised", "split"});
   }
+  SessionSettings ss = model.session_settings();
+  if (ImGui::Checkbox("clean preview while moving", &ss.preview_denoise)) model.set_session_settings(ss);
+  note_item(state, "clean preview");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("The first image after a change, denoised and upsampled along a full-resolution guide "
+                      "(docs/viewer.md, While you move); off: the raw 1-spp preview");
   // Image zoom (Ctrl+wheel, Ctrl+drag on the image; F, 1).
   if (ImGui::Button("Fit [F]")) model.zoom = ImageZoom{};
   ImGui::SameLine();

@@ -67,6 +67,9 @@ std::vector<ScriptAction> parse_viewer_script(const std::string& text, const std
         if (!(in >> a.name)) fail(file, line, "missing the material's name");
         a.x = number(in, file, line, "STRENGTH");
         break;
+      case ScriptVerb::Screenshot:
+        if (!(in >> a.name)) fail(file, line, "missing the file name");
+        break;
       case ScriptVerb::Quit: break;
     }
     if (std::string extra; in >> extra) fail(file, line, "unexpected '" + extra + "' after the action");
@@ -98,6 +101,7 @@ std::string apply_script_action(ViewerModel& model, const ScriptAction& a) {
         }
       return "no material named '" + a.name + "'";
     }
+    case ScriptVerb::Screenshot: return "";
     case ScriptVerb::Quit: model.request_quit(); return "";
   }
   return "";

@@ -15,13 +15,14 @@ namespace pt {
 
 class ViewerModel;
 
-enum class ScriptVerb { Orbit, Emission, Quit };
+enum class ScriptVerb { Orbit, Emission, Screenshot, Quit };
 
 template <>
 struct EnumTable<ScriptVerb> {
-  static constexpr std::array<EnumEntry<ScriptVerb>, 3> kEntries{{
+  static constexpr std::array<EnumEntry<ScriptVerb>, 4> kEntries{{
       {ScriptVerb::Orbit, "orbit", "DX DY: orbit as a drag of DX, DY image heights would (1 = half a turn)"},
       {ScriptVerb::Emission, "emission", "MATERIAL STRENGTH: set that material's emission strength (0 = off)"},
+      {ScriptVerb::Screenshot, "screenshot", "FILE: write the window as it is drawn next (PNG, panels included)"},
       {ScriptVerb::Quit, "quit", "quit (asking first if the scene has unsaved edits, as Esc does)"},
   }};
 };
@@ -29,7 +30,7 @@ struct EnumTable<ScriptVerb> {
 struct ScriptAction {
   double at_seconds = 0.0;
   ScriptVerb verb = ScriptVerb::Quit;
-  std::string name;            // emission: the material
+  std::string name;            // emission: the material; screenshot: the file
   double x = 0.0, y = 0.0;     // orbit: DX, DY; emission: x = the strength
   int line = 0;                // in the file, for messages
 };
@@ -40,7 +41,8 @@ std::vector<ScriptAction> parse_viewer_script(const std::string& text, const std
 std::vector<ScriptAction> read_viewer_script(const std::string& file);
 
 // Applies one action to the model. Returns "" or why it could not be applied (an unknown material, a value the
-// scene refuses): the window prints that, as the panels show a refused value.
+// scene refuses): the window prints that, as the panels show a refused value. Screenshot is the window's own
+// (it alone reads the drawn pixels): here it does nothing.
 std::string apply_script_action(ViewerModel& model, const ScriptAction& action);
 
 // The actions of a script that are due at `seconds`, in order; `next` is the index of the first not yet run.

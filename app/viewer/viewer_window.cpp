@@ -108,6 +108,18 @@ bool write_screenshot(const std::string& path, int w, int h) {
 // What --stats reports, in milliseconds.
 struct FrameTimes {
   SampleSeries interval, work, upload, ui, swap, latency;
+  // Clean preview frames (SessionSettings::preview_denoise): their whole time, and the filter's share of it
+  // (variance, filter and upsampling over pass, guide, variance, filter and upsampling).
+  SampleSeries preview_total, preview_pass, preview_guide, preview_filter, preview_filter_share;
+  void add_preview(const PreviewTimes& t) {
+    if (!(t.total() > 0.0)) return;
+    const double filter = t.variance + t.filter + t.upsample;
+    preview_total.add(t.total());
+    preview_pass.add(t.pass);
+    preview_guide.add(t.guide);
+    preview_filter.add(filter);
+    preview_filter_share.add(100.0 * filter / t.total());
+  }
   void reserve(size_t n) {
     interval.reserve(n);
     work.reserve(n);
@@ -122,6 +134,13 @@ struct FrameTimes {
     std::printf("  of which swap ms (the GL finishes drawing here; includes any vsync wait): %s\n",
                 swap.summary().c_str());
     std::printf("edit to first updated image ms: %s\n", latency.summary().c_str());
+    if (preview_total.size() > 0) {
+      std::printf("clean preview frame ms (pass, guide, filter and upsampling): %s\n", preview_total.summary().c_str());
+      std::printf("  of which the small 1-spp pass ms: %s\n", preview_pass.summary().c_str());
+      std::printf("  of which the full-resolution guide ms: %s\n", preview_guide.summary().c_str());
+      std::printf("  of which filter and upsampling ms: %s\n", preview_filter.summary().c_str());
+      std::printf("  filter and upsampling, %% of the preview frame: %s\n", preview_filter_share.summary().c_str());
+    }
   }
 };
 
@@ -149,6 +168,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
   double smoothed_ms = 0.0, image_height = 1.0;
   int rc = 0;
   bool saving_on_signal = false;
+  std::vector<std::string> scripted_shots;  // --script screenshots, written when the next frame is drawn
 
   for (;;) {
     const Clock::time_point start = Clock::now();
@@ -172,6 +192,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     if (o.bench_edits > 0.0 && ms_between(t0, start) * 1e-3 >= o.bench_edits * (bench_index + 1))
       scripted_edit(model, bench_index++, static_cast<float>(image_height));
     script.run_due(ms_between(t0, start) * 1e-3, [&](const ScriptAction& a) {
+      if (a.verb == ScriptVerb::Screenshot) scripted_shots.push_back(a.name);
       if (const std::string err = apply_script_action(model, a); !err.empty())
         std::fprintf(stderr, "warning: --script line %d (%s): %s\n", a.line, enum_name(a.verb), err.c_str());
     });
@@ -184,6 +205,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       model.snapshot = SnapshotInfo{front.width, front.height, front.spp};
     }
     if (new_image) {
+      if (front.preview) times.add_preview(front.preview_times);
       presenter.upload(front);
       times.upload.add(ms_between(upload_start, Clock::now()));
       shown.width = front.width;
@@ -203,7 +225,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       std::string t = model.window_title(st);
       if (t != title) glfwSetWindowTitle(window, (title = std::move(t)).c_str());
     }
-    const bool draw = quitting || o.continuous || o.frames > 0 || frame == 0 || new_image || held || active_frames > 0 || model.save_requested ||
+    const bool draw = quitting || o.continuous || o.frames > 0 || frame == 0 || new_image || held || active_frames > 0 ||
+                      model.save_requested || !scripted_shots.empty() ||
                       (rendering && ms_between(last_draw, start) >= 100.0);
     if (draw) {
       if (drew_last_iteration) times.interval.add(ms_between(last_draw, start));
@@ -266,6 +289,9 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       const bool last = quitting || (o.frames > 0 && frame >= o.frames &&
                                      (o.screenshot.empty() || image_ready || ms_between(t0, start) > 30e3));
       if (last && !o.screenshot.empty() && !write_screenshot(o.screenshot, fb_w, fb_h)) rc = 1;
+      for (const std::string& shot : scripted_shots)
+        if (!write_screenshot(shot, fb_w, fb_h)) rc = 1;
+      scripted_shots.clear();
       const Clock::time_point swap_start = Clock::now();
       glfwSwapBuffers(window);
       const Clock::time_point end = Clock::now();

@@ -180,6 +180,7 @@ TEST_CASE("gl: the denoised image shows in the denoised view, on the right half 
   for (const DenoiseView view : {DenoiseView::Raw, DenoiseView::Denoised, DenoiseView::Split}) {
     CAPTURE(static_cast<int>(view));
     PresentSettings s;
+    s.denoise = true;
     s.denoise_view = view;
     presenter.read_image(s, px);
     const Diff d = compare(px, w, expected(view), s);
@@ -188,10 +189,17 @@ TEST_CASE("gl: the denoised image shows in the denoised view, on the right half 
     // The other view's image must not match: the test can tell them apart.
     CHECK(compare(px, w, expected(view == DenoiseView::Raw ? DenoiseView::Denoised : DenoiseView::Raw), s).max > 1);
   }
+  // With denoising off (a view: the frame still has its denoised image) the raw mean shows.
+  PresentSettings off;
+  off.denoise = false;
+  off.denoise_view = DenoiseView::Denoised;
+  presenter.read_image(off, px);
+  CHECK(compare(px, w, f, off).max <= 1);
   // A frame without a denoised image shows the raw mean in every view.
   DisplayFrame plain = test_frame(w, h);
   presenter.upload(plain);
   PresentSettings s;
+  s.denoise = true;
   s.denoise_view = DenoiseView::Denoised;
   presenter.read_image(s, px);
   CHECK(compare(px, w, plain, s).max <= 1);

@@ -513,7 +513,7 @@ TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dr
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("viewer: a saved scene joins the recent files; a built-in scene's save goes into the output folder") {
+TEST_CASE("viewer: a saved scene joins the recent files, and a built-in scene's save goes into the output folder") {
   const std::filesystem::path dir = std::filesystem::absolute("viewer_folder_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   const std::string store = (dir / "recent.txt").string();
@@ -694,7 +694,7 @@ TEST_CASE("viewer: loading a missing or broken file over unsaved edits reports t
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("viewer input: F1 opens Help and scrolls it into view; its text wraps inside the panel") {
+TEST_CASE("viewer input: F1 opens Help and scrolls it into view, and its text wraps inside the panel") {
   ViewerModel model(small("cornell"), "cornell", few_samples());
   Ui ui(model);
   ui.state.expand_all = false;  // the user's panel: sections as they open by default

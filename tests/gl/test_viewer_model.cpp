@@ -402,10 +402,15 @@ TEST_CASE("viewer: --script lines parse into timed actions, a bad line is refuse
   CHECK(error("1 orbit 1\n") == "s.txt:1: missing DY");
   CHECK(error("1 orbit 1 2\n0.5 quit\n").rfind("s.txt:2: the time goes back", 0) == 0);
   CHECK(error("x quit\n") == "s.txt:1: the time in seconds: 'x' is not a finite number");
-  CHECK(error("1 dance\n").rfind("s.txt:1: unknown action 'dance' (orbit, emission, quit)", 0) == 0);
+  CHECK(error("1 dance\n").rfind("s.txt:1: unknown action 'dance' (orbit, emission, screenshot, quit)", 0) == 0);
   CHECK(error("1 quit now\n") == "s.txt:1: unexpected 'now' after the action");
   CHECK(error("1 emission light nan\n") == "s.txt:1: STRENGTH: 'nan' is not a finite number");
   CHECK(error("-1 quit\n") == "s.txt:1: the time must be >= 0");
+  CHECK(error("1 screenshot\n") == "s.txt:1: missing the file name");
+  const std::vector<ScriptAction> shot = parse_viewer_script("2.5 screenshot out/a.png\n", "s.txt");
+  REQUIRE(shot.size() == 1);
+  CHECK(shot[0].verb == ScriptVerb::Screenshot);
+  CHECK(shot[0].name == "out/a.png");
 
   // Applied through the model's own actions: the light goes out, an unknown material is reported.
   ViewerModel model(small_cornell(), "cornell", stop_at(1));

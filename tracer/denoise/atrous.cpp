@@ -41,9 +41,6 @@ namespace stdx = std::experimental;
 
 constexpr float kB3[5] = {1.f / 16, 1.f / 4, 3.f / 8, 1.f / 4, 1.f / 16};
 constexpr const float (&kLuma)[3] = kLuminanceWeights;  // Rec. 709 (core/math.h)
-// An albedo below this is treated as 1 when dividing it out: black and absent surfaces (escaped rays) have no
-// texture to protect, and dividing by ~0 would amplify their noise.
-constexpr float kMinDemodulateAlbedo = 1e-2f;
 
 // Row-padded planes: pixel (x, y) at y·stride + pad + x.
 struct Layout {
@@ -202,7 +199,7 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
       for (int c = 0; c < 3; ++c) {
         const float alb = (*in.albedo)[3 * i + c];
         (*albedo[c])[j] = alb;
-        const float m = alb >= kMinDemodulateAlbedo ? alb : 1.f;
+        const float m = demodulation(alb);
         modulation[3 * i + c] = m;
         const float emitted = in.emission ? (*in.emission)[3 * i + c] : 0.f;
         (*illum[c])[j] = ((*in.color)[3 * i + c] - emitted) / m;

@@ -36,6 +36,12 @@ struct DenoiseInput {
   const std::vector<float>* emission = nullptr;  // emission seen directly, per channel (features.h); null = none
 };
 
+// The albedo a channel of the illumination is divided by (and multiplied by again): below 1e-2 it is treated as 1,
+// since black and absent surfaces (escaped rays) have no texture to protect, and dividing by ~0 would amplify
+// their noise. The à-trous filter and the preview's upsampling share it.
+inline constexpr float kMinDemodulateAlbedo = 1e-2f;
+inline float demodulation(float albedo) { return albedo >= kMinDemodulateAlbedo ? albedo : 1.f; }
+
 // Throws std::invalid_argument when an input is missing or of the wrong size (both filters check first).
 void check_denoise_input(const DenoiseInput& input);
 // 1/|n| of a film's normal (averaged normals are shorter than 1), 0 where there is none.
@@ -109,7 +115,8 @@ std::vector<float> denoise(const DenoiseInput& input, const DenoiseSettings& set
 struct FilmPlanes {
   int width = 0, height = 0;
   std::vector<float> color, variance, albedo, normal, depth, emission;
-  void copy_from(const Film& film);
+  // Reuses the planes' capacity. Without `with_variance` the variance plane is sized but not filled.
+  void copy_from(const Film& film, bool with_variance = true);
   DenoiseInput input() const { return {width, height, &color, &variance, &albedo, &normal, &depth, &emission}; }
 };
 

@@ -15,15 +15,16 @@ void check_denoise_input(const DenoiseInput& in) {
   if (in.emission && in.emission->size() != 3 * n) throw std::invalid_argument("denoise: emission is mis-sized");
 }
 
-void FilmPlanes::copy_from(const Film& film) {
+void FilmPlanes::copy_from(const Film& film, bool with_variance) {
   width = film.width();
   height = film.height();
-  color = film.mean_image();
-  variance = film.variance_image();
-  albedo = film.albedo_image();
-  normal = film.normal_image();
-  depth = film.depth_image();
-  emission = film.emission_image();
+  film.mean_image(color);
+  if (with_variance) film.variance_image(variance);
+  else variance.resize(color.size());
+  film.albedo_image(albedo);
+  film.normal_image(normal);
+  film.depth_image(depth);
+  film.emission_image(emission);
 }
 
 std::vector<float> denoise_film(const Film& film, const DenoiseSettings& settings, ThreadPool& pool) {

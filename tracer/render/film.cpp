@@ -97,27 +97,42 @@ uint64_t Film::total_count() const {
 }
 
 std::vector<float> Film::mean_image() const {
-  std::vector<float> img(3 * count_.size());
+  std::vector<float> img;
+  mean_image(img);
+  return img;
+}
+
+void Film::mean_image(std::vector<float>& img) const {
+  img.resize(3 * count_.size());
   for (size_t i = 0; i < count_.size(); ++i)
     for (int c = 0; c < 3; ++c) img[3 * i + c] = static_cast<float>(mean_channel(i, c));
-  return img;
 }
 
 std::vector<float> Film::feature_image(size_t first, size_t channels) const {
-  std::vector<float> img(channels * count_.size(), 0.f);
-  if (!features_enabled_) return img;
-  for (size_t i = 0; i < count_.size(); ++i)
-    for (size_t c = 0; c < channels; ++c) img[channels * i + c] = static_cast<float>(feature_[kFeatureStride * i + first + c]);
+  std::vector<float> img;
+  feature_image(first, channels, img);
   return img;
 }
 
+void Film::feature_image(size_t first, size_t channels, std::vector<float>& img) const {
+  img.assign(channels * count_.size(), 0.f);
+  if (!features_enabled_) return;
+  for (size_t i = 0; i < count_.size(); ++i)
+    for (size_t c = 0; c < channels; ++c) img[channels * i + c] = static_cast<float>(feature_[kFeatureStride * i + first + c]);
+}
+
 std::vector<float> Film::variance_image() const {
-  std::vector<float> img(3 * count_.size());
+  std::vector<float> img;
+  variance_image(img);
+  return img;
+}
+
+void Film::variance_image(std::vector<float>& img) const {
+  img.resize(3 * count_.size());
   for (size_t i = 0; i < count_.size(); ++i) {
     const glm::dvec3 v = variance_of_mean(i);
     for (int c = 0; c < 3; ++c) img[3 * i + c] = static_cast<float>(v[c]);
   }
-  return img;
 }
 
 std::vector<float> Film::count_image() const {

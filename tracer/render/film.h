@@ -132,16 +132,23 @@ class Film {
   uint32_t min_count() const;
   uint64_t total_count() const;
 
-  // Row-major RGB float image of the means (3 floats per pixel, top row first).
+  // Row-major RGB float image of the means (3 floats per pixel, top row first). The forms taking `out` fill it,
+  // reusing its capacity (interactive callers convert a film per frame).
   std::vector<float> mean_image() const;
+  void mean_image(std::vector<float>& out) const;
 
   // Feature buffers (features enabled), row-major: albedo, normal and emission 3 floats per pixel, depth 1.
   std::vector<float> albedo_image() const { return feature_image(0, 3); }
   std::vector<float> normal_image() const { return feature_image(3, 3); }
   std::vector<float> depth_image() const { return feature_image(6, 1); }
   std::vector<float> emission_image() const { return feature_image(7, 3); }
+  void albedo_image(std::vector<float>& out) const { feature_image(0, 3, out); }
+  void normal_image(std::vector<float>& out) const { feature_image(3, 3, out); }
+  void depth_image(std::vector<float>& out) const { feature_image(6, 1, out); }
+  void emission_image(std::vector<float>& out) const { feature_image(7, 3, out); }
   // Variance of each pixel's mean per channel (variance_of_mean; infinite below 2 samples), 3 floats per pixel.
   std::vector<float> variance_image() const;
+  void variance_image(std::vector<float>& out) const;
   // Sample count per pixel, 1 float per pixel.
   std::vector<float> count_image() const;
   // Mean of half A (half = 0) or half B (1), 3 floats per pixel; 0 where the half has no sample.
@@ -189,6 +196,7 @@ class Film {
     hi = h;
   }
   std::vector<float> feature_image(size_t first, size_t channels) const;
+  void feature_image(size_t first, size_t channels, std::vector<float>& out) const;
 
   int width_ = 0, height_ = 0;
   bool features_enabled_ = false;

@@ -10,6 +10,8 @@
 #endif
 
 #include "denoise/denoiser.h"
+#include "denoise/preview.h"
+#include "integrators/feature_pass.h"
 #include "render/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
@@ -72,6 +74,12 @@ struct RenderSession::Worker {
   FilmPlanes planes;             // film planes handed to the denoiser
   Denoiser denoiser;             // keeps its working planes between denoises
   bool denoise_now = false;      // denoising was just turned on: denoise the current film without a pass
+  // The clean preview (SessionSettings::preview_denoise): the full-resolution guide, the filter's working
+  // planes, its output (RGB at full resolution) and where the time went.
+  FeatureImage guide;
+  PreviewDenoiser preview_denoiser;
+  std::vector<float> clean_preview;
+  PreviewTimes preview_times;
 };
 
 RenderSession::RenderSession(const SceneDesc& scene, const SessionSettings& settings) {
@@ -232,6 +240,7 @@ void RenderSession::run() {
     const PassStats ps = preview ? w.renderer->render_pass(*w.preview, w.desc.render, w.preview_film, 1, nullptr)
                                  : w.renderer->render_pass(*w.full, w.desc.render, w.film, spp, &cancel_);
     const double pass_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    if (preview && w.preview_film.has_features()) make_clean_preview(w, pass_seconds);
     if (!ps.cancelled)
       w.full_seconds_per_spp = preview ? pass_seconds * w.preview_divisor * w.preview_divisor : pass_seconds / spp;
     w.need_preview = false;
@@ -332,10 +341,15 @@ bool RenderSession::prepare(Worker& w, bool restart) {
         w.preview = compile_scene(small);
         w.preview_dirty = false;
       }
-      if (w.need_preview) w.preview_film.reset(w.preview->width, w.preview->height);
+      if (w.need_preview) {
+        w.preview_film.enable_features(w.settings.preview_denoise);
+        w.preview_film.reset(w.preview->width, w.preview->height);
+      }
     }
-    // The full scene is compiled only once a full pass is next: a camera drag compiles just the previews.
-    if (!w.need_preview && w.full_dirty && w.scene_ok) {
+    // The full scene is compiled only once a full pass is next (a camera drag compiles just the previews), or for
+    // a clean preview's guide.
+    const bool guide_next = w.need_preview && w.settings.preview_denoise;
+    if ((!w.need_preview || guide_next) && w.full_dirty && w.scene_ok) {
       w.full = compile_scene(w.desc);
       w.full_dirty = false;
     }
@@ -364,12 +378,25 @@ bool RenderSession::begin_pass(Worker& w, bool preview, int& spp) {
   return true;
 }
 
+// The clean preview of the small film just rendered: the full-resolution guide, then denoise/preview.h's filter
+// into w.clean_preview, with the time of each step.
+void RenderSession::make_clean_preview(Worker& w, double pass_seconds) {
+  const Clock::time_point start = Clock::now();
+  trace_feature_image(*w.full, w.desc.render, w.renderer->pool(), w.guide);
+  const double guide_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  const PreviewFilterTimes t = w.preview_denoiser.run(w.preview_film, w.guide, w.renderer->pool(), w.clean_preview);
+  w.preview_times = {pass_seconds * 1e3, guide_ms, t.variance, t.filter, t.upsample};
+}
+
 // Converts the film just rendered into the back frame (outside the lock: the reader never waits for this), then,
 // unless a restart was requested meanwhile, publishes it.
 void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (w.generation != requested_generation_) {  // stale already: skip the conversion, restart sooner
+    // Stale already (an edit came during the pass): skip the conversion and restart sooner, except for a preview,
+    // which is still the newest image there is. During a drag, edits come faster than previews (60-120 a second
+    // against one per 5-15 ms of preview): dropping stale previews showed a few images a second.
+    if (w.generation != requested_generation_ && !preview) {
       pass_running_ = preview_running_ = false;
       changed_.notify_all();
       return;
@@ -378,34 +405,53 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
   const Film& film = preview ? w.preview_film : w.film;
   DisplayFrame& f = w.back;
   const size_t n = film.pixel_count();
-  f.width = film.width();
-  f.height = film.height();
   f.generation = w.generation;
   f.preview = preview;
-  f.rgba.resize(4 * n);
-  f.count.resize(n);
+  f.preview_times = PreviewTimes{};
   uint32_t min_count = n ? std::numeric_limits<uint32_t>::max() : 0, max_count = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const uint32_t c = film.count(i);
-    min_count = std::min(min_count, c);
-    max_count = std::max(max_count, c);
-    const Rgb m = film.mean(i);
-    float rel = DisplayFrame::kUnknownError;
-    if (c >= 2) {
-      const glm::dvec3 var = film.variance_of_mean(i);
-      double sum = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const double mk = film.mean_channel(i, k);
-        sum += var[k] / (mk * mk + 0.01);
-      }
-      rel = static_cast<float>(std::sqrt(sum / 3.0));
+  const bool clean = preview && film.has_features() && w.clean_preview.size() == 3 * w.guide.pixel_count();
+  if (clean) {  // the full-resolution clean preview: a mean, no error estimate, no samples of its own
+    f.width = w.guide.width;
+    f.height = w.guide.height;
+    const size_t m = w.guide.pixel_count();
+    f.rgba.resize(4 * m);
+    f.count.assign(m, 0.f);
+    for (size_t i = 0; i < m; ++i) {
+      float* px = &f.rgba[4 * i];
+      px[0] = w.clean_preview[3 * i];
+      px[1] = w.clean_preview[3 * i + 1];
+      px[2] = w.clean_preview[3 * i + 2];
+      px[3] = DisplayFrame::kUnknownError;
     }
-    float* px = &f.rgba[4 * i];
-    px[0] = m.x;
-    px[1] = m.y;
-    px[2] = m.z;
-    px[3] = rel;
-    f.count[i] = static_cast<float>(c);
+    f.preview_times = w.preview_times;
+    for (size_t i = 0; i < n; ++i) min_count = std::min(min_count, film.count(i)), max_count = std::max(max_count, film.count(i));
+  } else {
+    f.width = film.width();
+    f.height = film.height();
+    f.rgba.resize(4 * n);
+    f.count.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      const uint32_t c = film.count(i);
+      min_count = std::min(min_count, c);
+      max_count = std::max(max_count, c);
+      const Rgb m = film.mean(i);
+      float rel = DisplayFrame::kUnknownError;
+      if (c >= 2) {
+        const glm::dvec3 var = film.variance_of_mean(i);
+        double sum = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          const double mk = film.mean_channel(i, k);
+          sum += var[k] / (mk * mk + 0.01);
+        }
+        rel = static_cast<float>(std::sqrt(sum / 3.0));
+      }
+      float* px = &f.rgba[4 * i];
+      px[0] = m.x;
+      px[1] = m.y;
+      px[2] = m.z;
+      px[3] = rel;
+      f.count[i] = static_cast<float>(c);
+    }
   }
   f.spp = min_count;
   f.max_count = static_cast<float>(max_count);
@@ -419,7 +465,12 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
     std::lock_guard<std::mutex> lock(mutex_);
     pass_running_ = false;
     preview_running_ = false;
-    if (w.generation == requested_generation_) publish_locked(w, preview, min_count, relmse, seconds, samples, rays);
+    if (w.generation == requested_generation_) {
+      publish_locked(w, preview, min_count, relmse, seconds, samples, rays);
+    } else if (preview) {  // shown, but accounted to no accumulation (the stats belong to the newer one)
+      std::swap(w.back, middle_);
+      fresh_ = true;
+    }
     // else: an edit arrived meanwhile and this image is already stale.
   }
   changed_.notify_all();

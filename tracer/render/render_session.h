@@ -33,6 +33,10 @@ struct SessionSettings {
   // Preview pass resolution divisor after a restart: 0 = automatic (only when a full 1-spp pass is expected to
   // exceed ~20 ms, divisor chosen to make the preview take ~10 ms), 1 = never, N ≥ 2 = always 1/N.
   int preview_divisor = 0;
+  // Clean preview (denoise/preview.h): the preview pass gathers features, a full-resolution guide pass traces
+  // one ray per pixel, and the 1-spp preview is filtered and upsampled along the guide's edges into a smooth,
+  // sharp full-resolution frame; otherwise the preview frame is the small raw film, magnified by the display.
+  bool preview_denoise = false;
   bool background_priority = true;  // render threads at a lower OS priority than the (UI) owner thread
   // Denoise the published frames (denoise/denoiser.h): after a pass the render thread fills
   // DisplayFrame::denoised, at most about a third of its time (a newer denoise waits until twice the last one's
@@ -43,13 +47,25 @@ struct SessionSettings {
   bool denoise = false;
 };
 
+// Where a clean preview frame's time went, in milliseconds (0 for other frames).
+struct PreviewTimes {
+  double pass = 0.0;      // the small 1-spp pass
+  double guide = 0.0;     // the full-resolution feature pass (integrators/feature_pass.h)
+  double variance = 0.0;  // denoise/preview.h, steps 1-3
+  double filter = 0.0;
+  double upsample = 0.0;
+  double total() const { return pass + guide + variance + filter + upsample; }
+};
+
 // One published image. Buffers are reused: take_frame() swaps, so steady state allocates nothing.
 struct DisplayFrame {
   int width = 0, height = 0;
   uint64_t generation = 0;  // the accumulation (restart) it belongs to
   uint64_t spp = 0;         // minimum samples per pixel of this film
   float max_count = 0;      // maximum samples per pixel of this film
-  bool preview = false;     // a reduced-resolution film (see preview_divisor)
+  bool preview = false;     // a preview: a reduced-resolution film (see preview_divisor), or its clean
+                            // full-resolution version (preview_denoise: no error estimate, count 0)
+  PreviewTimes preview_times;  // a clean preview's
   // Per pixel, top row first: mean R, G, B and the relative standard error of the mean,
   // sqrt(mean over channels of Var[mean_c] / (mean_c² + 0.01)): its square averaged over the image is the film's
   // estimated relMSE. Pixels with fewer than 2 samples have an unknown error, stored as kUnknownError.
@@ -127,6 +143,7 @@ class RenderSession {
   uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
   void republish_denoised(Worker& w);
+  void make_clean_preview(Worker& w, double pass_seconds);
   void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
                       uint64_t rays);

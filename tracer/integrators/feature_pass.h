@@ -1,0 +1,25 @@
+// The feature buffers (features.h) of one camera ray through the centre of every pixel, without the path behind
+// the first non-specular vertex: a guide image for the viewer's preview, whose radiance is rendered at a fraction
+// of the resolution and upsampled with these (denoise/preview.h). Smooth mirrors and glass are followed as a
+// path would follow them (along the likelier lobe), up to the render settings' bounce limit.
+//
+// Cost: about one ray per pixel (more behind glass and mirrors), no light samples, no shading beyond the albedo.
+#pragma once
+#include <vector>
+
+#include "core/thread_pool.h"
+#include "scene/scene.h"
+
+namespace pt {
+
+// Row-major planes, top row first: albedo, normal and emission 3 floats per pixel, depth 1 (features.h's meaning).
+struct FeatureImage {
+  int width = 0, height = 0;
+  std::vector<float> albedo, normal, depth, emission;
+  size_t pixel_count() const { return static_cast<size_t>(width) * height; }
+};
+
+// Fills `out` at the scene's resolution (reusing its planes' capacity). Rows run on `pool`.
+void trace_feature_image(const Scene& scene, const RenderSettings& settings, ThreadPool& pool, FeatureImage& out);
+
+}  // namespace pt
