@@ -368,7 +368,7 @@ TEST_CASE("scene_json: cornell is the Cornell box data") {
   CHECK(s.width == 512);
   CHECK(s.height == 512);
   CHECK(s.render.max_bounces == 64);
-  CHECK(s.render.estimator == Estimator::Mis);
+  CHECK(s.render.estimator == Estimator::Auto);
   CHECK(s.render.russian_roulette_depth == 3);
   CHECK(s.environment.radiance == Rgb(0.f));
   const int white = material_index(s, "white"), red = material_index(s, "red"), green = material_index(s, "green"),
@@ -444,7 +444,7 @@ TEST_CASE("scene_json: cornell-spheres") {
   const SceneDesc box = load_scene("cornell");
   check_same(s.camera.position, box.camera.position, "camera");
   CHECK(s.render.max_bounces == 64);
-  CHECK(s.render.estimator == Estimator::Mis);
+  CHECK(s.render.estimator == Estimator::Auto);
   const int chrome = material_index(s, "chrome"), glass = material_index(s, "glass");
   REQUIRE(chrome >= 0);
   REQUIRE(glass >= 0);

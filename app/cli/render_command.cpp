@@ -27,6 +27,7 @@
 #include "render/progressive.h"
 #include "render/renderer.h"
 #include "cli/scene_arg.h"
+#include "scene/estimator_choice.h"
 #include "scene/scene_json.h"
 
 namespace pt {
@@ -278,6 +279,8 @@ int run_render(const RenderOptions& o) {
     std::fprintf(stderr, "error: %s: %s\n", o.scene.c_str(), err.c_str());
     return 2;
   }
+  if (desc.render.estimator == Estimator::Auto && !o.quiet)  // which one, and why
+    std::fprintf(stderr, "estimator auto: %s\n", choose_estimator(desc).reason.c_str());
 
   // Layers and denoising: which options need which, refused before any work.
   if (!o.aovs.empty() && o.exr.empty()) {
@@ -585,9 +588,13 @@ int run_render(const RenderOptions& o) {
                 "wall time)\n", ranks, seconds, 100.0 * all_busy / (ranks * seconds));
   }
 
+  // `auto` names its pick: "auto=bdpt".
+  const std::string estimator = desc.render.estimator == Estimator::Auto
+                                    ? std::string("auto=") + to_string(choose_estimator(desc).estimator)
+                                    : std::string(to_string(desc.render.estimator));
   std::printf("%s %dx%d %s/%s: %llu spp in %.2f s, %.2f Msamples/s, %.2f Mrays/s, estimated relMSE %.3g, "
               "%llu non-finite samples rejected\n",
-              o.scene.c_str(), desc.width, desc.height, to_string(desc.render.estimator), to_string(desc.render.sampler),
+              o.scene.c_str(), desc.width, desc.height, estimator.c_str(), to_string(desc.render.sampler),
               static_cast<unsigned long long>(spp), seconds, static_cast<double>(samples) / seconds * 1e-6,
               static_cast<double>(rays) / seconds * 1e-6, film.estimated_relmse(),
               static_cast<unsigned long long>(film.rejected()));

@@ -33,6 +33,7 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   scene_ = loaded_ = scene;
   scene_name_ = name;
   state_id_ = saved_state_id_ = 0;
+  ++loads_;
   pick_scene_.reset();
   selection_.reset();
   undo_.clear();
@@ -40,6 +41,12 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   last_undo_what_.clear();
   refresh_emission();
   reset_camera_controller();
+}
+
+const EstimatorChoice& ViewerModel::estimator_choice() const {
+  const std::pair<uint64_t, uint64_t> key{loads_, state_id_};
+  if (!choice_ || choice_->first != key) choice_.emplace(key, choose_estimator(scene_));
+  return choice_->second;
 }
 
 // Emission as colour × strength (max component 1), from materials.

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "scene/camera_controller.h"
+#include "scene/estimator_choice.h"
 #include "viewer/display_transform.h"
 #include "viewer/recent_files.h"
 #include "render/render_session.h"
@@ -70,6 +71,9 @@ class ViewerModel {
 
   RenderSession& session() { return *session_; }
   const SceneDesc& scene() const { return scene_; }
+  // What the `auto` estimator picks for the scene as edited, and why (scene/estimator_choice.h). Cached: the rule
+  // reads every shape's material, so it runs again only after an edit of the scene (not of the camera).
+  const EstimatorChoice& estimator_choice() const;
   const std::string& scene_name() const { return scene_name_; }
 
   // --- Scene edits: validate, update the model, restart accumulation. False (and an error status) if invalid.
@@ -220,6 +224,8 @@ class ViewerModel {
   // Every scene state an edit makes gets a new id; undo and redo bring back a state's id with the state. The
   // scene is saved when its id is the one last loaded or saved; the loaded state's id is 0 (revert returns there).
   uint64_t state_id_ = 0, saved_state_id_ = 0, next_state_id_ = 1;
+  uint64_t loads_ = 0;  // scenes adopted so far
+  mutable std::optional<std::pair<std::pair<uint64_t, uint64_t>, EstimatorChoice>> choice_;  // keyed (loads_, state_id_)
   SessionSettings launch_settings_;  // the command line's: each scene loaded starts from its stop conditions
   std::string scene_file_;
   std::optional<std::pair<std::string, SceneDesc>> read_ahead_;  // request_load's scene, while the panels ask

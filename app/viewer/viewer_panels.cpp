@@ -241,7 +241,15 @@ void render_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Render", ImGuiTreeNodeFlags_DefaultOpen)) return;
   RenderSettings r = model.scene().render;
-  const bool changed = enum_combo(state, "estimator", r.estimator) | enum_combo(state, "sampler", r.sampler);
+  const bool changed_estimator = enum_combo(state, "estimator", r.estimator);
+  if (r.estimator == Estimator::Auto) {  // which one auto traces with, and why
+    const EstimatorChoice& c = model.estimator_choice();
+    ImGui::TextDisabled("auto = %s", to_string(c.estimator));
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", c.reason.c_str());
+    ImGui::SameLine();
+    ImGui::TextWrapped("%s", c.reason.substr(c.reason.find(':') + 2).c_str());
+  }
+  const bool changed = changed_estimator | enum_combo(state, "sampler", r.sampler);
   if (changed) model.set_render(r);
   // Integer fields without ImGui's +/- buttons: 1.86's stepped InputScalar trips an assertion of its own
   // (MarkItemEdited) when its typed text changes.

@@ -277,6 +277,12 @@ RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic) {
 template <class Sampler>
 Rgb estimate_radiance(const Scene& scene, const RenderSettings& settings, const Ray& ray, Sampler& sampler,
                       RayCount& count) {
+  // One path: `auto` is traced as mis (bdpt traces whole rounds of pixels, render/renderer.h).
+  if (settings.estimator == Estimator::Auto) {
+    RenderSettings mis = settings;
+    mis.estimator = Estimator::Mis;
+    return estimate_radiance(scene, mis, ray, sampler, count);
+  }
   return select_kernel<Sampler>(scene, settings.generic_kernel)(scene, settings, ray, sampler, count, nullptr,
                                                                  nullptr);
 }

@@ -2,6 +2,7 @@
 
 #include "integrators/integrator.h"
 #include "integrators/wavefront.h"
+#include "scene/estimator_choice.h"
 #include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 #include "sampling/sobol_batch.h"
@@ -198,6 +199,8 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
 
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
                                 const std::vector<int>& tile_spp, const std::atomic<bool>* cancel) {
+  if (settings.estimator == Estimator::Auto)  // mis or bdpt for the scene as it is now (materials edited since)
+    return render_pass(scene, resolved_render_settings(scene, settings), film, tile_spp, cancel);
   if (settings.estimator == Estimator::Bdpt) {
     int rounds = 0;
     for (const int n : tile_spp) rounds = std::max(rounds, n);

@@ -402,8 +402,10 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
                           desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
 
   const DVec3 o = s.world_origin;
+  s.material_used.assign(desc.materials.size(), 0);
   for (const ShapeDesc& sh : desc.shapes) {
     const uint32_t mat = static_cast<uint32_t>(sh.material);
+    if (mat < s.material_used.size()) s.material_used[mat] = 1;
     const auto& v = sh.vertices;
     if (sh.type == ShapeType::Triangle) {
       add_polygon<3>(s.polygons, {v[0], v[1], v[2]}, o, mat);

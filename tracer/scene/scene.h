@@ -130,6 +130,7 @@ class Scene {
   DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
 
   std::vector<Material> materials;
+  std::vector<char> material_used;  // per material: some shape has it (the `auto` estimator asks)
   PolygonSoA polygons;
   SphereSoA spheres;
   // The same vertices for the SIMD tests: all of them in padded SoA (brute force) when there are fewer than

@@ -18,7 +18,9 @@ namespace pt {
 enum class ShapeType { Triangle, Quad, Sphere };
 enum class FovAxis { Vertical, Horizontal };
 // Estimators of docs/estimators.md; all converge to the same image.
-enum class Estimator { Uniform, Cosine, Nee, Mis, Bdpt };
+// Auto: mis or bdpt, whichever suits the scene (scene/estimator_choice.h); resolved before any path is traced.
+// Last, so the others keep the numbers film-state files (io/film_state.h) store them under.
+enum class Estimator { Uniform, Cosine, Nee, Mis, Bdpt, Auto };
 // Sample generators (sampler.h): independent PCG32 numbers, or Owen-scrambled padded Sobol points.
 enum class SamplerType { Independent, Sobol };
 // What lights the scene from infinitely far away (lights/environment.h).
@@ -45,7 +47,8 @@ struct EnumTable<FovAxis> {
 };
 template <>
 struct EnumTable<Estimator> {
-  static constexpr std::array<EnumEntry<Estimator>, 5> kEntries{{
+  static constexpr std::array<EnumEntry<Estimator>, 6> kEntries{{
+      {Estimator::Auto, "auto", "Automatic (mis or bdpt)"},
       {Estimator::Uniform, "uniform", "Uniform hemisphere"},
       {Estimator::Cosine, "cosine", "BSDF sampling"},
       {Estimator::Nee, "nee", "Next-event estimation"},
@@ -119,7 +122,7 @@ inline constexpr int kMaxBdptBounces = 1024;
 
 struct RenderSettings {
   int max_bounces = 8;             // scattering events after the camera ray's first hit (0 = emitters only)
-  Estimator estimator = Estimator::Mis;
+  Estimator estimator = Estimator::Auto;
   SamplerType sampler = SamplerType::Sobol;
   int russian_roulette_depth = 3;  // bounce index from which Russian roulette runs; -1 = off
   uint64_t seed = 0;
