@@ -6,17 +6,11 @@
 #include <fstream>
 
 #include "io/safe_file.h"
+#include "viewer/viewer_prefs.h"
 
 namespace pt {
 
-std::string RecentFiles::default_store() {
-  namespace fs = std::filesystem;
-  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg)
-    return (fs::path(xdg) / "pathtracer" / "recent-scenes.txt").string();
-  if (const char* home = std::getenv("HOME"); home && *home)
-    return (fs::path(home) / ".config" / "pathtracer" / "recent-scenes.txt").string();
-  return "";
-}
+std::string RecentFiles::default_store() { return viewer_config_path("recent-scenes.txt"); }
 
 RecentFiles::RecentFiles(std::string store) : store_(std::move(store)) {
   if (store_.empty()) return;

@@ -40,6 +40,10 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
                 "Resolution divisor of the first pass after each change; 0 = automatic, 1 = off")
       ->check(whole_in(0, 64))
       ->capture_default_str();
+  v->add_option("--size", o.size,
+                "Render size: window (follow the image area, HiDPI-aware; the Scene panel sets a scale) or scene "
+                "(the scene's film size); default: as last time, else window")
+      ->check(CLI::IsMember({"window", "scene"}));
   v->add_flag("--raw-preview", o.raw_preview,
               "While the view changes, show the raw 1-spp preview (magnified) instead of the clean one (denoised and "
               "upsampled along a full-resolution guide; docs/viewer.md)");

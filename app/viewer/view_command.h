@@ -19,6 +19,7 @@ struct ViewOptions {
   std::string mode = "colour";
   std::string output_dir = ".";
   int preview_divisor = 0;
+  std::string size;          // "window" (follow it) or "scene" (the film size); "" = as last time (preferences)
   bool raw_preview = false;  // show the raw 1-spp preview instead of the clean (denoised, upsampled) one
   bool denoise = true;           // denoising on (--no-denoise: off)
   std::string denoise_view = "denoised";

@@ -31,6 +31,14 @@ ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, 
 
 void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   scene_ = loaded_ = scene;
+  fixed_width_ = scene.width;
+  fixed_height_ = scene.height;
+  if (follow_window_ && area_width_ > 0) {  // a scene loaded while following the window takes the window's size
+    scene_.width = std::clamp(static_cast<int>(std::lround(area_width_ * static_cast<double>(follow_scale_))), 1,
+                              kMaxViewerResolution);
+    scene_.height = std::clamp(static_cast<int>(std::lround(area_height_ * static_cast<double>(follow_scale_))), 1,
+                               kMaxViewerResolution);
+  }
   scene_name_ = name;
   state_id_ = saved_state_id_ = 0;
   ++loads_;
@@ -297,10 +305,45 @@ bool ViewerModel::set_resolution(int width, int height) {
     set_status("not applied: the resolution must be 1 to " + std::to_string(kMaxViewerResolution) + " per side", true);
     return false;
   }
-  SceneDesc edited = scene_;
-  edited.width = width;
-  edited.height = height;
-  return set_geometry(std::move(edited), "resolution");
+  if (follow_window_) {
+    set_status("not applied: the render follows the window (turn \"follow the window\" off for a fixed size)", true);
+    return false;
+  }
+  if (width == scene_.width && height == scene_.height) return true;
+  remember("resolution", false);
+  fixed_width_ = width;
+  fixed_height_ = height;
+  return apply_film_size(width, height);
+}
+
+bool ViewerModel::apply_film_size(int width, int height) {
+  if (width == scene_.width && height == scene_.height) return false;
+  const FilmSize size{width, height};
+  if (std::string err = validate_edit(scene_, size); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  apply_edit(scene_, size);
+  camera_.set_aspect(static_cast<double>(width) / height);
+  note_edit(session_->edit(size));
+  return true;
+}
+
+void ViewerModel::set_follow_window(bool on, float scale) {
+  follow_window_ = on;
+  follow_scale_ = scale;
+  if (!on) apply_film_size(fixed_width_, fixed_height_);
+  else if (area_width_ > 0) note_image_area(area_width_, area_height_);
+}
+
+bool ViewerModel::note_image_area(int framebuffer_width, int framebuffer_height) {
+  area_width_ = framebuffer_width;
+  area_height_ = framebuffer_height;
+  if (!follow_window_ || framebuffer_width < 1 || framebuffer_height < 1) return false;
+  auto side = [&](int pixels) {
+    return std::clamp(static_cast<int>(std::lround(pixels * static_cast<double>(follow_scale_))), 1, kMaxViewerResolution);
+  };
+  return apply_film_size(side(framebuffer_width), side(framebuffer_height));
 }
 
 // --- Undo ---------------------------------------------------------------------------------------------------------
@@ -345,8 +388,12 @@ void ViewerModel::restore(const UndoStep& s) {
   emission_ = s.emission;
   scene_.environment = s.environment;
   scene_.render = s.render;
-  scene_.width = s.width;
-  scene_.height = s.height;
+  if (!follow_window_) {  // following the window, the size is the window's, not the step's
+    scene_.width = s.width;
+    scene_.height = s.height;
+  }
+  fixed_width_ = s.width;
+  fixed_height_ = s.height;
   if (s.shapes) {
     scene_.shapes = *s.shapes;
     pick_scene_.reset();

@@ -106,8 +106,17 @@ class ViewerModel {
   bool move_shape(size_t index, DVec3 offset);  // translates a triangle, quad or sphere
   bool set_sphere_radius(size_t index, double radius);
   bool set_shape_material(size_t index, size_t material);
-  // The film size (the render, not the window): 1 … kMaxViewerResolution per side.
+  // The film size (the render, not the window): 1 … kMaxViewerResolution per side. An edit (undoable, saved);
+  // refused while the render follows the window.
   bool set_resolution(int width, int height);
+  // "Follow the window": the film's size is the image area's (framebuffer pixels, so HiDPI counts) times `scale`
+  // (kFollowScales), set by note_image_area as the window changes: a view, like a camera move (not undone, not
+  // an unsaved edit). Off: the scene's own film size again, as last set.
+  void set_follow_window(bool on, float scale);
+  bool follow_window() const { return follow_window_; }
+  float follow_scale() const { return follow_scale_; }
+  // The window reports the area the image is shown in, each frame; returns true when the film size changed.
+  bool note_image_area(int framebuffer_width, int framebuffer_height);
 
   // --- Undo / redo of scene edits (materials, emission, environment, render settings, geometry, resolution;
   // camera moves are views and are not recorded). Consecutive edits of one thing within a second (a slider
@@ -227,6 +236,11 @@ class ViewerModel {
   uint64_t loads_ = 0;  // scenes adopted so far
   mutable std::optional<std::pair<std::pair<uint64_t, uint64_t>, EstimatorChoice>> choice_;  // keyed (loads_, state_id_)
   SessionSettings launch_settings_;  // the command line's: each scene loaded starts from its stop conditions
+  bool follow_window_ = false;
+  float follow_scale_ = 1.f;
+  int fixed_width_ = 0, fixed_height_ = 0;  // the film size as an edit last set it (follow off restores it)
+  int area_width_ = 0, area_height_ = 0;    // the image area last reported (framebuffer pixels)
+  bool apply_film_size(int width, int height);  // in the scene and the session, without undo
   std::string scene_file_;
   std::optional<std::pair<std::string, SceneDesc>> read_ahead_;  // request_load's scene, while the panels ask
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit

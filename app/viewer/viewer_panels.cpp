@@ -14,6 +14,7 @@
 #include "scene/scene_json.h"
 #include "core/thread_pool.h"
 #include "viewer/relmse_axis.h"
+#include "viewer/viewer_prefs.h"
 #include "viewer/viewer_model.h"
 
 namespace pt {
@@ -607,8 +608,22 @@ void refresh_save_path(const ViewerModel& model, PanelState& state) {
   copy_string(state.save_scene_path, sizeof state.save_scene_path, model.suggested_save_path());
 }
 
-// The film size, independent of the window: presets and typed values.
+// The film size: following the window (at a scale), or fixed: presets and typed values.
 void resolution_field(ViewerModel& model, PanelState& state) {
+  bool follow = model.follow_window();
+  if (ImGui::Checkbox("follow the window", &follow)) model.set_follow_window(follow, model.follow_scale());
+  note_item(state, "follow the window");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("The render's size is the image area's, at the scale beside (framebuffer pixels: HiDPI counts)");
+  ImGui::SameLine();
+  static const char* const kScaleLabels[] = {"1:1", "1/2", "1/4"};
+  int scale_index = 0;
+  for (int i = 0; i < 3; ++i)
+    if (kFollowScales[i] == model.follow_scale()) scale_index = i;
+  ImGui::SetNextItemWidth(70.f * ui_scale());
+  if (ImGui::Combo("##follow scale", &scale_index, kScaleLabels, 3))
+    model.set_follow_window(model.follow_window(), kFollowScales[scale_index]);
+  ImGui::BeginDisabled(model.follow_window());
   static const int kPresets[][2] = {{256, 256}, {512, 512}, {1024, 1024}, {640, 360}, {1280, 720}, {1920, 1080}};
   char current[32];
   std::snprintf(current, sizeof current, "%d x %d", model.scene().width, model.scene().height);
@@ -624,6 +639,7 @@ void resolution_field(ViewerModel& model, PanelState& state) {
   numeric_field(state, "resolution", std::array<int, 2>{model.scene().width, model.scene().height}, true,
                 [](int* v) { return ImGui::InputInt2("resolution", v); },
                 [&](const std::array<int, 2>& v) { return outcome(model.set_resolution(v[0], v[1]), model); });
+  ImGui::EndDisabled();
 }
 
 void scene_section(ViewerModel& model, PanelState& state) {
@@ -803,6 +819,8 @@ void setup_viewer_style(float content_scale) {
 }
 
 float panel_width() { return kPanelWidth * g_ui_scale; }
+float ui_scale() { return g_ui_scale; }
+float PanelState::width() const { return width_units * g_ui_scale; }
 
 float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage& shown) {
   refresh_save_path(model, state);
@@ -812,12 +830,15 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
   }
   if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
   const ImGuiIO& io = ImGui::GetIO();
-  const float width = std::min(panel_width(), io.DisplaySize.x);
+  const float width = std::min(state.width(), io.DisplaySize.x);
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - width, 0.f));
   ImGui::SetNextWindowSize(ImVec2(width, io.DisplaySize.y));
+  // The left edge is a splitter: dragging it resizes the panel (within limits); the window keeps the width.
+  ImGui::SetNextWindowSizeConstraints(ImVec2(ViewerPrefs::kMinPanelWidth * ui_scale(), io.DisplaySize.y),
+                                      ImVec2(ViewerPrefs::kMaxPanelWidth * ui_scale(), io.DisplaySize.y));
   ImGui::Begin("pathtracer", nullptr,
-               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
-                   ImGuiWindowFlags_NoSavedSettings);
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoSavedSettings);
+  if (const float now = ImGui::GetWindowWidth(); now != width && now > 0.f) state.width_units = now / ui_scale();
   ImGui::PushItemWidth(-110.f);
   ImGui::Text("%s  %dx%d%s  %.1f ms/frame", model.scene_name().c_str(), shown.width, shown.height,
               shown.preview ? " (preview)" : "", shown.frame_ms);

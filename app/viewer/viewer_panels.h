@@ -30,6 +30,8 @@ struct FieldMemory {
   std::string error;  // why it was refused ("" while typing)
 };
 
+inline constexpr float kPanelWidth = 380.f;  // the default, in ImGui (window) units at a content scale of 1
+
 // UI-only state: text buffers and scratch vectors reused from frame to frame.
 struct PanelState {
   char scene_path[512] = "";
@@ -51,17 +53,22 @@ struct PanelState {
   std::string scope;
   std::vector<RelMsePoint> history;
   std::vector<std::string> builtin_names;
+  // The panel's width in ImGui units at a content scale of 1: the user drags its left edge (a splitter); the
+  // window keeps it in the viewer's preferences.
+  float width_units = kPanelWidth;
+  float width() const;  // in ImGui units at the style's scale
 };
 
-inline constexpr float kPanelWidth = 380.f;  // in ImGui (window) units at a content scale of 1
 
 // The viewer's ImGui style at a monitor content scale (HiDPI: glfwGetWindowContentScale): the default font
 // rasterised at 13·scale pixels, every size scaled, opaque popups (a translucent combo list over the image
 // was hard to read), thin slider grabs (the handle no longer covers the value). Call once, after
 // ImGui::CreateContext() and before the renderer backend builds the font texture.
 void setup_viewer_style(float content_scale);
-// The panel's width in ImGui units at the style's scale.
+// The default panel's width in ImGui units at the style's scale.
 float panel_width();
+// The style's scale (the monitor's content scale, clamped).
+float ui_scale();
 
 // Draws the side panel at the right edge of the display. Call between ImGui::NewFrame() and ImGui::Render().
 // Returns the width it covers (0 when model.ui_visible is false).

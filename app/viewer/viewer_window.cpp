@@ -23,6 +23,7 @@
 #include "viewer/viewer_input.h"
 #include "viewer/viewer_model.h"
 #include "viewer/viewer_panels.h"
+#include "viewer/viewer_prefs.h"
 
 namespace pt {
 
@@ -152,6 +153,14 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
   ImGuiIO& io = ImGui::GetIO();
   DisplayFrame front;
   PanelState panels;
+  // The preferences (panel width, following the window); the command line's --size wins for this run. Written
+  // back at exit only if the user changed them here.
+  const std::string prefs_path = viewer_config_path("viewer.conf");
+  std::vector<std::string> prefs_warnings;
+  const ViewerPrefs prefs = read_viewer_prefs(prefs_path, prefs_warnings);
+  for (const std::string& w : prefs_warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  panels.width_units = prefs.panel_width;
+  model.set_follow_window(o.size.empty() ? prefs.follow_window : o.size == "window", prefs.follow_scale);
   ShownImage shown;
   FrameTimes times;
   times.reserve(o.frames > 0 ? static_cast<size_t>(o.frames) : 4096);
@@ -244,7 +253,10 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(window, &fb_w, &fb_h);
       const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(fb_w) / io.DisplaySize.x : 1.f;
-      const float panel = model.ui_visible ? std::min(panel_width(), io.DisplaySize.x) : 0.f;
+      const float panel = model.ui_visible ? std::min(panels.width(), io.DisplaySize.x) : 0.f;
+      // Following the window, the film takes the image area's size (framebuffer pixels).
+      model.note_image_area(static_cast<int>(std::lround((io.DisplaySize.x - panel) * scale)),
+                            static_cast<int>(std::lround(io.DisplaySize.y * scale)));
       const ImageArea area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
                                          io.DisplaySize.x - panel, io.DisplaySize.y, scale);
       image_height = area.h;
@@ -316,6 +328,15 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     const double remaining_ms = budget_ms - ms_between(start, Clock::now());
     if (remaining_ms > 0.0) glfwWaitEventsTimeout(remaining_ms * 1e-3);
   }
+
+  ViewerPrefs now = prefs;
+  now.panel_width = std::clamp(panels.width_units, ViewerPrefs::kMinPanelWidth, ViewerPrefs::kMaxPanelWidth);
+  now.follow_scale = model.follow_scale();
+  if (o.size.empty() || (o.size == "window") != model.follow_window()) now.follow_window = model.follow_window();
+  if (now.panel_width != prefs.panel_width || now.follow_window != prefs.follow_window ||
+      now.follow_scale != prefs.follow_scale)
+    if (const std::string err = write_viewer_prefs(prefs_path, now); !err.empty())
+      std::fprintf(stderr, "warning: %s\n", err.c_str());
 
   if (o.stats) {
     std::printf("frames drawn: %lld in %.2f s%s\n", frame, ms_between(t0, Clock::now()) * 1e-3,

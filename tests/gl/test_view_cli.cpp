@@ -107,7 +107,7 @@ TEST_CASE("view cli: Ctrl-C saves the image so far (PNG and PFM, as the S key do
   const std::string script =
       "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 6; kill -INT $pid; wait $pid";
   const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" + script + "'",
-                    "view --spp 16 --threads 2 --output-dir " + dir.string());
+                    "view --spp 16 --threads 2 --size scene --output-dir " + dir.string());
   INFO(r.out << r.err);
   CHECK(r.status == 0);
   CHECK(r.err.find("interrupted by SIGINT: saving the image so far, then quitting") != std::string::npos);
@@ -267,5 +267,33 @@ run away "$d/away.json" & run off cornell --script "$d/off.txt" & wait
     REQUIRE(peak > 0);
     CHECK(peak <= 1.05 * base);
   }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("view cli: following the window, a window resize changes the render's size") {
+  if (!have_xvfb_run() || std::system("command -v xdotool > /dev/null") != 0) {
+    MESSAGE("xvfb-run or xdotool not found: skipping the resize test");
+    return;
+  }
+  // The viewer follows its window (--size window); 5 s in, the window is resized to 1000 × 700, and 4 s later
+  // SIGINT saves the image, whose size must then be the image area's: 1000 minus the panel (380) by 700.
+  const std::filesystem::path dir = "view_resize_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  const std::string env_dir = std::filesystem::absolute(dir / "config").string();  // no user preferences
+  const std::string script =
+      "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 5; wid=$(xdotool search --name pathtracer | head -1); "
+      "xdotool windowsize --sync $wid 1000 700; sleep 4; kill -INT $pid; wait $pid";
+  const Run r = run("XDG_CONFIG_HOME=" + env_dir + " timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" +
+                        script + "'",
+                    "view --size window --threads 2 --spp 4 --output-dir " + dir.string());
+  INFO(r.out << r.err);
+  CHECK(r.status == 0);
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load((dir / "cornell-0001.png").c_str(), &w, &h, &n, 3);
+  REQUIRE(px != nullptr);
+  stbi_image_free(px);
+  CHECK(w == 1000 - 380);
+  CHECK(h == 700);
   std::filesystem::remove_all(dir);
 }

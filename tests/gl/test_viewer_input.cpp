@@ -17,6 +17,7 @@
 #include "viewer/viewer_input.h"
 #include "viewer/viewer_model.h"
 #include "viewer/viewer_panels.h"
+#include "viewer/viewer_prefs.h"
 
 using namespace pt;
 
@@ -57,6 +58,8 @@ struct Ui {
     io.KeyMap[ImGuiKey_Escape] = GLFW_KEY_ESCAPE;
     io.KeyMap[ImGuiKey_Tab] = GLFW_KEY_TAB;
     io.KeyMap[ImGuiKey_Backspace] = GLFW_KEY_BACKSPACE;
+    // As the GLFW backend declares: window edges resize (ImGui turns that off for good at the first frame without).
+    io.BackendFlags |= ImGuiBackendFlags_HasMouseCursors;
     state.record_items = true;
     state.expand_all = true;
     shown.width = shown.height = 24;
@@ -778,4 +781,84 @@ TEST_CASE("viewer input: the denoise box is a view: ticking it keeps the film's 
   ui.click("denoise");  // and off again: still the same accumulation
   CHECK_FALSE(model.present.denoise);
   CHECK(model.session().stats().generation == before.generation);
+}
+
+TEST_CASE("viewer: following the window, the film takes the image area's size at the chosen scale, as a view") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  CHECK(model.scene().width == 24);
+  model.set_follow_window(true, 1.f);
+  REQUIRE(model.note_image_area(90, 60));
+  CHECK(model.scene().width == 90);
+  CHECK(model.scene().height == 60);
+  CHECK_FALSE(model.has_unsaved_edits());  // a view, like a camera move
+  CHECK_FALSE(model.can_undo());
+  CHECK_FALSE(model.note_image_area(90, 60));  // unchanged: no restart
+  model.set_follow_window(true, 0.5f);
+  CHECK(model.scene().width == 45);
+  CHECK(model.scene().height == 30);
+  CHECK_FALSE(model.set_resolution(64, 64));  // refused while following: the window decides
+  CHECK(model.status_is_error());
+  // The session renders at the new size, without rebuilding anything but the camera's raster.
+  REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  DisplayFrame f;
+  const auto start = std::chrono::steady_clock::now();
+  while (!(f.width == 45 && !f.preview) && std::chrono::steady_clock::now() - start < std::chrono::seconds(20))
+    if (!model.session().take_frame(f)) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  CHECK(f.width == 45);
+  CHECK(f.height == 30);
+  // Off: the scene's own size again; then a fixed size is an edit.
+  model.set_follow_window(false, 0.5f);
+  CHECK(model.scene().width == 24);
+  REQUIRE(model.set_resolution(64, 48));
+  CHECK(model.has_unsaved_edits());
+  REQUIRE(model.undo());
+  CHECK(model.scene().width == 24);
+}
+
+TEST_CASE("viewer input: the panel's left edge is a splitter: dragging it widens the panel") {
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  Ui ui(model);
+  ui.state.expand_all = false;
+  ImGuiIO& io = ImGui::GetIO();
+  io.DisplaySize = ImVec2(1200.f, 800.f);
+  ui.frame();
+  const float before = ui.state.width_units;
+  const float edge = 1200.f - ui.state.width();
+  io.MousePos = ImVec2(edge + 1.f, 400.f);  // on the left border
+  ui.frame();
+  io.MouseDown[0] = true;
+  ui.frame();
+  for (int i = 1; i <= 10; ++i) {
+    io.MousePos = ImVec2(edge + 1.f - 10.f * i, 400.f);
+    ui.frame();
+  }
+  io.MouseDown[0] = false;
+  ui.frame();
+  MESSAGE("panel width " << before << " -> " << ui.state.width_units);
+  CHECK(ui.state.width_units == doctest::Approx(before + 100.f).epsilon(0.03));
+  // The image is not orbited by a drag that began on the splitter.
+  CHECK(model.camera().camera().position == model.scene().camera.position);
+}
+
+TEST_CASE("viewer: preferences read back what was written, and bad lines are ignored with a warning") {
+  const std::string path = "viewer_prefs_" + std::to_string(getpid()) + ".conf";
+  ViewerPrefs p;
+  p.panel_width = 512.f;
+  p.follow_window = false;
+  p.follow_scale = 0.25f;
+  REQUIRE(write_viewer_prefs(path, p) == "");
+  std::vector<std::string> warnings;
+  const ViewerPrefs q = read_viewer_prefs(path, warnings);
+  CHECK(warnings.empty());
+  CHECK(q.panel_width == 512.f);
+  CHECK_FALSE(q.follow_window);
+  CHECK(q.follow_scale == 0.25f);
+  { std::ofstream(path) << "panel_width=5\nfollow_scale=0.3\ncolour=blue\nfollow_window=1\n"; }
+  const ViewerPrefs r = read_viewer_prefs(path, warnings);
+  CHECK(warnings.size() == 3);
+  CHECK(r.panel_width == ViewerPrefs{}.panel_width);
+  CHECK(r.follow_scale == 1.f);
+  CHECK(r.follow_window);
+  CHECK(read_viewer_prefs("no/such/file.conf", warnings).panel_width == ViewerPrefs{}.panel_width);
+  std::filesystem::remove(path);
 }

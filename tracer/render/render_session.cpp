@@ -265,7 +265,7 @@ bool RenderSession::take_requests(Worker& w, bool& restart) {
     changed_.notify_all();
   }
   if (pending_scene_) {
-    if (w.scene_ok && same_geometry(w.desc, *pending_scene_)) {
+    if (w.scene_ok && same_shapes(w.desc, *pending_scene_)) {  // a new film size is set in place (prepare)
       if (!w.appearance_dirty) w.appearance_from = std::move(w.desc);  // what the compiled scenes show
       w.appearance_dirty = true;
     } else {
@@ -321,10 +321,14 @@ bool RenderSession::prepare(Worker& w, bool restart) {
       w.edits.clear();
     }
     for (const SceneEdit& e : w.edits) {
+      if (std::holds_alternative<FilmSize>(e)) continue;  // below: the compiled scenes take the new size in place
       if (w.full && !w.full_dirty && !apply_edit(*w.full, e)) w.full_dirty = true;
       if (w.preview && !w.preview_dirty && !apply_edit(*w.preview, e)) w.preview_dirty = true;
     }
     w.edits.clear();
+    // The film size follows the description without rebuilding geometry (the viewer following its window).
+    if (w.full && !w.full_dirty && (w.full->width != w.desc.width || w.full->height != w.desc.height))
+      set_scene_resolution(*w.full, w.desc.width, w.desc.height, w.desc.camera);
     if (restart && w.scene_ok) {
       w.film.enable_features(true);  // always: denoising can be turned on at any time without a restart
       w.film.reset(w.desc.width, w.desc.height);
@@ -334,12 +338,15 @@ bool RenderSession::prepare(Worker& w, bool restart) {
       if (divisor != w.preview_divisor) w.preview_dirty = true;
       w.preview_divisor = divisor;
       w.need_preview = divisor > 1 && (w.desc.width >= 2 * divisor || w.desc.height >= 2 * divisor);
+      const int small_width = std::max(1, w.desc.width / divisor), small_height = std::max(1, w.desc.height / divisor);
       if (w.need_preview && w.preview_dirty) {
         SceneDesc small = w.desc;
-        small.width = std::max(1, w.desc.width / divisor);
-        small.height = std::max(1, w.desc.height / divisor);
+        small.width = small_width;
+        small.height = small_height;
         w.preview = compile_scene(small);
         w.preview_dirty = false;
+      } else if (w.need_preview && (w.preview->width != small_width || w.preview->height != small_height)) {
+        set_scene_resolution(*w.preview, small_width, small_height, w.desc.camera);
       }
       if (w.need_preview) {
         w.preview_film.enable_features(w.settings.preview_denoise);

@@ -124,6 +124,13 @@ std::string validate_material(const MaterialDesc& m) {
 
 }  // namespace
 
+std::string validate_film_size(int width, int height) {
+  const std::string range = "[1, " + std::to_string(kMaxFilmSide) + "]";
+  if (width < 1 || width > kMaxFilmSide) return "film.width: must be in " + range;
+  if (height < 1 || height > kMaxFilmSide) return "film.height: must be in " + range;
+  return {};
+}
+
 std::string validate_render_settings(const RenderSettings& r) {
   if (r.max_bounces < 0) return "render.max_bounces: must be >= 0";
   if (r.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
@@ -138,8 +145,7 @@ std::string validate_render_settings(const RenderSettings& r) {
 
 std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
-  if (s.width < 1 || s.width > 16384) return "film.width: must be in [1, 16384]";
-  if (s.height < 1 || s.height > 16384) return "film.height: must be in [1, 16384]";
+  if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
   if (s.materials.empty()) return "materials: the scene defines no material";
@@ -450,17 +456,6 @@ bool same_camera(const CameraDesc& a, const CameraDesc& b) {
          a.fov_axis == b.fov_axis;
 }
 
-bool same_shapes(const SceneDesc& a, const SceneDesc& b) {
-  if (a.materials.size() != b.materials.size() || a.shapes.size() != b.shapes.size()) return false;
-  for (size_t i = 0; i < a.shapes.size(); ++i) {
-    const ShapeDesc &x = a.shapes[i], &y = b.shapes[i];
-    if (x.type != y.type || x.vertices != y.vertices || x.center != y.center || x.radius != y.radius ||
-        x.material != y.material)
-      return false;
-  }
-  return true;
-}
-
 // The camera moved within this many bounding radii of the origin the geometry was compiled around keeps the
 // geometry: its float precision relative to the eye stays that of the scene's own extent. Farther moves
 // recompile, so that precision never depends on how far the camera has travelled.
@@ -483,6 +478,17 @@ std::vector<uint32_t> primitive_shapes(const SceneDesc& desc) {
   }
   polygons.insert(polygons.end(), spheres.begin(), spheres.end());
   return polygons;
+}
+
+bool same_shapes(const SceneDesc& a, const SceneDesc& b) {
+  if (a.materials.size() != b.materials.size() || a.shapes.size() != b.shapes.size()) return false;
+  for (size_t i = 0; i < a.shapes.size(); ++i) {
+    const ShapeDesc &x = a.shapes[i], &y = b.shapes[i];
+    if (x.type != y.type || x.vertices != y.vertices || x.center != y.center || x.radius != y.radius ||
+        x.material != y.material)
+      return false;
+  }
+  return true;
 }
 
 bool same_geometry(const SceneDesc& a, const SceneDesc& b) {
@@ -522,17 +528,28 @@ std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit) {
     return validate_material(m->material);
   }
   if (const auto* c = std::get_if<CameraDesc>(&edit)) return validate_camera(*c);
+  if (const auto* f = std::get_if<FilmSize>(&edit)) return validate_film_size(f->width, f->height);
   return validate_environment(std::get<EnvironmentDesc>(edit));
 }
 
 void apply_edit(SceneDesc& desc, const SceneEdit& edit) {
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) desc.materials.at(m->index) = m->material;
   else if (const auto* c = std::get_if<CameraDesc>(&edit)) desc.camera = *c;
+  else if (const auto* f = std::get_if<FilmSize>(&edit)) desc.width = f->width, desc.height = f->height;
   else desc.environment = std::get<EnvironmentDesc>(edit);
+}
+
+void set_scene_resolution(Scene& s, int width, int height, const CameraDesc& c) {
+  s.width = width;
+  s.height = height;
+  const Vec3 origin = s.camera.origin;  // the eye relative to where the geometry was compiled
+  s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, width, height);
+  s.camera.origin = origin;
 }
 
 bool apply_edit(Scene& s, const SceneEdit& edit) {
   if (const auto* c = std::get_if<CameraDesc>(&edit)) return move_camera(s, *c);
+  if (std::holds_alternative<FilmSize>(edit)) return false;  // needs the camera: set_scene_resolution
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
     s.materials.at(m->index) = compile_material(m->material);
     note_material_features(s);

@@ -182,6 +182,8 @@ std::vector<uint32_t> primitive_shapes(const SceneDesc& desc);
 // True when b has a's shapes, film size and number of materials: then the compiled geometry of a serves b, and
 // update_scene_appearance can apply the difference in place.
 bool same_geometry(const SceneDesc& a, const SceneDesc& b);
+// The same without the film size (set_scene_resolution changes that in place).
+bool same_shapes(const SceneDesc& a, const SceneDesc& b);
 
 // Edits without recompiling geometry: `s` was compiled from `before` (possibly at another film size: a
 // preview); applies `after`, whose shapes must be before's, by recompiling only the materials that differ, the
@@ -200,7 +202,16 @@ struct MaterialEdit {
   size_t index = 0;
   MaterialDesc material;
 };
-using SceneEdit = std::variant<MaterialEdit, CameraDesc, EnvironmentDesc>;
+// The film's size (the viewer following its window): no geometry is rebuilt, the camera's raster changes.
+struct FilmSize {
+  int width = 0, height = 0;
+};
+using SceneEdit = std::variant<MaterialEdit, CameraDesc, EnvironmentDesc, FilmSize>;
+inline constexpr int kMaxFilmSide = 16384;
+
+// Gives a compiled scene another film size (its camera's raster) in place: the geometry does not depend on it.
+// `camera` is the scene's camera description (the eye stays where the scene has it now).
+void set_scene_resolution(Scene& s, int width, int height, const CameraDesc& camera);
 
 // "" when `edit` may be applied to `desc` (the index exists, the new values are valid), else "path: reason".
 // Checks the edited part only: its cost does not grow with the scene.
@@ -230,6 +241,8 @@ std::string radiance_problem(Rgb c);
 
 // "" when the render settings are valid, else "render.field: reason".
 std::string validate_render_settings(const RenderSettings& render);
+// "" or why a film of width × height cannot be rendered (each side 1 … kMaxFilmSide).
+std::string validate_film_size(int width, int height);
 
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
