@@ -655,3 +655,20 @@ TEST_CASE("manifold: the strategy makes the caustic seen in a mirror far less no
   // Measured 0.18 (5.7× less variance); fixed seeds, the bound leaves a margin for other platforms' rounding.
   CHECK(v_with < 0.3 * v_without);
 }
+
+TEST_CASE("hostile scene input: bdpt on glass spheres without any light renders black, never reading a light") {
+  // Found by fuzz_scene once `auto` chose bdpt for such scenes: the manifold strategy (through smooth spheres)
+  // picked a light from an empty list, undefined behaviour that UBSan reports and a release build hides.
+  SceneDesc d = load_scene("cornell-spheres");
+  for (MaterialDesc& m : d.materials) m.emission = Rgb(0.f);
+  d.width = 8;
+  d.height = 6;
+  d.render.estimator = Estimator::Bdpt;
+  d.render.max_bounces = 6;
+  const auto scene = compile_scene(d);
+  REQUIRE(scene->lights.empty());
+  Film film(d.width, d.height);
+  Renderer(1).render_pass(*scene, d.render, film, 2);
+  CHECK(film.rejected() == 0);
+  for (const float v : film.mean_image()) CHECK(v == 0.f);
+}

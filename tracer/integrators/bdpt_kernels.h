@@ -20,7 +20,8 @@ struct Options {
         only_s(r.bdpt_only.s),
         only_t(r.bdpt_only.t),
         has_lights(!s.lights.empty()),
-        manifold(r.bdpt_manifold && s.features.spheres && only_s < 0) {}
+        // It connects to a light: none without one (choose_light has nothing to choose from).
+        manifold(r.bdpt_manifold && s.features.spheres && only_s < 0 && has_lights) {}
   int max_bounces, rr_depth, only_s, only_t;
   bool has_lights;
   bool manifold;  // the manifold strategy through smooth spheres (bdpt_manifold.h)
