@@ -1,5 +1,7 @@
 // The viewer's background render session: restarts, cancellation, pause, stop conditions, published frames.
 #include <doctest/doctest.h>
+
+#include <span>
 #include <sys/resource.h>
 #include <time.h>
 
@@ -446,6 +448,81 @@ TEST_CASE("session: turning denoising on keeps the accumulation and denoises the
   CHECK(f.denoised.size() == 3ull * desc.width * desc.height);
   CHECK(session.stats().spp == 4);
   CHECK(session.stats().samples == before.samples);
+}
+
+TEST_CASE("progressive: the relMSE forecast follows a power law exactly, and gives a range from noisy points") {
+  // relMSE = 0.5 · t^−0.7: the fit must find the exponent, and the forecast is the geometric mean of the fitted
+  // line's finish and the 1/time rule's.
+  std::vector<RelMsePoint> h;
+  for (int i = 1; i <= 40; ++i) {
+    const double t = 0.25 * i;
+    h.push_back({t, 0.5 * std::pow(t, -0.7), static_cast<uint64_t>(16 * i)});
+  }
+  const RelMseForecast f = forecast_relmse(h, 1e-3);
+  REQUIRE(f.fitted);
+  CHECK(f.exponent == doctest::Approx(0.7));
+  const double fitted = std::pow(0.5 / 1e-3, 1.0 / 0.7), rule = 10.0 * h.back().relmse / 1e-3;
+  CHECK(f.seconds == doctest::Approx(std::sqrt(fitted * rule) - 10.0).epsilon(1e-6));
+  CHECK(f.low == doctest::Approx(rule - 10.0).epsilon(1e-6));  // no scatter: the range is the two finishes
+  CHECK(f.high == doctest::Approx(fitted - 10.0).epsilon(1e-6));
+  // Scatter widens the range around the forecast.
+  for (size_t i = 0; i < h.size(); ++i) h[i].relmse *= i % 2 ? 1.1 : 0.9;
+  const RelMseForecast g = forecast_relmse(h, 1e-3);
+  CHECK(g.low < g.seconds);
+  CHECK(g.high > g.seconds);
+  // Too little history: the 1/time rule from the newest point.
+  const std::vector<RelMsePoint> two = {{1.0, 0.1, 16}, {2.0, 0.05, 32}};
+  const RelMseForecast r = forecast_relmse(two, 0.01);
+  CHECK_FALSE(r.fitted);
+  CHECK(r.seconds == doctest::Approx(2.0 * (0.05 / 0.01 - 1.0)));
+  CHECK(forecast_relmse(two, 0.1).seconds == 0.0);  // already there
+}
+
+TEST_CASE("progressive: the relMSE forecast made a quarter of the way through predicts the finish within 10 % "
+          "on three built-in scenes") {
+  // Time is counted in samples per pixel here (render time is proportional to it on a steady machine), so the
+  // test is exact and does not depend on the machine's load. Before, the 1/time rule from the newest estimate
+  // said "10 s left" on materials at 22 s of a render that finished at 44.6 s.
+  struct Case {
+    const char* scene;
+    double target;
+  };
+  for (const Case c : {Case{"cornell", 2.5e-4}, Case{"cornell-spheres", 1e-3}, Case{"materials", 5e-4}}) {
+    const std::string name = c.scene;
+    CAPTURE(name);
+    SceneDesc d = load_scene(c.scene);
+    d.width = d.height = 64;
+    d.render.max_bounces = 8;
+    d.render.estimator = Estimator::Mis;
+    const auto scene = compile_scene(d);
+    Renderer renderer(2);
+    Film film;
+    film.reset(d.width, d.height);
+    std::vector<RelMsePoint> history;
+    uint64_t spp = 0;
+    while (spp < 16384) {
+      renderer.render_pass(*scene, d.render, film, 4);
+      spp += 4;
+      const double r = film.estimated_relmse();
+      if (spp >= kRelMseStopMinSpp) history.push_back({static_cast<double>(spp), r, spp});
+      if (spp >= kRelMseStopMinSpp && r <= c.target) break;
+    }
+    REQUIRE(spp < 16384);
+    const double finish = static_cast<double>(spp);
+    size_t quarter = 0;
+    while (quarter + 1 < history.size() && history[quarter].seconds < 0.25 * finish) ++quarter;
+    const std::span<const RelMsePoint> seen(history.data(), quarter + 1);
+    const double now = seen.back().seconds;
+    const RelMseForecast f = forecast_relmse(seen, c.target);
+    const double naive = now * seen.back().relmse / c.target;
+    MESSAGE(name << ": finished at " << finish << " spp; at " << now << " spp the forecast said " << now + f.seconds
+                    << " (range " << now + f.low << " - " << now + f.high << ", exponent " << f.exponent
+                    << "), the 1/time rule " << naive);
+    CHECK(f.fitted);
+    // Issue 37 asks for 30 %; measured −1.3 %, +7.3 % and +2.4 %, so 10 % holds with a margin, and the 1/time
+    // rule alone (+0.7 %, −9.9 %, −11.1 %) would fail on materials.
+    CHECK(std::abs(now + f.seconds - finish) <= 0.1 * finish);
+  }
 }
 
 TEST_CASE("progressive: stop_progress gives the fraction and time left of the condition met first") {

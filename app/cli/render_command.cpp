@@ -461,6 +461,7 @@ int run_render(const RenderOptions& o) {
   if (!renderer.thread_start_error().empty())
     std::fprintf(stderr, "warning: %s; rendering with %d\n", renderer.thread_start_error().c_str(), renderer.threads());
   Progress progress(!o.quiet && root);
+  std::vector<RelMsePoint> relmse_history;  // with a target relMSE: the estimate after each pass (the ETA's fit)
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
@@ -562,9 +563,12 @@ int run_render(const RenderOptions& o) {
     busy_seconds += std::chrono::duration<double>(clock::now() - pass_start).count();
     spp = film.min_count();
     const double relmse = stop.relmse > 0.0 ? film.estimated_relmse() : 0.0;  // a pass over the film: only if asked
+    if (stop.relmse > 0.0 && spp >= kRelMseStopMinSpp && std::isfinite(relmse))  // the forecast's history
+      relmse_history.push_back({elapsed(), relmse, static_cast<uint64_t>(spp)});
     StopConditions shown = stop;
     if (mpi && root && stop.spp > 0) shown.spp = stop.spp * ranks;  // progress of the whole job, from rank 0
-    progress.update(stop_progress(shown, static_cast<uint64_t>(global_spp), elapsed(), relmse).fraction, elapsed(),
+    progress.update(stop_progress(shown, static_cast<uint64_t>(global_spp), elapsed(), relmse, relmse_history).fraction,
+                    elapsed(),
                     static_cast<uint64_t>(global_spp), static_cast<double>(samples) * ranks / elapsed());
   }
   watchdog.finish();

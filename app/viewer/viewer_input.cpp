@@ -105,6 +105,7 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) model.shortcut(Shortcut::Reset);
       if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) model.shortcut(Shortcut::Pause);
       if (ImGui::IsKeyPressed(GLFW_KEY_S, false)) model.shortcut(Shortcut::Save);
+      if (ImGui::IsKeyPressed(GLFW_KEY_E, false)) model.shortcut(Shortcut::SaveExr);
       if (ImGui::IsKeyPressed(GLFW_KEY_TAB, false)) model.shortcut(Shortcut::ToggleUi);
       if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) model.zoom = ImageZoom{};
       if (ImGui::IsKeyPressed(GLFW_KEY_K, false)) model.shortcut(Shortcut::KeepSnapshot);

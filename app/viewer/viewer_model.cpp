@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "denoise/denoiser.h"
+#include "io/film_exr.h"
 #include "io/image_io.h"
 #include "io/safe_file.h"
 #include "viewer/output_files.h"
@@ -579,11 +581,55 @@ std::optional<std::string> ViewerModel::save_image(const std::vector<uint8_t>& r
   return stem;
 }
 
+void ViewerModel::save_exr() {
+  if (exr_save_.valid()) {
+    set_status("an EXR is being written already", false);
+    return;
+  }
+  const std::string dir = output_dir, name = scene_name_;
+  const bool denoise = present.denoise;
+  // Runs on the render thread with the film itself (no copy); the name is chosen there, so two saves in a row
+  // never take the same one.
+  exr_save_ = session_->with_film([dir, name, denoise](const Film& film) -> std::string {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!dir.empty() && !fs::exists(dir) && !fs::create_directories(dir, ec) && ec)
+      throw std::runtime_error("cannot create folder " + dir + ": " + ec.message());
+    const std::string path = unique_output_stem(dir, name, {".exr"}) + ".exr";
+    FilmExrOptions options;
+    for (const auto& entry : enum_entries<Aov>())
+      if (entry.value != Aov::Denoised && (film.has_features() || !aov_needs_features(entry.value)))
+        options.aovs.push_back(entry.value);
+    std::vector<float> denoised;
+    if (denoise && film.has_features()) {  // the final-frame filter, as render --denoise writes it
+      ThreadPool pool(0);
+      denoised = denoise_film(film, DenoiseMethod::Regression, pool);
+      options.aovs.push_back(Aov::Denoised);
+      options.denoised = &denoised;
+    }
+    write_film_exr(path, film, options);
+    return "saved " + path + " (" + std::to_string(film.min_count()) + " spp, " +
+           std::to_string(options.aovs.size() + 1) + " layers)";
+  });
+  set_status("writing the EXR at the next pass boundary...", false);
+}
+
+bool ViewerModel::poll_saves() {
+  if (!exr_save_.valid() || exr_save_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+  try {
+    set_status(exr_save_.get(), false);
+  } catch (const std::exception& e) {
+    set_status(std::string("EXR not saved: ") + e.what(), true);
+  }
+  return true;
+}
+
 void ViewerModel::shortcut(Shortcut s) {
   switch (s) {
     case Shortcut::Reset: restart(); break;
     case Shortcut::Pause: set_paused(!paused_); break;
     case Shortcut::Save: save_requested = true; break;
+    case Shortcut::SaveExr: save_exr(); break;
     case Shortcut::Help:
       help_open = !help_open;
       scroll_to_help = help_open;

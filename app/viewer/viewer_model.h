@@ -7,6 +7,7 @@
 #pragma once
 #include <chrono>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -33,7 +34,7 @@ struct ViewInput {
   float viewport_height = 1;  // height of the image on screen (drag scaling: one height = half a turn)
 };
 
-enum class Shortcut { Reset, Pause, Save, Help, Quit, ToggleUi, Undo, Redo, KeepSnapshot, FlipSnapshot };
+enum class Shortcut { Reset, Pause, Save, SaveExr, Help, Quit, ToggleUi, Undo, Redo, KeepSnapshot, FlipSnapshot };
 
 // The A/B snapshot the window keeps (its pixels live in the presenter's texture).
 struct SnapshotInfo {
@@ -159,6 +160,12 @@ class ViewerModel {
   // NAME-NNNN.pfm (the frame's linear mean). Returns the stem written, or nullopt on error.
   std::optional<std::string> save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame);
   std::string output_dir = ".";
+  // The accumulation's film as one multi-layer OpenEXR, NAME-NNNN.exr in output_dir (io/film_exr.h: the beauty
+  // and every layer `render --exr` writes: albedo, normal, depth, emission, variance, spp, and the denoised image
+  // when denoising is on), written on the render thread between two passes; poll_saves() reports when done.
+  void save_exr();
+  bool poll_saves();      // each UI frame: a finished save's message goes to status() (true: redraw)
+  bool exr_saving() const { return exr_save_.valid(); }
 
   // --- Display and UI flags.
   PresentSettings present;
@@ -250,6 +257,7 @@ class ViewerModel {
   std::string last_undo_what_;
   std::chrono::steady_clock::time_point last_undo_time_;
   bool restoring_ = false;
+  std::future<std::string> exr_save_;  // "written NAME" or "" … the task's message
   std::unique_ptr<RenderSession> session_;
   std::string status_;
   bool status_error_ = false;

@@ -226,14 +226,17 @@ std::string format_duration(double s) {
 }
 
 // Progress towards the stop condition met first, with the time left at the current rate (render/progressive.h
-// stop_progress: for a target relMSE, from its 1/time fall).
-void progress_bar(const ViewerModel& model, const SessionStats& st) {
+// stop_progress; for a target relMSE, forecast from the fall of the film's estimate, with a range).
+void progress_bar(const ViewerModel& model, const SessionStats& st, const std::vector<RelMsePoint>& history) {
   const StopConditions& stop = model.session_settings().stop;
   if (!stop.any()) return;
-  const StopProgress p = stop_progress(stop, st.spp, st.seconds, st.estimated_relmse);
-  char overlay[96];
+  const StopProgress p = stop_progress(stop, st.spp, st.seconds, st.estimated_relmse, history);
+  char overlay[128];
   if (st.done) std::snprintf(overlay, sizeof overlay, "done: %s", st.stop_reason.c_str());
   else if (p.fraction < 0.0) std::snprintf(overlay, sizeof overlay, "estimating the time left...");
+  else if (p.eta_high > 1.05 * p.eta_low + 0.5)
+    std::snprintf(overlay, sizeof overlay, "%s in %s (%s - %s)", p.condition, format_duration(p.eta_seconds).c_str(),
+                  format_duration(p.eta_low).c_str(), format_duration(p.eta_high).c_str());
   else std::snprintf(overlay, sizeof overlay, "%s in %s", p.condition, format_duration(p.eta_seconds).c_str());
   ImGui::ProgressBar(st.done ? 1.f : static_cast<float>(std::max(p.fraction, 0.0)), ImVec2(-1.f, 0.f), overlay);
 }
@@ -317,11 +320,11 @@ void render_section(ViewerModel& model, PanelState& state) {
   // noisy scenes): the panel says "estimating" instead of a number.
   if (st.spp >= kRelMseStopMinSpp && std::isfinite(st.estimated_relmse)) ImGui::Text("estimated relMSE %.3e", st.estimated_relmse);
   else ImGui::TextDisabled("estimated relMSE: estimating... (from %d spp)", static_cast<int>(kRelMseStopMinSpp));
-  progress_bar(model, st);
-  if (st.rejected) ImGui::TextColored(kErrorColour, "%" PRIu64 " non-finite samples rejected", st.rejected);
-  if (!st.error.empty()) ImGui::TextColored(kErrorColour, "%s", st.error.c_str());
   model.session().copy_history(state.history);
   std::erase_if(state.history, [](const RelMsePoint& q) { return q.spp < kRelMseStopMinSpp; });
+  progress_bar(model, st, state.history);
+  if (st.rejected) ImGui::TextColored(kErrorColour, "%" PRIu64 " non-finite samples rejected", st.rejected);
+  if (!st.error.empty()) ImGui::TextColored(kErrorColour, "%s", st.error.c_str());
   relmse_plot(state.history);
 }
 
@@ -756,6 +759,11 @@ void output_section(ViewerModel& model, PanelState& state, const ShownImage& sho
   if (ImGui::Button("Save image: PNG + PFM [S]")) model.save_requested = true;
   ImGui::EndDisabled();
   ImGui::TextDisabled("PNG: the image as shown; PFM: linear mean radiance");
+  ImGui::BeginDisabled(shown.width == 0 || model.exr_saving());
+  if (ImGui::Button("Save layers: OpenEXR [E]")) model.save_exr();
+  note_item(state, "Save EXR");
+  ImGui::EndDisabled();
+  ImGui::TextDisabled("beauty, albedo, normal, depth, emission, variance, spp%s", model.present.denoise ? ", denoised" : "");
 }
 
 void help_section(ViewerModel& model, PanelState& state) {
@@ -774,6 +782,7 @@ void help_section(ViewerModel& model, PanelState& state) {
       {"wheel", "dolly towards / away"},           {"right drag", "look around"},
       {"right held + WASD QE", "fly (shift: 4x)"}, {"R", "reset accumulation"},
       {"P", "pause / resume"},                     {"S", "save image (PNG + PFM)"},
+      {"E", "save every layer (OpenEXR)"},
       {"Tab", "hide / show panels"},               {"F1", "this help"},
       {"Ctrl+wheel / Ctrl+drag", "zoom / pan the image"}, {"F / 1", "fit the image / 1:1"},
       {"K / B", "keep an A/B snapshot / flip to it"},

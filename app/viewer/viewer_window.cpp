@@ -206,6 +206,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
         std::fprintf(stderr, "warning: --script line %d (%s): %s\n", a.line, enum_name(a.verb), err.c_str());
     });
 
+    if (model.poll_saves()) active_frames = 3;  // show its message
     const Clock::time_point upload_start = Clock::now();
     const bool new_image = model.session().take_frame(front);  // never waits for a pass
     if (model.snapshot_requested && front.width > 0 && !front.preview) {  // A/B: keep the newest full frame

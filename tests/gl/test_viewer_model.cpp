@@ -1,6 +1,11 @@
 // Scripted interaction through the viewer's state model, exactly as the panels and the window drive it.
+#include <ImfChannelList.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
 #include <doctest/doctest.h>
 #include <sys/wait.h>
+
+#include <set>
 
 #include <chrono>
 #include <cstdlib>
@@ -423,4 +428,37 @@ TEST_CASE("viewer: --script lines parse into timed actions, a bad line is refuse
   const DVec3 before = model.camera().camera().position;
   CHECK(apply_script_action(model, a[0]) == "");
   CHECK(glm::length(model.camera().camera().position - before) > 1.0);
+}
+
+TEST_CASE("viewer: E saves the film's layers as one OpenEXR, written between passes, never over an earlier file") {
+  const std::filesystem::path dir = "viewer_exr_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  SessionSettings s = stop_at(4);
+  s.denoise = true;
+  ViewerModel model(small_cornell(), "cornell", s);
+  model.output_dir = dir.string();
+  REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  auto save = [&] {
+    model.shortcut(Shortcut::SaveExr);
+    const auto start = std::chrono::steady_clock::now();
+    while (!model.poll_saves() && std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    INFO(model.status());
+    CHECK_FALSE(model.status_is_error());
+  };
+  save();
+  save();  // a second save takes the next name
+  REQUIRE(std::filesystem::exists(dir / "cornell-0001.exr"));
+  REQUIRE(std::filesystem::exists(dir / "cornell-0002.exr"));
+  Imf::InputFile file((dir / "cornell-0001.exr").c_str());
+  std::set<std::string> channels;
+  for (auto c = file.header().channels().begin(); c != file.header().channels().end(); ++c) channels.insert(c.name());
+  for (const char* name : {"R", "G", "B", "albedo.R", "normal.X", "depth.Z", "emission.B", "variance.G", "spp.Y",
+                           "denoised.R"})
+    CHECK(channels.count(name) == 1);
+  const Imath::Box2i window = file.header().dataWindow();
+  CHECK(window.max.x - window.min.x + 1 == model.scene().width);
+  // The session was not restarted by the saves.
+  CHECK(model.session().stats().spp == 4);
+  std::filesystem::remove_all(dir);
 }

@@ -4,6 +4,7 @@
 #pragma once
 #include <atomic>
 #include <cstdint>
+#include <span>
 
 #include "render/film.h"
 #include "render/renderer.h"
@@ -25,16 +26,42 @@ struct StopConditions {
 // The first stop condition met ("target spp", "time limit", "target relMSE"), or nullptr.
 const char* stop_reason(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse);
 
+// The film's estimated relMSE after a pass, against the accumulation's render time.
+struct RelMsePoint {
+  double seconds, relmse;
+  uint64_t spp;  // full-resolution samples per pixel when it was estimated
+};
+
+// When the film's relMSE estimate will reach a target, from its measured fall. An unbiased estimate's relMSE
+// falls as 1/time in the long run, but the film's *estimate* of it falls more slowly at first wherever rare
+// bright paths (caustics, fireflies) are still being discovered: each one raises a pixel's variance estimate.
+// So no exponent is assumed: log relMSE is fitted against log time by least squares over the latest half of the
+// render time (points from kRelMseStopMinSpp spp on), and the fitted line is followed to the target. As the rare
+// paths are found, the decay speeds up towards 1/time: the forecast is the geometric mean of the fitted line's
+// finish and the 1/time rule's, and the range spans both (and the slope's ± 2 standard errors). With fewer than
+// 3 such points, or a history spanning too short a time to fit, the 1/time rule from the newest point alone
+// (low = high = seconds).
+struct RelMseForecast {
+  double seconds = -1.0;            // render seconds until the target (0: already there); < 0 unknown
+  double low = -1.0, high = -1.0;   // the range
+  double exponent = 1.0;            // relMSE ∝ time^−exponent, as fitted (1 for the 1/time rule)
+  bool fitted = false;
+};
+RelMseForecast forecast_relmse(std::span<const RelMsePoint> history, double target);
+
 // How far an accumulation is towards the stop condition it will meet first, and when, at its current rate.
 struct StopProgress {
   double fraction = -1.0;       // in [0, 1]; < 0 when no condition is set or none can be estimated yet
   double eta_seconds = -1.0;    // render seconds left; < 0 unknown
+  double eta_low = -1.0, eta_high = -1.0;  // the range of eta_seconds (equal to it but for a fitted relMSE)
   const char* condition = "";   // stop_reason's name of that condition
 };
-// spp grows linearly in render time; the relMSE of an unbiased estimate falls as 1/time, so a film at relMSE r
-// after t seconds reaches the target r* after t·r/r* (progress r*/r). The relMSE estimate counts from
+// spp grows linearly in render time. For a target relMSE: forecast_relmse over `history` when it has one, else
+// the 1/time rule from the newest estimate (a film at relMSE r after t seconds reaches r* after t·r/r*); the
+// fraction is then the share of the predicted total time already spent. The relMSE estimate counts from
 // kRelMseStopMinSpp on (before, its variance estimates are too noisy: it rises at first on noisy scenes).
-StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse);
+StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seconds, double estimated_relmse,
+                           std::span<const RelMsePoint> history = {});
 
 // Samples per pixel of the next pass: about `target_seconds` of work at the measured cost per spp (1 before any
 // measurement), never past the time or spp limit, at most kMaxPassSpp.

@@ -207,6 +207,34 @@ bool RenderSession::take_frame(DisplayFrame& frame) {
   return true;
 }
 
+std::future<std::string> RenderSession::with_film(std::function<std::string(const Film&)> task) {
+  std::future<std::string> result;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    film_tasks_.push_back({std::move(task), {}});
+    result = film_tasks_.back().result.get_future();
+  }
+  wake_.notify_all();
+  return result;
+}
+
+// Between passes: the tasks given to with_film, once the film has samples of the current accumulation.
+void RenderSession::run_film_tasks(Worker& w) {
+  std::vector<FilmTask> tasks;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (film_tasks_.empty() || w.film_spp == 0 || w.generation != requested_generation_) return;
+    tasks.swap(film_tasks_);
+  }
+  for (FilmTask& t : tasks) {  // outside the lock: readers never wait for them
+    try {
+      t.result.set_value(t.run(w.film));
+    } catch (...) {
+      t.result.set_exception(std::current_exception());
+    }
+  }
+}
+
 bool RenderSession::wait_for(const std::function<bool(const SessionStats&)>& pred, double timeout_seconds) const {
   std::unique_lock<std::mutex> lock(mutex_);
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
@@ -232,6 +260,7 @@ void RenderSession::run() {
     if (!take_requests(w, restart)) return;
     if (!prepare(w, restart)) continue;
     if (w.denoise_now) republish_denoised(w);
+    run_film_tasks(w);
     const bool preview = w.need_preview;
     int spp = 1;
     if (!begin_pass(w, preview, spp)) continue;
@@ -245,6 +274,7 @@ void RenderSession::run() {
       w.full_seconds_per_spp = preview ? pass_seconds * w.preview_divisor * w.preview_divisor : pass_seconds / spp;
     w.need_preview = false;
     publish(w, preview, start, ps.samples, ps.rays);
+    run_film_tasks(w);
   }
 }
 
@@ -252,7 +282,8 @@ void RenderSession::run() {
 bool RenderSession::take_requests(Worker& w, bool& restart) {
   std::unique_lock<std::mutex> lock(mutex_);
   wake_.wait(lock, [&] {
-    return quit_ || pending_scene_ || pending_restart_ || settings_changed_ || (!paused_ && !stats_.done && w.scene_ok);
+    return quit_ || pending_scene_ || pending_restart_ || settings_changed_ || (!paused_ && !stats_.done && w.scene_ok) ||
+           (!film_tasks_.empty() && w.film_spp > 0);
   });
   if (quit_) return false;
   if (settings_changed_) {

@@ -15,6 +15,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -22,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "render/film.h"
 #include "render/progressive.h"
 #include "scene/scene.h"
 
@@ -77,11 +79,6 @@ struct DisplayFrame {
   static constexpr float kUnknownError = 1e30f;
 };
 
-struct RelMsePoint {
-  double seconds, relmse;
-  uint64_t spp;  // full-resolution samples per pixel when it was estimated
-};
-
 struct SessionStats {
   uint64_t generation = 0;  // accumulations started so far (1 = the first)
   uint64_t spp = 0;         // full-resolution samples in every pixel (0 while only a preview exists)
@@ -126,6 +123,10 @@ class RenderSession {
   void copy_history(std::vector<RelMsePoint>& out) const;
   // If a frame newer than the last one taken exists, swaps it into `frame` and returns true.
   bool take_frame(DisplayFrame& frame);
+  // Runs `task` on the render thread between two passes with the accumulation's film (every sample so far, the
+  // feature buffers) and returns its result: the viewer saves the film's layers as an EXR this way, without a
+  // copy of the film. A task given before the current accumulation has a full-resolution pass waits for it.
+  std::future<std::string> with_film(std::function<std::string(const Film&)> task);
   // Blocks until pred(stats()) holds after a pass or a state change, or the timeout; returns pred's last value.
   // For tests and scripted runs.
   bool wait_for(const std::function<bool(const SessionStats&)>& pred, double timeout_seconds) const;
@@ -143,6 +144,7 @@ class RenderSession {
   uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
   void republish_denoised(Worker& w);
+  void run_film_tasks(Worker& w);
   void make_clean_preview(Worker& w, double pass_seconds);
   void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
@@ -161,6 +163,11 @@ class RenderSession {
   std::optional<RenderSettings> pending_render_;
   bool pending_restart_ = false;
   bool settings_changed_ = false;
+  struct FilmTask {
+    std::function<std::string(const Film&)> run;
+    std::promise<std::string> result;
+  };
+  std::vector<FilmTask> film_tasks_;
   SessionSettings settings_;
   bool paused_ = false;
   bool quit_ = false;
