@@ -675,3 +675,36 @@ TEST_CASE("scene_json: scenes/cornell-bunny.json is the box and the bunny, compi
   const auto scene = compile_scene(s);
   CHECK(!scene->polygon_bvh.empty());
 }
+
+TEST_CASE("scene_json: a model file alone opens in a studio: the mesh on a ground plane under a sky, framed") {
+  const std::string path = "studio_" + std::to_string(getpid()) + ".OBJ";  // any case
+  {
+    // A unit cube from (1, 2, 3) to (2, 3, 4): 8 vertices, 12 triangles.
+    std::ofstream obj(path);
+    obj << "v 1 2 3\nv 2 2 3\nv 2 3 3\nv 1 3 3\nv 1 2 4\nv 2 2 4\nv 2 3 4\nv 1 3 4\n"
+           "f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\n";
+  }
+  const SceneDesc s = load_scene(path);
+  std::filesystem::remove(path);
+  REQUIRE(s.shapes.size() == 13);  // 6 quads as 12 triangles, and the ground
+  for (size_t i = 0; i < 12; ++i) CHECK(s.shapes[i].material == 0);
+  CHECK(s.materials[0].name == "model");
+  const ShapeDesc& ground = s.shapes.back();
+  CHECK(ground.type == ShapeType::Quad);
+  for (int k = 0; k < 4; ++k) CHECK(ground.vertices[k].y == 2.0);  // at the model's lowest point
+  // Its front faces up (the camera and the sun are above it).
+  const DVec3 n = glm::cross(ground.vertices[1] - ground.vertices[0], ground.vertices[2] - ground.vertices[0]);
+  CHECK(n.y > 0.0);
+  CHECK(s.environment.type == EnvironmentType::Sky);
+  CHECK(s.environment.sun_direction.y > 0.0);
+  // Framed: looking at the box's centre, from a distance at which its bounding sphere fills 90 % of the view.
+  const DVec3 centre(1.5, 2.5, 3.5);
+  CHECK(glm::length(s.camera.look_at - centre) < 1e-12);
+  const double radius = 0.5 * std::sqrt(3.0);
+  const double distance = glm::length(s.camera.position - centre);
+  CHECK(std::asin(radius / distance) * 2.0 == doctest::Approx(0.9 * glm::radians(s.camera.fov_deg)));
+  CHECK(s.camera.position.y > centre.y);
+  CHECK(validate_scene(s).empty());
+  // Bad model files are refused with the file's name.
+  CHECK_THROWS_WITH_AS(load_scene("no/such/model.obj"), doctest::Contains("model.obj"), SceneError);
+}

@@ -12,6 +12,7 @@
 #include "viewer/output_files.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
+#include "scene/studio.h"
 
 namespace pt {
 
@@ -28,7 +29,7 @@ ViewerModel::ViewerModel(const SceneDesc& scene, const std::string& scene_name, 
   present.denoise = settings_.denoise;
   last_edit_generation_ = session_->stats().generation;
   last_edit_time_ = std::chrono::steady_clock::now();
-  latency_pending_ = true;  // the first image counts as the answer to "open the scene"
+  latency_pending_ = clean_latency_pending_ = true;  // the first image counts as the answer to "open the scene"
 }
 
 void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
@@ -109,7 +110,7 @@ bool ViewerModel::commit(const SceneEdit& edit) {
 void ViewerModel::note_edit(uint64_t generation) {
   last_edit_generation_ = generation;
   last_edit_time_ = std::chrono::steady_clock::now();
-  latency_pending_ = true;
+  latency_pending_ = clean_latency_pending_ = true;
   if (status_error_) set_status("", false);
 }
 
@@ -443,7 +444,7 @@ void ViewerModel::set_denoise(bool on) {
 void ViewerModel::restart() {
   last_edit_generation_ = session_->restart();
   last_edit_time_ = std::chrono::steady_clock::now();
-  latency_pending_ = true;
+  latency_pending_ = clean_latency_pending_ = true;
 }
 
 void ViewerModel::set_paused(bool paused) {
@@ -497,7 +498,7 @@ void ViewerModel::request_load(const std::string& spec) {
 bool ViewerModel::open_file(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".json") {
+  if (ext == ".json" || is_model_file(path)) {  // a scene, or a model placed in a studio (scene/studio.h)
     request_load(path);
     return true;
   }
@@ -510,11 +511,8 @@ bool ViewerModel::open_file(const std::string& path) {
     set_status("environment map " + path, false);
     return true;
   }
-  if (ext == ".obj") {
-    set_status("cannot open " + path + " alone: a mesh goes into a scene file as a \"mesh\" shape (docs/scene-format.md)", true);
-    return false;
-  }
-  set_status("cannot open " + path + ": drop a scene (.json) or an environment map (.exr, .hdr, .pfm)", true);
+  set_status("cannot open " + path + ": drop a scene (.json), a model (.obj) or an environment map (.exr, .hdr, .pfm)",
+             true);
   return false;
 }
 
@@ -664,6 +662,13 @@ void ViewerModel::request_quit() {
 std::optional<double> ViewerModel::note_frame_shown(uint64_t generation, std::chrono::steady_clock::time_point when) {
   if (!latency_pending_ || generation < last_edit_generation_) return std::nullopt;
   latency_pending_ = false;
+  return std::chrono::duration<double, std::milli>(when - last_edit_time_).count();
+}
+
+std::optional<double> ViewerModel::note_clean_frame_shown(uint64_t generation, bool clean,
+                                                          std::chrono::steady_clock::time_point when) {
+  if (!clean_latency_pending_ || !clean || generation < last_edit_generation_) return std::nullopt;
+  clean_latency_pending_ = false;
   return std::chrono::duration<double, std::milli>(when - last_edit_time_).count();
 }
 

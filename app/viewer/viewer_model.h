@@ -197,6 +197,9 @@ class ViewerModel {
   // Edit-to-image latency: the window reports each frame it shows; returns the milliseconds since the edit the
   // first time a frame of the edit's generation (or later) is shown.
   std::optional<double> note_frame_shown(uint64_t generation, std::chrono::steady_clock::time_point when);
+  // The same for the first full-resolution, denoised image of the edit's generation (`clean`: the frame is one).
+  std::optional<double> note_clean_frame_shown(uint64_t generation, bool clean,
+                                               std::chrono::steady_clock::time_point when);
   uint64_t last_edit_generation() const { return last_edit_generation_; }
 
  private:
@@ -264,6 +267,7 @@ class ViewerModel {
   uint64_t last_edit_generation_ = 0;
   std::chrono::steady_clock::time_point last_edit_time_;
   bool latency_pending_ = false;
+  bool clean_latency_pending_ = false;
 };
 
 }  // namespace pt

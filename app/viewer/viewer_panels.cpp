@@ -3,7 +3,10 @@
 #include <imgui.h>
 #include <imgui_internal.h>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <string_view>
 #include <initializer_list>
 
 #include <cinttypes>
@@ -480,6 +483,15 @@ void emission_fields(ViewerModel& model, PanelState& state, size_t m) {
                 [&](const std::array<float, 1>& v) { return outcome(model.set_emission(m, model.emission_colour(m), v[0]), model); });
 }
 
+// True when `text` contains `filter` (case-insensitive); an empty filter matches everything.
+bool matches_filter(const std::string& text, const char* filter) {
+  const std::string_view f(filter);
+  if (f.empty()) return true;
+  auto lower = [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); };
+  return std::search(text.begin(), text.end(), f.begin(), f.end(),
+                     [&](char a, char b) { return lower(a) == lower(b); }) != text.end();
+}
+
 void materials_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (model.selection() && model.selection()->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
@@ -487,7 +499,15 @@ void materials_section(ViewerModel& model, PanelState& state) {
   const std::vector<MaterialDesc>& mats = model.scene().materials;
   const std::optional<Selection>& sel = model.selection();
   const bool new_selection = sel && sel->serial != state.shown_selection;
+  // A search field: only the materials whose name (or type) contains the text, case-insensitively; the material
+  // clicked on the image always shows.
+  ImGui::InputTextWithHint("##material filter", "search materials", state.material_filter, sizeof state.material_filter);
+  note_item(state, "material filter");
+  size_t shown_count = 0;
   for (size_t i = 0; i < mats.size(); ++i) {
+    const bool clicked = sel && sel->material == i;
+    if (!clicked && !matches_filter(mats[i].name + " " + enum_label(mats[i].type), state.material_filter)) continue;
+    ++shown_count;
     ImGui::PushID(static_cast<int>(i));
     expand_if(state);
     const bool selected = sel && sel->material == i;
@@ -534,6 +554,7 @@ void materials_section(ViewerModel& model, PanelState& state) {
     }
     ImGui::PopID();
   }
+  if (shown_count == 0) ImGui::TextDisabled("no material matches \"%s\"", state.material_filter);
 }
 
 // The object under the last click: its material, and where it is (numeric moves; a light is an emitting

@@ -37,6 +37,7 @@ struct PanelState {
   char scene_path[512] = "";
   char save_scene_path[512] = "scene.json";
   char output_dir[512] = ".";
+  char material_filter[64] = "";  // the Materials section's search text
   int builtin = 0;
   bool expand_all = false;  // open every section and material (tests render all of the UI this way)
   bool confirm_replace = false;

@@ -109,6 +109,7 @@ bool write_screenshot(const std::string& path, int w, int h) {
 // What --stats reports, in milliseconds.
 struct FrameTimes {
   SampleSeries interval, work, upload, ui, swap, latency;
+  SampleSeries clean_latency;  // edit to the first full-resolution denoised image
   // Clean preview frames (SessionSettings::preview_denoise): their whole time, and the filter's share of it
   // (variance, filter and upsampling over pass, guide, variance, filter and upsampling).
   SampleSeries preview_total, preview_pass, preview_guide, preview_filter, preview_filter_share;
@@ -135,6 +136,8 @@ struct FrameTimes {
     std::printf("  of which swap ms (the GL finishes drawing here; includes any vsync wait): %s\n",
                 swap.summary().c_str());
     std::printf("edit to first updated image ms: %s\n", latency.summary().c_str());
+    if (clean_latency.size() > 0)
+      std::printf("edit to first full-resolution denoised image ms: %s\n", clean_latency.summary().c_str());
     if (preview_total.size() > 0) {
       std::printf("clean preview frame ms (pass, guide, filter and upsampling): %s\n", preview_total.summary().c_str());
       std::printf("  of which the small 1-spp pass ms: %s\n", preview_pass.summary().c_str());
@@ -317,6 +320,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
           times.latency.add(*latency);
           shown.edit_latency_ms = *latency;
         }
+        const bool clean = !front.preview && !front.denoised.empty() && model.present.denoise;
+        if (auto latency = model.note_clean_frame_shown(front.generation, clean, end)) times.clean_latency.add(*latency);
       }
       if (last) break;
     }

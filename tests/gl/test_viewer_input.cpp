@@ -496,8 +496,9 @@ TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dr
   CHECK(model.open_file(map_file));
   CHECK(model.scene().environment.type == EnvironmentType::Map);
   CHECK(model.has_unsaved_edits());
-  CHECK_FALSE(model.open_file((dir / "bunny.obj").string()));
-  CHECK(model.status().find("mesh") != std::string::npos);
+  model.open_file((dir / "bunny.obj").string());  // a model that is not there: said, nothing loaded
+  CHECK(model.status_is_error());
+  CHECK(model.status().find("bunny.obj") != std::string::npos);
   CHECK_FALSE(model.open_file((dir / "notes.txt").string()));
   CHECK(model.status_is_error());
 
@@ -861,4 +862,42 @@ TEST_CASE("viewer: preferences read back what was written, and bad lines are ign
   CHECK(r.follow_window);
   CHECK(read_viewer_prefs("no/such/file.conf", warnings).panel_width == ViewerPrefs{}.panel_width);
   std::filesystem::remove(path);
+}
+
+TEST_CASE("viewer input: the material search shows only the matching materials, by name or type, any case") {
+  ViewerModel model(small("materials"), "materials", few_samples());
+  Ui ui(model);
+  ui.frame();
+  CHECK(ui.state.item_rects.count("polished gold/type") == 1);
+  ui.click("material filter");
+  ui.type("GLASS");
+  ui.state.item_rects.clear();
+  ui.frame();
+  CHECK(ui.state.item_rects.count("glass/type") == 1);
+  CHECK(ui.state.item_rects.count("frosted glass/type") == 1);
+  CHECK(ui.state.item_rects.count("polished gold/type") == 0);
+  for (int i = 0; i < 5; ++i) ui.press(GLFW_KEY_BACKSPACE);
+  ui.type("metal");  // by type
+  ui.state.item_rects.clear();
+  ui.frame();
+  CHECK(ui.state.item_rects.count("copper/type") == 1);
+  CHECK(ui.state.item_rects.count("glass/type") == 0);
+  CHECK(ui.state.item_rects.count("wax/type") == 0);
+}
+
+TEST_CASE("viewer: a dropped .obj opens in a studio scene (ground, sky, a camera framing it)") {
+  const std::filesystem::path dir = "viewer_obj_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  const std::string obj = (dir / "tetra.obj").string();
+  { std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"; }
+  ViewerModel model(small("cornell"), "cornell", few_samples());
+  REQUIRE(model.open_file(obj));
+  INFO(model.status());
+  CHECK_FALSE(model.status_is_error());
+  CHECK(model.scene_name() == "tetra");
+  CHECK(model.scene().shapes.size() == 5);  // 4 triangles and the ground
+  CHECK(model.scene().environment.type == EnvironmentType::Sky);
+  CHECK(model.pick(model.scene().width / 2.0, model.scene().height / 2.0).has_value());  // something in view
+  std::filesystem::remove_all(dir);
 }

@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "scene/mesh_obj.h"
+#include "scene/studio.h"
 #include "scene/scene.h"
 #include "io/image_io.h"
 #include "io/safe_file.h"
@@ -1021,6 +1022,7 @@ std::string scene_to_json(const SceneDesc& scene) {
 }
 
 SceneDesc load_scene(const std::string& spec) {
+  if (is_model_file(spec)) return studio_scene(spec);  // a model alone: placed in a studio (scene/studio.h)
   const bool is_file = spec.find('/') != std::string::npos ||
                        (spec.size() >= 5 && spec.compare(spec.size() - 5, 5, ".json") == 0);
   if (is_file) return load_scene_file(spec);
@@ -1028,7 +1030,7 @@ SceneDesc load_scene(const std::string& spec) {
   std::string names;
   for (const std::string& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
   throw SceneError(spec + ": unknown built-in scene (built-in scenes: " + names +
-                   "; a scene file path must end in .json or contain '/')");
+                   "; a scene file path must end in .json or contain '/', a model file in .obj)");
 }
 
 }  // namespace pt

@@ -47,9 +47,9 @@ std::vector<std::string> builtin_scene_names();
 // JSON text of a built-in scene, or nullopt for an unknown name.
 std::optional<std::string_view> builtin_scene_json(const std::string& name);
 
-// `spec` is a built-in name or a file path: anything ending in ".json" or containing '/' is a file; otherwise a
-// built-in name (the error lists the built-in names). The source name used in messages is the path or
-// "builtin:NAME".
+// `spec` is a built-in name or a file path: a model file (".obj", any case) is placed in a studio scene
+// (scene/studio.h); anything else ending in ".json" or containing '/' is a scene file; otherwise a built-in name
+// (the error lists the built-in names). The source name used in messages is the path or "builtin:NAME".
 SceneDesc load_scene(const std::string& spec);
 
 }  // namespace pt
