@@ -37,10 +37,8 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
   fixed_width_ = scene.width;
   fixed_height_ = scene.height;
   if (follow_window_ && area_width_ > 0) {  // a scene loaded while following the window takes the window's size
-    scene_.width = std::clamp(static_cast<int>(std::lround(area_width_ * static_cast<double>(follow_scale_))), 1,
-                              kMaxViewerResolution);
-    scene_.height = std::clamp(static_cast<int>(std::lround(area_height_ * static_cast<double>(follow_scale_))), 1,
-                               kMaxViewerResolution);
+    scene_.width = followed_side(area_width_);
+    scene_.height = followed_side(area_height_);
   }
   scene_name_ = name;
   state_id_ = saved_state_id_ = 0;
@@ -343,10 +341,12 @@ bool ViewerModel::note_image_area(int framebuffer_width, int framebuffer_height)
   area_width_ = framebuffer_width;
   area_height_ = framebuffer_height;
   if (!follow_window_ || framebuffer_width < 1 || framebuffer_height < 1) return false;
-  auto side = [&](int pixels) {
-    return std::clamp(static_cast<int>(std::lround(pixels * static_cast<double>(follow_scale_))), 1, kMaxViewerResolution);
-  };
-  return apply_film_size(side(framebuffer_width), side(framebuffer_height));
+  return apply_film_size(followed_side(framebuffer_width), followed_side(framebuffer_height));
+}
+
+int ViewerModel::followed_side(int framebuffer_pixels) const {
+  return std::clamp(static_cast<int>(std::lround(framebuffer_pixels * static_cast<double>(follow_scale_))), 1,
+                    kMaxViewerResolution);
 }
 
 // --- Undo ---------------------------------------------------------------------------------------------------------

@@ -251,6 +251,7 @@ class ViewerModel {
   int fixed_width_ = 0, fixed_height_ = 0;  // the film size as an edit last set it (follow off restores it)
   int area_width_ = 0, area_height_ = 0;    // the image area last reported (framebuffer pixels)
   bool apply_film_size(int width, int height);  // in the scene and the session, without undo
+  int followed_side(int framebuffer_pixels) const;  // a film side following the window: × follow_scale_, clamped
   std::string scene_file_;
   std::optional<std::pair<std::string, SceneDesc>> read_ahead_;  // request_load's scene, while the panels ask
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit

@@ -22,11 +22,6 @@ void for_rows(ThreadPool& pool, int h, const std::function<void(int y)>& row) {
   });
 }
 
-
-}  // namespace
-
-namespace {
-
 // A small pixel as the upsampling reads it: its illumination, depth, unit normal and whether it has a surface,
 // in one 32-byte record (a tap is one cache line at most).
 struct SmallSample {
@@ -61,7 +56,6 @@ struct PreviewScratch {
   std::vector<Quad> quads;
 };
 
-
 void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool, PreviewScratch& scratch) {
   // Plain 3×3 statistics, without asking which neighbours share the pixel's surface: where they do not (an edge)
   // the range only widens (less clamping) and the variance grows (the filter's own normal, depth and albedo
@@ -82,13 +76,13 @@ void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool, PreviewScratch
     // x − 1, x, x + 1 of the clamped illumination and of its square.
     return Planes{base, base + n, base + 2 * n, base + 3 * n, base + 4 * n, base + 5 * n, base + 6 * n, base + 7 * n};
   };
+  auto row_start = [&](int y) { return static_cast<size_t>(std::clamp(y, 0, h - 1)) * w; };  // clamped
   auto for_channels = [&](const std::function<void(int y, int c, const Planes&)>& row) {
     for_rows(pool, h, [&](int y) {
       for (int c = 0; c < 3; ++c) row(y, c, channel(c));
     });
   };
-  {
-    // Illumination, and its row statistics.
+  // Illumination, and its row statistics.
     for_channels([&](int y, int c, const Planes& P) {
       auto [e, row_min3, row_max3, row_min2, row_max2, clamped, row_sum, row_sum2] = P;
       const size_t r = static_cast<size_t>(y) * w;
@@ -110,7 +104,7 @@ void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool, PreviewScratch
     for_channels([&](int y, int, const Planes& P) {
       auto [e, row_min3, row_max3, row_min2, row_max2, clamped, row_sum, row_sum2] = P;
       const size_t r = static_cast<size_t>(y) * w;
-      const size_t up = static_cast<size_t>(std::max(y - 1, 0)) * w, down = static_cast<size_t>(std::min(y + 1, h - 1)) * w;
+      const size_t up = row_start(y - 1), down = row_start(y + 1);
       const bool has_up = y > 0, has_down = y + 1 < h;
       for (int x = 0; x < w; ++x) {
         float lo = row_min2[r + x], hi = row_max2[r + x];
@@ -130,7 +124,7 @@ void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool, PreviewScratch
     for_channels([&](int y, int c, const Planes& P) {
       auto [e, row_min3, row_max3, row_min2, row_max2, clamped, row_sum, row_sum2] = P;
       const size_t r = static_cast<size_t>(y) * w;
-      const size_t up = static_cast<size_t>(std::max(y - 1, 0)) * w, down = static_cast<size_t>(std::min(y + 1, h - 1)) * w;
+      const size_t up = row_start(y - 1), down = row_start(y + 1);
       const float rows = static_cast<float>(1 + (y > 0) + (y + 1 < h));
       const float wu = y > 0 ? 1.f : 0.f, wd = y + 1 < h ? 1.f : 0.f;
       for (int x = 0; x < w; ++x) {
@@ -144,7 +138,6 @@ void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool, PreviewScratch
         planes.color[3 * p + c] = clamped[p] * m + planes.emission[3 * p + c];
       }
     });
-  }
 }
 
 void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& low_rgb, const FeatureImage& guide,
@@ -152,9 +145,14 @@ void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& l
   const int lw = low.width, lh = low.height, W = guide.width, H = guide.height;
   std::vector<SmallSample>& small = scratch.small;
   small.resize(static_cast<size_t>(lw) * lh);
+  // The small sample at (i, j), clamped into the image.
+  auto small_at = [&](int i, int j) -> const SmallSample& {
+    return small[static_cast<size_t>(std::clamp(j, 0, lh - 1)) * lw + static_cast<size_t>(std::clamp(i, 0, lw - 1))];
+  };
   for (size_t q = 0; q < small.size(); ++q) {
     SmallSample& s = small[q];
-    for (int c = 0; c < 3; ++c) s.e[c] = (low_rgb[3 * q + c] - low.emission[3 * q + c]) / demodulation(low.albedo[3 * q + c]);
+    for (int c = 0; c < 3; ++c)
+      s.e[c] = (low_rgb[3 * q + c] - low.emission[3 * q + c]) / demodulation(low.albedo[3 * q + c]);
     s.z = low.depth[q];
     const float inv = inverse_normal_length(&low.normal[3 * q]);
     for (int c = 0; c < 3; ++c) s.n[c] = low.normal[3 * q + c] * inv;
@@ -170,10 +168,7 @@ void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& l
   quads.resize(static_cast<size_t>(qw) * qh);
   for (int j = -1; j < lh; ++j)
     for (int i = -1; i < lw; ++i) {
-      const SmallSample* t[4] = {&small[static_cast<size_t>(std::clamp(j, 0, lh - 1)) * lw + std::clamp(i, 0, lw - 1)],
-                                 &small[static_cast<size_t>(std::clamp(j, 0, lh - 1)) * lw + std::clamp(i + 1, 0, lw - 1)],
-                                 &small[static_cast<size_t>(std::clamp(j + 1, 0, lh - 1)) * lw + std::clamp(i, 0, lw - 1)],
-                                 &small[static_cast<size_t>(std::clamp(j + 1, 0, lh - 1)) * lw + std::clamp(i + 1, 0, lw - 1)]};
+      const SmallSample* t[4] = {&small_at(i, j), &small_at(i + 1, j), &small_at(i, j + 1), &small_at(i + 1, j + 1)};
       bool alike = true;
       float z_lo = t[0]->z, z_hi = t[0]->z;
       for (int k = 1; k < 4 && alike; ++k) {
@@ -194,8 +189,7 @@ void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& l
     const float v = (static_cast<float>(y) + 0.5f) * sy - 0.5f;
     const int j0 = static_cast<int>(std::floor(v));
     const float fv = v - static_cast<float>(j0);
-    const SmallSample* rows[2] = {&small[static_cast<size_t>(std::clamp(j0, 0, lh - 1)) * lw],
-                                  &small[static_cast<size_t>(std::clamp(j0 + 1, 0, lh - 1)) * lw]};
+    const SmallSample* rows[2] = {&small_at(0, j0), &small_at(0, j0 + 1)};
     const Quad* quad_row = &quads[static_cast<size_t>(j0 + 1) * qw + 1];
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
@@ -238,7 +232,7 @@ void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& l
           acc[0] = acc[1] = acc[2] = wsum = 0.f;
           for (int j = j0 - 1; j <= j0 + 2; ++j)
             for (int i = i0 - 1; i <= i0 + 2; ++i) {
-              const SmallSample& q = small[static_cast<size_t>(std::clamp(j, 0, lh - 1)) * lw + std::clamp(i, 0, lw - 1)];
+              const SmallSample& q = small_at(i, j);
               const float wq = tap_weight(np, p_surface, zp, inv_tolerance, q);
               for (int c = 0; c < 3; ++c) acc[c] += wq * q.e[c];
               wsum += wq;

@@ -2,27 +2,27 @@
 // and brought to full resolution along the edges of a full-resolution guide (integrators/feature_pass.h), so a
 // drag shows a smooth, sharp-edged image instead of a blocky, grainy one.
 //
-// 1. Outliers and variance. A 1-spp pixel far outside the range of its neighbours on the same surface (normal and
-//    depth alike, 3×3) is a firefly (a caustic path, a rare bright bounce) that no filter spreads out at this
-//    sample count: each channel of the illumination is clamped into its 8 neighbours' range (up to twice their
-//    maximum), as temporal anti-aliasing clamps history to a neighbourhood (Karis 2014, "High Quality Temporal
-//    Supersampling"). This biases the preview, never the accumulated film: on cornell at 1 spp, a third of the
-//    resolution, the clean preview's mean is 0.92 of the converged one (tests/test_preview.cpp), and its relMSE
-//    0.026 against the raw preview's 6.8. Twice the maximum rather than the maximum: 0.92 instead of 0.89 of the
-//    mean, for the same relMSE. One sample per pixel also says nothing about its own
-//    variance, which the à-trous filter's luminance weight needs: it is estimated spatially, over the same 3×3
-//    neighbours, as SVGF does where its temporal history is short (Schied et al. 2017, §4.2: a 7×7 bilateral
-//    estimate; 3×3 here, which the filter's own 3×3 variance blur widens to 5×5). Neither step asks which
-//    neighbours share the pixel's surface: at an edge the range only widens and the variance grows, and the
-//    filter's normal, depth and albedo weights still stop there.
-// 2. Filter. The à-trous filter of denoiser.h on the small image (illumination = radiance ÷ albedo).
+// 1. Outliers and variance. A 1-spp pixel far above or below the range of its 8 neighbours is a firefly (a
+//    caustic path, a rare bright bounce) or a hole that no filter spreads out at this sample count: each channel of
+//    the illumination is clamped into its neighbours' range (up to twice their maximum), as temporal anti-aliasing
+//    clamps history to a neighbourhood (Karis 2014, "High Quality Temporal Supersampling"). This biases the
+//    preview, never the accumulated film: on cornell at 1 spp and a third of the resolution, the clean preview's
+//    mean is 0.92 of the converged one and its relMSE 0.026 against the raw preview's 6.8 (tests/test_preview.cpp);
+//    twice the maximum rather than the maximum gives 0.92 instead of 0.89 of the mean, for the same relMSE. One
+//    sample per pixel also says nothing about its own variance, which the à-trous filter's luminance weight needs:
+//    it is estimated spatially, over the same 3×3 neighbours, as SVGF does where its temporal history is short
+//    (Schied et al. 2017, §4.2: a 7×7 bilateral estimate; 3×3 here, which the filter's own 3×3 variance blur widens
+//    to 5×5). Neither step asks which neighbours share the pixel's surface: at an edge the range only widens and
+//    the variance grows, and the filter's normal, depth and albedo weights still stop there.
+// 2. Filter. The à-trous filter of denoiser.h, three levels, on the small image (illumination = radiance ÷ albedo).
 // 3. Upsample. Joint bilateral upsampling (Kopf, Cohen, Lischinski and Uyttendaele 2007, "Joint Bilateral
 //    Upsampling", eq. 2): each full-resolution pixel takes the bilinear taps of the 2×2 small pixels around it,
 //    each weighted by how alike their surfaces are (normal, depth) as the full-resolution guide sees that pixel;
 //    where none of the four is alike (a thin object smaller than a small pixel) the 4×4 neighbourhood is searched
-//    on the features alone. Most pixels lie inside a quad of four small samples of one surface and agree with
-//    it: they take the plain bilinear mean (the weights would all be about 1 there). The illumination is upsampled, then multiplied by the guide's own albedo and the
-//    guide's directly seen emission is added: texture, material edges and lights stay at full resolution.
+//    on the features alone. Most pixels lie inside a quad of four small samples of one surface and agree with it:
+//    they take the plain bilinear mean (the weights would all be about 1 there). The illumination is upsampled,
+//    then multiplied by the guide's own albedo, and the guide's directly seen emission is added: texture, material
+//    edges and lights stay at full resolution.
 #pragma once
 #include <memory>
 #include <vector>

@@ -23,48 +23,58 @@ bool receives_diffusely(MaterialType type, Rgb albedo) {
          max_component(albedo) > 0.f;
 }
 
+namespace {
+
+// The rule over a scene's materials (descriptions or compiled ones: both have type, roughness and albedo), those
+// no shape uses left out: the first that focuses light (its index, or −1), and whether any receives it.
+struct Scan {
+  int focusing = -1;
+  bool receiver = false;
+};
+template <class Materials, class Used>
+Scan scan_materials(const Materials& materials, Used&& used) {
+  Scan scan;
+  for (size_t i = 0; i < materials.size(); ++i) {
+    if (!used(i)) continue;
+    const auto& m = materials[i];
+    if (scan.focusing < 0 && focuses_light(m.type, m.roughness)) scan.focusing = static_cast<int>(i);
+    scan.receiver = scan.receiver || receives_diffusely(m.type, m.albedo);
+  }
+  return scan;
+}
+
+Estimator pick(const Scan& scan, int max_bounces) {
+  return scan.focusing >= 0 && scan.receiver && max_bounces <= kMaxBdptBounces ? Estimator::Bdpt : Estimator::Mis;
+}
+
+}  // namespace
+
 EstimatorChoice choose_estimator(const SceneDesc& scene) {
   std::vector<char> used(scene.materials.size(), 0);
   for (const ShapeDesc& s : scene.shapes)
     if (s.material >= 0 && static_cast<size_t>(s.material) < used.size()) used[static_cast<size_t>(s.material)] = 1;
-  const MaterialDesc* focusing = nullptr;
-  bool receiver = false;
-  for (size_t i = 0; i < scene.materials.size(); ++i) {
-    if (!used[i]) continue;
-    const MaterialDesc& m = scene.materials[i];
-    if (!focusing && focuses_light(m.type, m.roughness)) focusing = &m;
-    receiver = receiver || receives_diffusely(m.type, m.albedo);
+  const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
+  const Estimator e = pick(scan, scene.render.max_bounces);
+  if (e == Estimator::Bdpt) {
+    const MaterialDesc& m = scene.materials[static_cast<size_t>(scan.focusing)];
+    return {e, "bdpt: '" + m.name + "' (" + to_string(m.type) +
+                   ") focuses light onto diffuse surfaces, caustics that mis finds only by chance"};
   }
-  if (!focusing || !receiver)
-    return {Estimator::Mis, focusing ? "mis: no diffuse surface receives what the smooth ones reflect or refract"
-                                     : "mis: no glass, mirror or polished metal, so light sampling reaches every "
-                                       "diffuse surface directly"};
-  if (scene.render.max_bounces > kMaxBdptBounces)
-    return {Estimator::Mis, "mis: caustics, but more bounces than bdpt's limit of " + std::to_string(kMaxBdptBounces)};
-  return {Estimator::Bdpt, "bdpt: '" + focusing->name + "' (" + to_string(focusing->type) +
-                               ") focuses light onto diffuse surfaces, caustics that mis finds only by chance"};
+  if (scan.focusing < 0)
+    return {e, "mis: no glass, mirror or polished metal, so light sampling reaches every diffuse surface directly"};
+  if (!scan.receiver) return {e, "mis: no diffuse surface receives what the smooth ones reflect or refract"};
+  return {e, "mis: caustics, but more bounces than bdpt's limit of " + std::to_string(kMaxBdptBounces)};
 }
 
 Estimator choose_estimator(const Scene& scene, int max_bounces) {
-  bool focusing = false, receiver = false;
-  for (size_t i = 0; i < scene.materials.size(); ++i) {
-    if (i >= scene.material_used.size() || !scene.material_used[i]) continue;
-    const Material& m = scene.materials[i];
-    focusing = focusing || focuses_light(m.type, m.roughness);
-    receiver = receiver || receives_diffusely(m.type, m.albedo);
-  }
-  return focusing && receiver && max_bounces <= kMaxBdptBounces ? Estimator::Bdpt : Estimator::Mis;
+  return pick(scan_materials(scene.materials,
+                             [&](size_t i) { return i < scene.material_used.size() && scene.material_used[i] != 0; }),
+              max_bounces);
 }
 
 RenderSettings resolved_render_settings(const Scene& scene, const RenderSettings& settings) {
   RenderSettings r = settings;
   if (r.estimator == Estimator::Auto) r.estimator = choose_estimator(scene, r.max_bounces);
-  return r;
-}
-
-RenderSettings resolved_render_settings(const SceneDesc& scene) {
-  RenderSettings r = scene.render;
-  if (r.estimator == Estimator::Auto) r.estimator = choose_estimator(scene).estimator;
   return r;
 }
 

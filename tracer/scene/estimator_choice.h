@@ -35,8 +35,7 @@ EstimatorChoice choose_estimator(const SceneDesc& scene);
 // The same pick for a compiled scene (its materials as edited since: the renderer resolves `auto` per pass).
 Estimator choose_estimator(const Scene& scene, int max_bounces);
 
-// The render settings to trace with: render.estimator, with Auto replaced by choose_estimator's pick.
-RenderSettings resolved_render_settings(const SceneDesc& scene);
+// The render settings to trace with: `settings`, with Auto replaced by choose_estimator's pick for `scene`.
 RenderSettings resolved_render_settings(const Scene& scene, const RenderSettings& settings);
 
 }  // namespace pt
