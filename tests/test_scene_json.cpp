@@ -661,12 +661,122 @@ TEST_CASE("scene_json: a mesh shape reads an OBJ file (triangulated, transformed
   CHECK(obj_error("short.obj", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n") == "line 2: vertex coordinate 3 is missing");
   CHECK(obj_error("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n") == "the mesh has no triangle of non-zero area");
   CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "red", "transform": {"scale": 0}})")) ==
-        "mesh.json: shapes[0].transform.scale: must not be 0 (it flattens the mesh)");
+        "mesh.json: shapes[0].transform.scale: must not be 0 (it flattens the object)");
   CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "red", "smooth": true})")) ==
-        "mesh.json: shapes[0].smooth: unknown key (expected one of: type, file, material, transform)");
+        "mesh.json: shapes[0].smooth: unknown key (expected one of: type, name, file, material, transform)");
   CHECK(message(scene_with(R"({"type": "mesh", "file": "m.obj", "material": "nope"})")) ==
         "mesh.json: shapes[0].material: unknown material \"nope\"");
   fs::remove_all(dir);
+}
+
+TEST_CASE("scene_json: the Cornell box's blocks are groups, five quads each, at the published coordinates") {
+  const SceneDesc s = load_scene("cornell");
+  REQUIRE(s.objects.size() == 2);
+  CHECK(s.objects[0].name == "short block");
+  CHECK(s.objects[1].name == "tall block");
+  for (size_t i = 0; i < 2; ++i) {
+    CHECK(s.objects[i].kind == ObjectKind::Group);
+    CHECK(s.objects[i].first_shape == 6 + 5 * i);
+    CHECK(s.objects[i].shape_count == 5);
+    CHECK(s.objects[i].transform == ObjectTransform{});
+  }
+  // The blocks' top faces in the Cornell data (graphics.cornell.edu/online/box/data.html).
+  CHECK(s.shapes[6].vertices[0] == DVec3(130, 165, 65));
+  CHECK(s.shapes[11].vertices[0] == DVec3(423, 330, 247));
+  CHECK(object_containing(s, 5) == std::nullopt);  // the light stands alone
+  CHECK(object_containing(s, 6) == 0u);
+  CHECK(object_containing(s, 10) == 0u);
+  CHECK(object_containing(s, 15) == 1u);
+}
+
+TEST_CASE("scene_json: a group's transform places its shapes, a mirror keeps faces' fronts, and errors name the file's element") {
+  const auto scene_with = [](const std::string& first) {
+    std::string text(builtin_scene_json("cornell").value());
+    const std::string list = R"("shapes": [)";
+    return text.replace(text.find(list), list.size(), list + "\n" + first + ",");
+  };
+  // (x, y, z) → × 2 → 90° about z: (−2y, 2x, 2z) → + (10, 0, 0).
+  const std::string group = R"({"type": "group", "name": "g", "material": "red",
+      "transform": {"scale": 2, "rotate_axis": [0, 0, 1], "rotate_deg": 90, "translate": [10, 0, 0]},
+      "shapes": [{"type": "triangle", "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 0]]},
+                 {"type": "sphere", "center": [0, 0, 1], "radius": 0.5}]})";
+  const SceneDesc s = parse_scene(scene_with(group), "g.json");
+  REQUIRE(s.objects.size() == 3);  // the group, then the two blocks
+  CHECK(s.objects[0].name == "g");
+  CHECK(s.objects[0].shape_count == 2);
+  CHECK(s.objects[1].first_shape == 8);
+  const auto near = [](DVec3 a, DVec3 b) { return glm::length(a - b) < 1e-12; };
+  CHECK(near(s.shapes[0].vertices[0], DVec3(10, 2, 0)));
+  CHECK(near(s.shapes[0].vertices[1], DVec3(8, 0, 0)));
+  CHECK(near(s.shapes[0].vertices[2], DVec3(10, 0, 0)));
+  CHECK(near(s.shapes[1].center, DVec3(10, 0, 2)));
+  CHECK(s.shapes[1].radius == 1.0);
+  // Written back in the group's own coordinates with its transform; read again, the same to rounding.
+  const std::string json = scene_to_json(s);
+  CHECK(json.find(R"("rotate_deg": 90)") != std::string::npos);
+  const SceneDesc again = parse_scene(json, "again.json");
+  REQUIRE(again.shapes.size() == s.shapes.size());
+  CHECK(again.objects[0].transform == s.objects[0].transform);
+  for (int k = 0; k < 3; ++k) CHECK(near(again.shapes[0].vertices[k], s.shapes[0].vertices[k]));
+  CHECK(near(again.shapes[1].center, s.shapes[1].center));
+
+  // A mirror (x → −x) lists a triangle's vertices the other way round: its front stays on the same side (+z).
+  const SceneDesc m = parse_scene(scene_with(R"({"type": "group", "material": "red", "transform": {"scale": [-1, 1, 1]},
+      "shapes": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]}]})"), "m.json");
+  const auto& v = m.shapes[0].vertices;
+  CHECK(glm::cross(v[1] - v[0], v[2] - v[0]).z > 0.0);
+  CHECK(m.objects[0].name == "group 1");
+
+  const auto message = [&](const std::string& first) -> std::string {
+    try {
+      parse_scene(scene_with(first), "g.json");
+    } catch (const SceneError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  CHECK(message(R"({"type": "group", "material": "red", "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "red"}]})") ==
+        "g.json: shapes[0].shapes[0].material: a group's shapes take the group's material");
+  CHECK(message(R"({"type": "group", "material": "red", "shapes": []})") == "g.json: shapes[0].shapes: a group holds at least one shape");
+  CHECK(message(R"({"type": "group", "material": "red", "transform": {"scale": [1, 2, 1]}, "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]})") ==
+        "g.json: shapes[0].transform: a group with a sphere takes the same scale on every axis");
+  CHECK(message(R"({"type": "group", "material": "red", "shapes": [{"type": "sphere", "center": [0, 0, 0], "radiu": 1}]})") ==
+        "g.json: shapes[0].shapes[0].radiu: unknown key (expected one of: type, vertices, center, radius, material)");
+  CHECK(message(R"({"type": "group", "name": "", "material": "red", "shapes": []})") ==
+        "g.json: shapes[0].name: must not be empty (leave the key out for the default name)");
+  // validate_scene's complaints name the file's element, not the index among all shapes.
+  const std::string tri = R"({"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]})";
+  const std::string flat = R"({"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]})";
+  CHECK(message(R"({"type": "group", "material": "red", "shapes": [)" + tri + "," + flat + "]}").rfind(
+            "g.json: shapes[0].shapes[1].vertices: degenerate polygon", 0) == 0);
+  CHECK(message(R"({"type": "group", "material": "red", "shapes": [)" + tri + "," + tri + "," + tri + "]}," +
+                R"({"type": "triangle", "material": "red", "vertices": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]})")
+            .rfind("g.json: shapes[1].vertices: degenerate polygon", 0) == 0);
+}
+
+TEST_CASE("scene_json: a mesh is one object, written back as its file (named from where the scene is saved)") {
+  namespace fs = std::filesystem;
+  const std::string path = std::string(PT_SCENES_DIR) + "/cornell-bunny.json";
+  const SceneDesc s = load_scene(path);
+  REQUIRE(s.objects.size() == 1);
+  CHECK(s.objects[0].kind == ObjectKind::Mesh);
+  CHECK(s.objects[0].name == "bunny");
+  CHECK(s.objects[0].first_shape == 6);
+  CHECK(s.objects[0].shape_count == 3674);
+  const std::string json = scene_to_json(s);
+  CHECK(json.find(R"("file": "bunny.obj")") != std::string::npos);
+  CHECK(json.size() < 4000);  // the reference, not 3674 triangles (~200 bytes each)
+  // Saved into another folder, the reference leads from there to the same file: read back, the same triangles.
+  const fs::path dir = fs::temp_directory_path() / ("pt_objects_" + std::to_string(::getpid())) / "sub";
+  fs::create_directories(dir);
+  const std::string moved = scene_to_json(s, dir.string());
+  CHECK(moved.find(R"("file": "bunny.obj")") == std::string::npos);
+  const SceneDesc back = parse_scene(moved, "moved.json", dir.string());
+  REQUIRE(back.shapes.size() == s.shapes.size());
+  bool same = true;
+  for (size_t i = 0; i < s.shapes.size(); ++i) same = same && s.shapes[i].vertices == back.shapes[i].vertices;
+  CHECK(same);
+  fs::remove_all(dir.parent_path());
 }
 
 TEST_CASE("scene_json: scenes/cornell-bunny.json is the box and the bunny, compiled with a BVH") {

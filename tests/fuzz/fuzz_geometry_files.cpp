@@ -25,7 +25,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = pt::fuzz::write_input(data + 1, size - 1, obj ? ".obj" : ".rays");
   try {
     if (obj) {
-      const pt::MeshTriangles mesh = pt::load_obj_mesh(path, pt::MeshTransform{});
+      const pt::MeshTriangles mesh = pt::load_obj_mesh(path, pt::ObjectTransform{});
       if (mesh.triangles.empty()) finding("a mesh without triangles accepted", path);
       for (const auto& tri : mesh.triangles)
         for (const auto& v : tri)

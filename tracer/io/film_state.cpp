@@ -88,7 +88,7 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
   // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
   // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
-  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}};
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}};
   head.render.seed = 0;
   const std::string json = scene_to_json(head);
   uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());

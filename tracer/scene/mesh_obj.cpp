@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
+#include <utility>
 
 #include "io/safe_file.h"
 #include "scene/scene.h"
@@ -44,7 +45,7 @@ void check_vertex_lines(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& t) {
+MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
   const std::string text = read_file_limited(path, kMaxSceneFileBytes);  // FileError names the path
   check_vertex_lines(path, text);
   tinyobj::ObjReaderConfig config;
@@ -60,16 +61,6 @@ MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& t) {
   const std::vector<tinyobj::real_t>& v = reader.GetAttrib().vertices;
   const size_t vertex_count = v.size() / 3;
 
-  // Rodrigues' rotation about the unit axis: R = cos θ I + sin θ [k]× + (1 − cos θ) k kᵀ.
-  const double theta = glm::radians(t.degrees);
-  const DVec3 k = glm::normalize(t.axis);
-  const double c = std::cos(theta), s = std::sin(theta);
-  const auto transform = [&](DVec3 p) {
-    p *= t.scale;
-    p = c * p + s * glm::cross(k, p) + (1.0 - c) * glm::dot(k, p) * k;
-    return p + t.translate;
-  };
-
   MeshTriangles out;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& idx = shape.mesh.indices;
@@ -84,8 +75,9 @@ MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& t) {
         const DVec3 p(v[3 * vi], v[3 * vi + 1], v[3 * vi + 2]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
           throw std::runtime_error(path + ": vertex " + std::to_string(vi + 1) + " is not finite");
-        tri[j] = transform(p);
+        tri[j] = to_world(t, p);
       }
+      if (mirrors(t)) std::swap(tri[1], tri[2]);
       if (degenerate_triangle(tri[0], tri[1], tri[2])) {
         ++out.degenerate;
         continue;

@@ -1,6 +1,7 @@
 // Triangle meshes from Wavefront OBJ files, for the scene file's "mesh" shape (docs/scene-format.md). The file
 // is read with the scene's safety rules (a regular file, at most kMaxSceneFileBytes) and parsed by tinyobjloader
-// (Debian's libtinyobjloader-dev); polygons are triangulated as fans, normals, texture coordinates and .mtl
+// (Debian's libtinyobjloader-dev); polygons are triangulated as fans (listed the other way round under a mirroring transform, so faces keep
+// their front), normals, texture coordinates and .mtl
 // materials are ignored (the scene gives the material).
 #pragma once
 #include <array>
@@ -9,18 +10,12 @@
 #include <vector>
 
 #include "core/math.h"
+#include "scene/object_transform.h"
 
 namespace pt {
 
 inline constexpr size_t kMaxMeshTriangles = size_t{1} << 24;  // per mesh: ~2.5 GB of scene description
 
-// Applied to the file's vertices in this order: scale, rotate about `axis` by `degrees`, translate.
-struct MeshTransform {
-  DVec3 scale{1.0};
-  DVec3 axis{0.0, 1.0, 0.0};
-  double degrees = 0.0;
-  DVec3 translate{0.0};
-};
 
 struct MeshTriangles {
   std::vector<std::array<DVec3, 3>> triangles;  // transformed, zero-area triangles left out
@@ -28,6 +23,6 @@ struct MeshTriangles {
 };
 
 // Throws std::runtime_error with the reason (the file's name, a line where the parser gives one).
-MeshTriangles load_obj_mesh(const std::string& path, const MeshTransform& transform);
+MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& transform);
 
 }  // namespace pt

@@ -143,6 +143,37 @@ std::string validate_render_settings(const RenderSettings& r) {
   return {};
 }
 
+std::string validate_objects(const SceneDesc& s) {
+  size_t next_free = 0;  // the first shape no earlier object holds
+  for (size_t i = 0; i < s.objects.size(); ++i) {
+    const ObjectDesc& o = s.objects[i];
+    const std::string path = "objects[" + std::to_string(i) + "]";
+    if (o.shape_count == 0) return path + ": an object holds at least one shape";
+    if (o.first_shape < next_free) return path + ": its shapes overlap an earlier object's (objects go in shape order)";
+    if (o.first_shape > s.shapes.size() || o.shape_count > s.shapes.size() - o.first_shape)
+      return path + ": its shapes run past the scene's " + std::to_string(s.shapes.size());
+    if (std::string err = transform_error(o.transform); !err.empty()) return path + ".transform: " + err;
+    if (o.kind == ObjectKind::Mesh && o.file.empty()) return path + ".file: a mesh names its OBJ file";
+    const int material = s.shapes[o.first_shape].material;
+    for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) {
+      if (s.shapes[k].material != material) return path + ": its shapes have one material (shape " + std::to_string(k) + " differs)";
+      if (o.kind == ObjectKind::Mesh && s.shapes[k].type != ShapeType::Triangle) return path + ": a mesh is made of triangles";
+    }
+    next_free = o.first_shape + o.shape_count;
+  }
+  return {};
+}
+
+std::optional<size_t> object_containing(const SceneDesc& s, size_t shape) {
+  // Objects are in shape order: the last one starting at or before `shape` is the only candidate.
+  const auto it = std::upper_bound(s.objects.begin(), s.objects.end(), shape,
+                                   [](size_t v, const ObjectDesc& o) { return v < o.first_shape; });
+  if (it == s.objects.begin()) return std::nullopt;
+  const ObjectDesc& o = *(it - 1);
+  if (shape - o.first_shape >= o.shape_count) return std::nullopt;
+  return static_cast<size_t>(it - 1 - s.objects.begin());
+}
+
 std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
@@ -189,6 +220,7 @@ std::string validate_scene(const SceneDesc& s) {
       if (glm::dot(n1, n2) <= 0.0) return path() + ".vertices: quad is folded or not convex (vertex order?)";
     }
   }
+  if (std::string err = validate_objects(s); !err.empty()) return err;
   if (farthest < kMinSceneExtent)
     return "shapes: the whole scene lies within " + short_number(farthest) + " of the camera, below the " +
            short_number(kMinSceneExtent) + " the tracer represents (scale the scene up)";

@@ -13,6 +13,7 @@
 #pragma once
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -246,5 +247,10 @@ std::string validate_film_size(int width, int height);
 
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
+// The objects' part of it: each holds ≥ 1 shape, in shape order without overlap, of one material, with a usable
+// transform; a mesh names its file and holds triangles.
+std::string validate_objects(const SceneDesc& desc);
+// The index of the object (SceneDesc::objects) holding shape `shape`; nullopt when it stands alone.
+std::optional<size_t> object_containing(const SceneDesc& desc, size_t shape);
 
 }  // namespace pt

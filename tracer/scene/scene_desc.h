@@ -12,6 +12,7 @@
 #include "core/math.h"
 #include "io/image_io.h"
 #include "materials/material.h"
+#include "scene/object_transform.h"
 
 namespace pt {
 
@@ -29,6 +30,8 @@ enum class EnvironmentType { Constant, Sky, Map };
 // their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront where
 // the packet kernels serve the scene (polygons few enough for brute force).
 enum class PathLoop { Auto, Scalar, Wavefront };
+// What an object is made of (ObjectDesc): the shapes a scene file lists in a group, or an OBJ file's triangles.
+enum class ObjectKind { Group, Mesh };
 
 template <>
 struct EnumTable<ShapeType> {
@@ -72,6 +75,13 @@ struct EnumTable<PathLoop> {
   }};
 };
 template <>
+struct EnumTable<ObjectKind> {
+  static constexpr std::array<EnumEntry<ObjectKind>, 2> kEntries{{
+      {ObjectKind::Group, "group", "Group of shapes"},
+      {ObjectKind::Mesh, "mesh", "Mesh (OBJ file)"},
+  }};
+};
+template <>
 struct EnumTable<EnvironmentType> {
   static constexpr std::array<EnumEntry<EnvironmentType>, 3> kEntries{{
       {EnvironmentType::Constant, "constant", "Constant colour"},
@@ -106,6 +116,20 @@ struct ShapeDesc {
   DVec3 center{0.0};                // sphere
   double radius = 0.0;              // sphere
   int material = 0;                 // index into SceneDesc::materials
+};
+
+// Shapes handled as one thing: an OBJ file's triangles, or a group's shapes (a box's five quads). Clicking one
+// picks the object; its transform and its one material apply to all of its shapes. Its shapes are a contiguous
+// run of SceneDesc::shapes, in world coordinates like every shape (the renderer never sees objects); `transform`
+// places the object's own coordinates (the OBJ file's, or the group's shapes as the scene file writes them) in the
+// world. A shape outside every object stands alone (object_containing(), scene.h).
+struct ObjectDesc {
+  std::string name;
+  ObjectKind kind = ObjectKind::Group;
+  size_t first_shape = 0, shape_count = 0;
+  ObjectTransform transform;
+  std::string file;           // mesh: the OBJ file as written in the scene file
+  std::string resolved_file;  // mesh: `file` relative to the scene file's directory (not saved)
 };
 
 struct CameraDesc {
@@ -161,6 +185,7 @@ struct SceneDesc {
   EnvironmentDesc environment;
   std::vector<MaterialDesc> materials;
   std::vector<ShapeDesc> shapes;
+  std::vector<ObjectDesc> objects;  // in the order of their shapes, never overlapping
 };
 
 }  // namespace pt

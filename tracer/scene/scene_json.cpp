@@ -660,11 +660,10 @@ EnvironmentDesc read_environment(const Json& j, const std::string& path, const s
   return e;
 }
 
-// One element of "shapes"; its material is returned by name in `material_name` (materials may come later in
-// the file). Shapes in the plain form never come here (SceneSax reads them directly): this reader gives the
-// reasons for the rest.
-ShapeDesc read_shape(const Json& j, size_t index, const std::string*& material_name) {
-  const std::string path = element("shapes", index);
+// A shape's geometry at `path`: an element of "shapes", or of a group's "shapes" (whose caller has refused a
+// "material" key). Shapes in the plain form never come here (SceneSax reads them directly): this reader gives
+// the reasons for the rest.
+ShapeDesc read_shape_geometry(const Json& j, const std::string& path) {
   expect_object(j, path);
   check_known_keys(j, path, {"type", "vertices", "center", "radius", "material"});
   ShapeDesc s;
@@ -684,8 +683,38 @@ ShapeDesc read_shape(const Json& j, size_t index, const std::string*& material_n
       fail(vpath, "a " + type_name + " has exactly " + std::to_string(n) + " vertices, got " + std::to_string(v.size()));
     for (size_t k = 0; k < n; ++k) s.vertices[k] = read_dvec3(v[k], element(vpath, k));
   }
+  return s;
+}
+
+// One element of "shapes"; its material is returned by name in `material_name` (materials may come later in
+// the file).
+ShapeDesc read_shape(const Json& j, size_t index, const std::string*& material_name) {
+  const std::string path = element("shapes", index);
+  ShapeDesc s = read_shape_geometry(j, path);
   material_name = &read_string(required_key(j, path, "material"), member(path, "material"));
   return s;
+}
+
+// An object's optional "transform" (scene/object_transform.h).
+ObjectTransform read_transform(const Json& j, const std::string& path) {
+  ObjectTransform t;
+  const Json* tr = optional_key(j, "transform");
+  if (!tr) return t;
+  const std::string tp = member(path, "transform");
+  expect_object(*tr, tp);
+  check_known_keys(*tr, tp, {"scale", "rotate_axis", "rotate_deg", "translate"});
+  if (const Json* v = optional_key(*tr, "scale")) {
+    const std::string sp = member(tp, "scale");
+    t.scale = v->is_array() ? read_dvec3(*v, sp) : DVec3(read_double(*v, sp));
+    if (t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0) fail(sp, "must not be 0 (it flattens the object)");
+  }
+  if (const Json* v = optional_key(*tr, "rotate_axis")) {
+    t.axis = read_dvec3(*v, member(tp, "rotate_axis"));
+    if (!(glm::length(t.axis) > 0.0)) fail(member(tp, "rotate_axis"), "must not be the zero vector");
+  }
+  if (const Json* v = optional_key(*tr, "rotate_deg")) t.degrees = read_double(*v, member(tp, "rotate_deg"));
+  if (const Json* v = optional_key(*tr, "translate")) t.translate = read_dvec3(*v, member(tp, "translate"));
+  return t;
 }
 
 // The shapes as the reader streams them. Each shape's `material` holds a provisional id per distinct name (in
@@ -716,52 +745,83 @@ struct StreamedShapes {
       const auto type = j.find("type");
       if (type != j.end() && type->is_string() && type->get_ref<const std::string&>() == "mesh")
         return add_mesh(j, index);
+      if (type != j.end() && type->is_string() && type->get_ref<const std::string&>() == "group")
+        return add_group(j, index);
     }
     const std::string* name = nullptr;
     const ShapeDesc s = read_shape(j, index, name);
     add(s, *name, index);
   }
 
-  // {"type": "mesh", "file": "x.obj", "material": ..., "transform": {...}}: the file's triangles, each a shape.
+  // {"type": "mesh", "name": ..., "file": "x.obj", "material": ..., "transform": {...}}: one object, the file's
+  // triangles each a shape.
   void add_mesh(const Json& j, size_t index) {
     const std::string path = element("shapes", index);
-    check_known_keys(j, path, {"type", "file", "material", "transform"});
+    check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
     const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
     if (file.empty()) fail(member(path, "file"), "must not be empty");
     const std::string& material = read_string(required_key(j, path, "material"), member(path, "material"));
-    MeshTransform t;
-    if (const Json* tr = optional_key(j, "transform")) {
-      const std::string tp = member(path, "transform");
-      expect_object(*tr, tp);
-      check_known_keys(*tr, tp, {"scale", "rotate_axis", "rotate_deg", "translate"});
-      if (const Json* v = optional_key(*tr, "scale")) {
-        const std::string sp = member(tp, "scale");
-        t.scale = v->is_array() ? read_dvec3(*v, sp) : DVec3(read_double(*v, sp));
-        if (t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0) fail(sp, "must not be 0 (it flattens the mesh)");
-      }
-      if (const Json* v = optional_key(*tr, "rotate_axis")) {
-        t.axis = read_dvec3(*v, member(tp, "rotate_axis"));
-        if (!(glm::length(t.axis) > 0.0)) fail(member(tp, "rotate_axis"), "must not be the zero vector");
-      }
-      if (const Json* v = optional_key(*tr, "rotate_deg")) t.degrees = read_double(*v, member(tp, "rotate_deg"));
-      if (const Json* v = optional_key(*tr, "translate")) t.translate = read_dvec3(*v, member(tp, "translate"));
-    }
+    ObjectDesc o;
+    o.kind = ObjectKind::Mesh;
+    o.name = object_name(j, path, std::filesystem::path(file).stem().string());
+    o.transform = read_transform(j, path);
+    o.file = file;
     const std::filesystem::path f(file);
-    const std::string resolved = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
+    o.resolved_file = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
     MeshTriangles mesh;
     try {
-      mesh = load_obj_mesh(resolved, t);
+      mesh = load_obj_mesh(o.resolved_file, o.transform);
     } catch (const std::exception& e) {
       fail(member(path, "file"), e.what());
     }
+    o.first_shape = shapes.size();
     for (const auto& tri : mesh.triangles) {
       ShapeDesc s;
       s.type = ShapeType::Triangle;
       for (int k = 0; k < 3; ++k) s.vertices[k] = tri[k];
       add(s, material, index);
     }
+    o.shape_count = shapes.size() - o.first_shape;
+    objects.push_back(std::move(o));
   }
 
+  // {"type": "group", "name": ..., "material": ..., "transform": {...}, "shapes": [...]}: one object, its
+  // shapes (triangles, quads, spheres without a material of their own) in the group's coordinates.
+  void add_group(const Json& j, size_t index) {
+    const std::string path = element("shapes", index);
+    check_known_keys(j, path, {"type", "name", "material", "transform", "shapes"});
+    const std::string& material = read_string(required_key(j, path, "material"), member(path, "material"));
+    ObjectDesc o;
+    o.kind = ObjectKind::Group;
+    o.name = object_name(j, path, "group " + std::to_string(objects.size() + 1));
+    o.transform = read_transform(j, path);
+    const std::string list_path = member(path, "shapes");
+    const Json& list = required_key(j, path, "shapes");
+    if (!list.is_array()) fail(list_path, "expected an array of shapes, " + got(list));
+    if (list.empty()) fail(list_path, "a group holds at least one shape");
+    o.first_shape = shapes.size();
+    for (size_t k = 0; k < list.size(); ++k) {
+      const std::string shape_path = element(list_path, k);
+      if (list[k].is_object() && list[k].contains("material"))
+        fail(member(shape_path, "material"), "a group's shapes take the group's material");
+      ShapeDesc s = read_shape_geometry(list[k], shape_path);
+      if (!transform_shape(s, o.transform, true))
+        fail(member(path, "transform"), "a group with a sphere takes the same scale on every axis");
+      add(s, material, index);
+    }
+    o.shape_count = shapes.size() - o.first_shape;
+    objects.push_back(std::move(o));
+  }
+
+  static std::string object_name(const Json& j, const std::string& path, std::string fallback) {
+    const Json* v = optional_key(j, "name");
+    if (!v) return fallback;
+    const std::string& name = read_string(*v, member(path, "name"));
+    if (name.empty()) fail(member(path, "name"), "must not be empty (leave the key out for the default name)");
+    return name;
+  }
+
+  std::vector<ObjectDesc> objects;  // in shape order
   std::string base_dir;  // where relative mesh paths start (the scene file's directory)
 
   void resolve(const std::unordered_map<std::string, int>& material_index) {
@@ -802,6 +862,7 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   if (streamed.shapes.empty()) fail("shapes", "must contain at least one shape");
   streamed.resolve(material_index);
   s.shapes = std::move(streamed.shapes);
+  s.objects = std::move(streamed.objects);
   return s;
 }
 
@@ -833,7 +894,62 @@ Json triple(DVec3 v) { return Json::array({number(v.x), number(v.y), number(v.z)
 Json triple(Rgb v) { return Json::array({number(v.x), number(v.y), number(v.z)}); }
 bool positive_zero(float f) { return f == 0.f && !std::signbit(f); }
 
-Json to_json(const SceneDesc& s) {
+// A file the scene refers to, as a scene file written into `destination_dir` should name it: as it was written
+// when absolute or when there is no destination; otherwise the way from that folder to where the file was found.
+std::string file_reference(const std::string& file, const std::string& resolved,
+                           const std::optional<std::string>& destination_dir) {
+  namespace fs = std::filesystem;
+  if (!destination_dir || file.empty() || fs::path(file).is_absolute()) return file;
+  std::error_code ec;
+  const fs::path found = fs::absolute(resolved.empty() ? file : resolved, ec).lexically_normal();
+  const fs::path dest = fs::absolute(destination_dir->empty() ? "." : *destination_dir, ec).lexically_normal();
+  if (ec) return file;
+  const fs::path relative = found.lexically_relative(dest);
+  return (relative.empty() ? found : relative).generic_string();
+}
+
+Json shape_json(const ShapeDesc& sh) {
+  Json j = {{"type", to_string(sh.type)}};
+  if (sh.type == ShapeType::Sphere) {
+    j["center"] = triple(sh.center);
+    j["radius"] = number(sh.radius);
+  } else {
+    Json v = Json::array();
+    for (int k = 0; k < (sh.type == ShapeType::Triangle ? 3 : 4); ++k) v.push_back(triple(sh.vertices[k]));
+    j["vertices"] = std::move(v);
+  }
+  return j;
+}
+
+Json transform_json(const ObjectTransform& t) {
+  Json j = Json::object();
+  if (t.scale != DVec3(1.0)) j["scale"] = t.scale.x == t.scale.y && t.scale.y == t.scale.z ? number(t.scale.x) : triple(t.scale);
+  if (t.axis != DVec3(0.0, 1.0, 0.0)) j["rotate_axis"] = triple(t.axis);
+  if (t.degrees != 0.0) j["rotate_deg"] = number(t.degrees);
+  if (t.translate != DVec3(0.0)) j["translate"] = triple(t.translate);
+  return j;
+}
+
+// A mesh: its file and transform (the triangles come from the file). A group: its shapes in its own coordinates.
+Json object_json(const ObjectDesc& o, const std::vector<ShapeDesc>& shapes, const std::string& material,
+                 const std::optional<std::string>& destination_dir) {
+  Json j = {{"type", to_string(o.kind)}, {"name", o.name}};
+  if (o.kind == ObjectKind::Mesh) j["file"] = file_reference(o.file, o.resolved_file, destination_dir);
+  j["material"] = material;
+  if (Json t = transform_json(o.transform); !t.empty()) j["transform"] = std::move(t);
+  if (o.kind == ObjectKind::Group) {
+    Json list = Json::array();
+    for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) {
+      ShapeDesc local = shapes[k];
+      transform_shape(local, o.transform, false);
+      list.push_back(shape_json(local));
+    }
+    j["shapes"] = std::move(list);
+  }
+  return j;
+}
+
+Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_dir) {
   Json root = Json::object();
   const CameraDesc& c = s.camera;
   root["camera"] = {{"position", triple(c.position)},
@@ -857,7 +973,7 @@ Json to_json(const SceneDesc& s) {
       env["turbidity"] = number(e.turbidity);
       env["sun"] = e.sun;
     } else {
-      env["file"] = e.file;
+      env["file"] = file_reference(e.file, e.resolved_file, destination_dir);
       env["rotation_deg"] = number(e.rotation_deg);
     }
     env["scale"] = number(e.scale);
@@ -885,21 +1001,23 @@ Json to_json(const SceneDesc& s) {
     materials[m.name] = std::move(j);
   }
   root["materials"] = std::move(materials);
-  Json shapes = Json::array();
-  for (size_t i = 0; i < s.shapes.size(); ++i) {
-    const ShapeDesc& sh = s.shapes[i];
-    if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
+  const auto material_name = [&](size_t i) -> const std::string& {
+    const int m = s.shapes[i].material;
+    if (m < 0 || m >= static_cast<int>(s.materials.size()))
       throw std::invalid_argument("scene_to_json: shapes[" + std::to_string(i) + "].material: no such material");
-    Json j = {{"type", to_string(sh.type)}};
-    if (sh.type == ShapeType::Sphere) {
-      j["center"] = triple(sh.center);
-      j["radius"] = number(sh.radius);
-    } else {
-      Json v = Json::array();
-      for (int k = 0; k < (sh.type == ShapeType::Triangle ? 3 : 4); ++k) v.push_back(triple(sh.vertices[k]));
-      j["vertices"] = std::move(v);
+    return s.materials[static_cast<size_t>(m)].name;
+  };
+  Json shapes = Json::array();
+  size_t next_object = 0;
+  for (size_t i = 0; i < s.shapes.size(); ++i) {
+    if (next_object < s.objects.size() && s.objects[next_object].first_shape == i) {
+      const ObjectDesc& o = s.objects[next_object++];
+      shapes.push_back(object_json(o, s.shapes, material_name(i), destination_dir));
+      i += o.shape_count - 1;
+      continue;
     }
-    j["material"] = s.materials[sh.material].name;
+    Json j = shape_json(s.shapes[i]);
+    j["material"] = material_name(i);
     shapes.push_back(std::move(j));
   }
   root["shapes"] = std::move(shapes);
@@ -959,6 +1077,31 @@ void write(std::string& out, const Json& v, size_t indent, size_t column, bool f
 
 }  // namespace
 
+// validate_scene names a shape by its index in SceneDesc::shapes, where a file's meshes and groups count many:
+// the message names the file's element instead ("shapes[6].shapes[2]", the third shape of a group, or
+// "shapes[6] (triangle 17 of bunny.obj)").
+std::string in_file_terms(const SceneDesc& d, const std::string& message) {
+  constexpr std::string_view kPrefix = "shapes[";
+  if (d.objects.empty() || message.compare(0, kPrefix.size(), kPrefix) != 0) return message;
+  const size_t close = message.find(']');
+  size_t k = 0;
+  const auto parsed = std::from_chars(message.data() + kPrefix.size(), message.data() + close, k);
+  if (close == std::string::npos || parsed.ec != std::errc() || parsed.ptr != message.data() + close) return message;
+  size_t element_index = k;  // counting each object before k as one element
+  std::string inner;
+  for (const ObjectDesc& o : d.objects) {
+    if (o.first_shape > k) break;
+    if (k < o.first_shape + o.shape_count) {
+      element_index -= k - o.first_shape;
+      inner = o.kind == ObjectKind::Group ? ".shapes[" + std::to_string(k - o.first_shape) + "]"
+                                          : " (triangle " + std::to_string(k - o.first_shape) + " of " + o.file + ")";
+      break;
+    }
+    element_index -= o.shape_count - 1;
+  }
+  return "shapes[" + std::to_string(element_index) + "]" + inner + message.substr(close + 1);
+}
+
 // -------------------------------------------------------------------------------------------------------------------
 
 SceneDesc parse_scene(const std::string& json_text, const std::string& source_name, const std::string& base_dir) {
@@ -993,7 +1136,8 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
   } catch (const PathError& e) {
     throw SceneError(where(e));
   }
-  if (const std::string err = validate_scene(desc); !err.empty()) throw SceneError(source_name + ": " + err);
+  if (const std::string err = validate_scene(desc); !err.empty())
+    throw SceneError(source_name + ": " + in_file_terms(desc, err));
   return desc;
 }
 
@@ -1007,9 +1151,9 @@ SceneDesc load_scene_file(const std::string& path) {
   return parse_scene(text, path, path == "-" ? std::string() : std::filesystem::path(path).parent_path().string());
 }
 
-std::string scene_to_json(const SceneDesc& scene) {
+std::string scene_to_json(const SceneDesc& scene, const std::optional<std::string>& destination_dir) {
   // The top level and the material and shape lists always get one entry per line; the rest fits where it can.
-  const Json root = to_json(scene);
+  const Json root = to_json(scene, destination_dir);
   std::string out = "{\n";
   size_t i = 0;
   for (const auto& item : root.items()) {

@@ -37,8 +37,12 @@ SceneDesc load_scene_file(const std::string& path);
 // parse_scene(scene_to_json(s)) reproduces s exactly, floats included. Fields the scene's types do not use
 // (a dielectric's albedo, a non-dielectric's ior, a sphere's vertices, a polygon's centre/radius, a triangle's
 // 4th vertex) are not written, so they come back as their defaults. Non-finite numbers are written as null.
-// Throws std::invalid_argument when a shape's material index is out of range.
-std::string scene_to_json(const SceneDesc& scene);
+// Objects are written as they are read: a mesh as its file and transform (the triangles stay in the OBJ file), a
+// group as its shapes in its own coordinates (to_object(), so a group with a transform other than the identity
+// comes back to within rounding, not bit for bit). With a `destination_dir`, files the scene refers to (meshes,
+// an environment map) are named relative to that folder, where the written file will be read from; without
+// one, as they were written. Throws std::invalid_argument when a shape's material index is out of range.
+std::string scene_to_json(const SceneDesc& scene, const std::optional<std::string>& destination_dir = std::nullopt);
 
 // Names of the built-in scenes, the default ("cornell") first: {"cornell", "cornell-spheres", "shadertoy",
 // "materials", "sky"}.

@@ -21,7 +21,7 @@ bool is_model_file(const std::string& path) {
 SceneDesc studio_scene(const std::string& model_path) {
   MeshTriangles mesh;
   try {
-    mesh = load_obj_mesh(model_path, MeshTransform{});
+    mesh = load_obj_mesh(model_path, ObjectTransform{});
   } catch (const std::exception& e) {
     throw SceneError(e.what());
   }
@@ -50,6 +50,12 @@ SceneDesc studio_scene(const std::string& model_path) {
     tri.material = 0;
     s.shapes.push_back(tri);
   }
+  ObjectDesc object;  // the model is one object, saved as a reference to its file
+  object.kind = ObjectKind::Mesh;
+  object.name = std::filesystem::path(model_path).stem().string();
+  object.file = object.resolved_file = model_path;
+  object.shape_count = mesh.triangles.size();
+  s.objects.push_back(object);
   const double g = 20.0 * radius, y = lo.y;
   ShapeDesc floor;
   floor.type = ShapeType::Quad;  // counter-clockwise seen from above: its front faces +y
