@@ -672,3 +672,58 @@ TEST_CASE("hostile scene input: bdpt on glass spheres without any light renders 
   CHECK(film.rejected() == 0);
   for (const float v : film.mean_image()) CHECK(v == 0.f);
 }
+
+namespace {
+
+// The mean over a region's pixels and its standard error (pixels independent: the sum of their variances of the
+// mean, over the pixel count squared).
+stress::MeanSE region_mean(const Film& f, const PixelRect& r) {
+  stress::MeanSE m;
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) {
+      const size_t i = static_cast<size_t>(y) * f.width() + x;
+      for (int c = 0; c < 3; ++c) m.mean[c] += f.mean_channel(i, c);
+      m.se += f.variance_of_mean(i);
+    }
+  const double n = static_cast<double>(r.area());
+  m.mean /= n;
+  m.se = glm::sqrt(m.se) / n;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("render region: bdpt in a region converges to the whole film's image there (light tracing counts P/R per splat)") {
+  // In a region of R of the film's P pixels a round traces R light subpaths, not P: each splat must count P/R
+  // times. Left out, the light-tracing image in the region comes out R/P = 1/6 of the truth. Independent renders
+  // (seeds 1 and 2), |z| ≤ 5 per channel (two-sided p ≈ 6e-7 each).
+  const SceneDesc d = lit_floor();
+  const PixelRect region{16, 8, 32, 24};
+  for (const auto& [s, t] : {std::pair{2, 1}, std::pair{-1, -1}}) {  // light tracing alone, then every strategy
+    SceneDesc a = d, b = d;
+    for (SceneDesc* x : {&a, &b}) {
+      x->render.estimator = Estimator::Bdpt;
+      x->render.sampler = SamplerType::Independent;
+      x->render.bdpt_only = {s, t};
+    }
+    a.render.seed = 1;
+    b.render.seed = 2;
+    const Film whole = render_film(a, 64);
+    const auto scene = compile_scene(b);
+    Film part(b.width, b.height);
+    Renderer renderer;
+    const PassStats ps = renderer.render_pass(*scene, b.render, part, 64, nullptr, &region);
+    CHECK(ps.samples == 64 * region.area());
+    CHECK(part.min_count(region) == 64);
+    CHECK(part.count(0) == 0);  // outside: nothing traced
+    CHECK(part.count(static_cast<size_t>(b.width) * b.height - 1) == 0);
+    const stress::MeanSE x = region_mean(whole, region), y = region_mean(part, region);
+    for (int c = 0; c < 3; ++c) {
+      const double z = (x.mean[c] - y.mean[c]) / std::sqrt(x.se[c] * x.se[c] + y.se[c] * y.se[c]);
+      INFO("strategy (" << s << ", " << t << ") channel " << c << ": whole " << x.mean[c] << " ± " << x.se[c]
+                        << ", region " << y.mean[c] << " ± " << y.se[c] << ", z " << z);
+      CHECK(x.mean[c] > 0.0);
+      CHECK(std::abs(z) <= 5.0);
+    }
+  }
+}

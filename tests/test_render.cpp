@@ -41,6 +41,42 @@ TEST_CASE("furnace: a closed emitting sphere gives Le·(1−ρ^(k+1))/(1−ρ) f
   }
 }
 
+TEST_CASE("render region: only its pixels are traced, each with the very samples a whole-film render gives it") {
+  // Every sample's numbers come from (pixel, sample index, seed): a region's pixels must come out bit for bit as
+  // in the whole film, the others untouched, and the film's statistics must cover the region alone.
+  SceneDesc d = load_scene("cornell");
+  d.width = 40;
+  d.height = 30;
+  d.render.max_bounces = 4;
+  d.render.estimator = Estimator::Mis;
+  const auto scene = compile_scene(d);
+  const Film whole = render_film(d, 4);
+  const PixelRect region{7, 5, 29, 21};  // crosses tile borders (16 px) on every side
+  Film part(d.width, d.height);
+  Renderer renderer(2);
+  const PassStats ps = renderer.render_pass(*scene, d.render, part, 4, nullptr, &region);
+  CHECK(ps.samples == 4 * region.area());
+  size_t same = 0, untouched = 0;
+  for (int y = 0; y < d.height; ++y)
+    for (int x = 0; x < d.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * d.width + x;
+      if (region.contains(x, y)) same += part.count(i) == 4 && part.mean(i) == whole.mean(i);
+      else untouched += part.count(i) == 0;
+    }
+  CHECK(same == region.area());
+  CHECK(untouched == part.pixel_count() - region.area());
+  CHECK(part.min_count() == 0);
+  CHECK(part.min_count(region) == 4);
+  CHECK(std::isinf(part.estimated_relmse()));
+  CHECK(std::isfinite(part.estimated_relmse(region)));
+  CHECK(whole.estimated_relmse(full_rect(d.width, d.height)) == whole.estimated_relmse());
+  // A region beyond the film is clipped; one wholly outside traces nothing.
+  const PixelRect beyond{30, 20, 100, 100}, outside{50, 50, 60, 60};
+  Film clipped(d.width, d.height);
+  CHECK(renderer.render_pass(*scene, d.render, clipped, 1, nullptr, &beyond).samples == 10u * 10u);
+  CHECK(renderer.render_pass(*scene, d.render, clipped, 1, nullptr, &outside).samples == 0u);
+}
+
 TEST_CASE("furnace: Russian roulette with no bounce limit converges to Le/(1−ρ)") {
   // Uniform hemisphere sampling weighs a Lambertian bounce by X = 2ρ·cos θ, and roulette only acts while the
   // throughput β < 1, so above 1 β performs a multiplicative random walk with tail P(β > x) ~ x^−k, where

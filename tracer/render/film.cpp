@@ -69,26 +69,36 @@ glm::dvec3 Film::variance_of_mean(size_t i) const {
   return glm::dvec3(m2_[3 * i], m2_[3 * i + 1], m2_[3 * i + 2]) / ((n - 1.0) * n);
 }
 
-double Film::estimated_relmse() const {
-  if (count_.empty()) return std::numeric_limits<double>::infinity();
+double Film::estimated_relmse() const { return estimated_relmse(full_rect(width_, height_)); }
+
+double Film::estimated_relmse(const PixelRect& region) const {
+  const PixelRect r = region.clipped(width_, height_);
+  if (r.empty()) return std::numeric_limits<double>::infinity();
   double sum = 0.0;
-  for (size_t i = 0; i < count_.size(); ++i) {
-    const double n = count_[i];
-    if (n < 2) return std::numeric_limits<double>::infinity();
-    const double inv = 1.0 / ((n - 1.0) * n);
-    for (int c = 0; c < 3; ++c) {
-      const double m = mean_channel(i, c);
-      sum += m2_[3 * i + c] * inv / (m * m + 0.01);
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) {
+      const size_t i = static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x);
+      const double n = count_[i];
+      if (n < 2) return std::numeric_limits<double>::infinity();
+      const double inv = 1.0 / ((n - 1.0) * n);
+      for (int c = 0; c < 3; ++c) {
+        const double m = mean_channel(i, c);
+        sum += m2_[3 * i + c] * inv / (m * m + 0.01);
+      }
     }
-  }
-  return sum / (3.0 * static_cast<double>(count_.size()));
+  return sum / (3.0 * static_cast<double>(r.area()));
 }
 
-uint32_t Film::min_count() const {
+uint32_t Film::min_count(const PixelRect& region) const {
+  const PixelRect r = region.clipped(width_, height_);
+  if (r.empty()) return 0;
   uint32_t m = std::numeric_limits<uint32_t>::max();
-  for (uint32_t c : count_) m = std::min(m, c);
-  return count_.empty() ? 0 : m;
+  for (int y = r.y0; y < r.y1; ++y)
+    for (int x = r.x0; x < r.x1; ++x) m = std::min(m, count_[static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x)]);
+  return m;
 }
+
+uint32_t Film::min_count() const { return min_count(full_rect(width_, height_)); }
 
 uint64_t Film::total_count() const {
   uint64_t t = 0;

@@ -23,6 +23,7 @@
 #include "core/math.h"
 #include "core/rng.h"
 #include "integrators/features.h"
+#include "render/pixel_rect.h"
 
 namespace pt {
 
@@ -128,8 +129,11 @@ class Film {
   // Var[mean]/(mean² + 0.01), the expected relMSE against the converged image (docs/estimators.md). Infinite
   // while any pixel has fewer than 2 samples.
   double estimated_relmse() const;
+  // The same over the pixels of `region` only (clipped to the film; an empty one gives +inf).
+  double estimated_relmse(const PixelRect& region) const;
   // Minimum and total sample counts.
   uint32_t min_count() const;
+  uint32_t min_count(const PixelRect& region) const;  // over the region's pixels (0 for an empty one)
   uint64_t total_count() const;
 
   // Row-major RGB float image of the means (3 floats per pixel, top row first). The forms taking `out` fill it,

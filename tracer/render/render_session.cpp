@@ -73,7 +73,7 @@ struct RenderSession::Worker {
   Clock::time_point next_denoise;
   FilmPlanes planes;             // film planes handed to the denoiser
   Denoiser denoiser;             // keeps its working planes between denoises
-  bool denoise_now = false;      // denoising was just turned on: denoise the current film without a pass
+  bool republish_now = false;    // denoising was just turned on, or the region changed: publish the film anew
   // The clean preview (SessionSettings::preview_denoise): the full-resolution guide, the filter's working
   // planes, its output (RGB at full resolution) and where the time went.
   FeatureImage guide;
@@ -249,6 +249,14 @@ bool RenderSession::stop_met_locked(std::string& reason) const {
   return true;
 }
 
+// The settings' render region on the current film; nullopt when it is unset, empty or the whole film.
+std::optional<PixelRect> RenderSession::render_region(const Worker& w) {
+  if (!w.settings.region) return std::nullopt;
+  const PixelRect r = w.settings.region->clipped(w.film.width(), w.film.height());
+  if (r.empty() || r == full_rect(w.film.width(), w.film.height())) return std::nullopt;
+  return r;
+}
+
 void RenderSession::run() {
   Worker w;
   {
@@ -259,15 +267,17 @@ void RenderSession::run() {
     bool restart = false;
     if (!take_requests(w, restart)) return;
     if (!prepare(w, restart)) continue;
-    if (w.denoise_now) republish_denoised(w);
+    if (w.republish_now) republish(w);
     run_film_tasks(w);
     const bool preview = w.need_preview;
     int spp = 1;
     if (!begin_pass(w, preview, spp)) continue;
     const auto start = Clock::now();
     // Preview passes are never cancelled (see the header); full passes stop within a tile on any request.
+    const std::optional<PixelRect> region = render_region(w);
     const PassStats ps = preview ? w.renderer->render_pass(*w.preview, w.desc.render, w.preview_film, 1, nullptr)
-                                 : w.renderer->render_pass(*w.full, w.desc.render, w.film, spp, &cancel_);
+                                 : w.renderer->render_pass(*w.full, w.desc.render, w.film, spp, &cancel_,
+                                                           region ? &*region : nullptr);
     const double pass_seconds = std::chrono::duration<double>(Clock::now() - start).count();
     if (preview && w.preview_film.has_features()) make_clean_preview(w, pass_seconds);
     if (!ps.cancelled)
@@ -287,7 +297,7 @@ bool RenderSession::take_requests(Worker& w, bool& restart) {
   });
   if (quit_) return false;
   if (settings_changed_) {
-    w.denoise_now = w.denoise_now || (settings_.denoise && !w.settings.denoise);
+    w.republish_now = w.republish_now || (settings_.denoise && !w.settings.denoise) || settings_.region != w.settings.region;
     w.settings = settings_;
     settings_changed_ = false;
     std::string reason;
@@ -491,9 +501,11 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
       f.count[i] = static_cast<float>(c);
     }
   }
+  const std::optional<PixelRect> region = preview ? std::nullopt : render_region(w);
+  if (region) min_count = film.min_count(*region);
   f.spp = min_count;
   f.max_count = static_cast<float>(max_count);
-  const double relmse = preview ? kInf : film.estimated_relmse();
+  const double relmse = preview ? kInf : region ? film.estimated_relmse(*region) : film.estimated_relmse();
   if (!preview) w.film_spp = min_count;
   const double seconds = std::chrono::duration<double>(Clock::now() - pass_start).count();
   f.denoised.clear();
@@ -514,10 +526,11 @@ void RenderSession::publish(Worker& w, bool preview, Clock::time_point pass_star
   changed_.notify_all();
 }
 
-// Denoising was turned on: the current film (if it has samples) is denoised and published now, not after the next
-// pass, which may be half a second away or never come (a finished render sleeps).
-void RenderSession::republish_denoised(Worker& w) {
-  w.denoise_now = false;
+// Denoising was turned on, or the render region changed: the current film (if it has samples) is published now,
+// denoised, with its spp, relMSE and stop conditions over the new region, not after the next pass, which may be
+// half a second away or never come (a finished render sleeps).
+void RenderSession::republish(Worker& w) {
+  w.republish_now = false;
   if (!w.scene_ok || w.need_preview || w.film_spp == 0 || w.film.width() != w.desc.width) return;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -584,11 +597,10 @@ void RenderSession::publish_locked(Worker& w, bool preview, uint32_t min_count, 
     }
     history_.push_back({s.seconds, relmse, min_count});
   }
+  // Both ways: a republished film over a larger region may have fewer samples than the stop asks for.
   std::string reason;
-  if (stop_met_locked(reason)) {
-    s.done = true;
-    s.stop_reason = reason;
-  }
+  s.done = stop_met_locked(reason);
+  s.stop_reason = s.done ? reason : "";
 }
 
 }  // namespace pt

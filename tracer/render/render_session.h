@@ -47,6 +47,11 @@ struct SessionSettings {
   // feature buffers (about 3 % of a sample's time), so turning this on does not restart the accumulation: the
   // current film is denoised and published at once, and turning it off only stops denoising.
   bool denoise = false;
+  // A render region (Blender's render border): full passes trace only its pixels (clipped to the film; empty or
+  // unset = the whole film), the others keep what they have, and the frame's spp, the relMSE estimate and the
+  // stop conditions count only the region. Setting it does not restart the accumulation. Preview passes after an
+  // edit still cover the whole image.
+  std::optional<PixelRect> region;
 };
 
 // Where a clean preview frame's time went, in milliseconds (0 for other frames).
@@ -136,6 +141,7 @@ class RenderSession {
   struct Worker;  // the render thread's private state (renderer, compiled scenes, films)
 
   void run();
+  static std::optional<PixelRect> render_region(const Worker& w);
   bool take_requests(Worker& w, bool& restart);
   bool prepare(Worker& w, bool restart);
   bool begin_pass(Worker& w, bool preview, int& spp);
@@ -143,7 +149,7 @@ class RenderSession {
   template <class Change>
   uint64_t request(Change&& change);
   void publish(Worker& w, bool preview, Clock::time_point pass_start, uint64_t samples, uint64_t rays);
-  void republish_denoised(Worker& w);
+  void republish(Worker& w);
   void run_film_tasks(Worker& w);
   void make_clean_preview(Worker& w, double pass_seconds);
   void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);

@@ -14,6 +14,13 @@ Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads
 namespace {
 
 // The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel.
+// Tile `tile` of a film w × h (row-major tiles of kTileSize, tiles_x per row), within `area`.
+PixelRect tile_rect(int tile, int tiles_x, int w, int h, const PixelRect& area) {
+  const int x0 = (tile % tiles_x) * Renderer::kTileSize, y0 = (tile / tiles_x) * Renderer::kTileSize;
+  const PixelRect t{x0, y0, std::min(x0 + Renderer::kTileSize, w), std::min(y0 + Renderer::kTileSize, h)};
+  return {std::max(t.x0, area.x0), std::max(t.y0, area.y0), std::min(t.x1, area.x1), std::min(t.y1, area.y1)};
+}
+
 template <class Sampler>
 Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y) {
   const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
@@ -139,19 +146,21 @@ bool render_tile_bdpt(const Scene& scene, const RenderSettings& settings, const 
 }  // namespace
 
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
-                                const std::atomic<bool>* cancel) {
+                                const std::atomic<bool>* cancel, const PixelRect* region) {
   const int tiles = ((film.width() + kTileSize - 1) / kTileSize) * ((film.height() + kTileSize - 1) / kTileSize);
-  return render_pass(scene, settings, film, std::vector<int>(tiles, spp), cancel);
+  return render_pass(scene, settings, film, std::vector<int>(tiles, spp), cancel, region);
 }
 
 PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings& settings, Film& film, int rounds,
-                                       const std::atomic<bool>* cancel) {
+                                       const std::atomic<bool>* cancel, const PixelRect& region) {
   const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   round_estimate_.resize(film.pixel_count());
   round_features_.resize(film.has_features() ? film.pixel_count() : 0);
   tile_splats_.resize(static_cast<size_t>(tiles_x) * tiles_y);
   bdpt_scratch_.resize(static_cast<size_t>(pool_.size()));
+  const bool whole = region == full_rect(w, h);
+  const double splat_scale = whole ? 1.0 : static_cast<double>(film.pixel_count()) / static_cast<double>(region.area());
   PassStats stats;
   for (int round = 0; round < rounds; ++round) {
     std::atomic<uint64_t> rays{0};
@@ -161,11 +170,12 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
         cancelled.store(true, std::memory_order_relaxed);
         return;
       }
-      const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
-      const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
-      RayCount count;
+      const PixelRect t = tile_rect(tile, tiles_x, w, h, region);
+      const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
       std::vector<Splat>& splats = tile_splats_[tile];
       splats.clear();
+      if (t.empty()) return;
+      RayCount count;
       const bool complete =
           settings.sampler == SamplerType::Sobol
               ? render_tile_bdpt<SobolSampler>(scene, settings, film, x0, y0, x1, y1, bdpt_scratch_[thread],
@@ -182,31 +192,38 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
     }
     for (const std::vector<Splat>& splats : tile_splats_) {
       for (const Splat& sp : splats) {
-        if (is_finite(sp.value)) round_estimate_[sp.pixel] += glm::dvec3(sp.value);
+        const int x = static_cast<int>(sp.pixel % static_cast<uint32_t>(w)), y = static_cast<int>(sp.pixel / static_cast<uint32_t>(w));
+        if (!whole && !region.contains(x, y)) continue;
+        if (is_finite(sp.value)) round_estimate_[sp.pixel] += splat_scale * glm::dvec3(sp.value);
         else film.note_rejected();
       }
     }
-    for (size_t pixel = 0; pixel < film.pixel_count(); ++pixel) {
-      const uint32_t index = film.next_sample_index(pixel);
-      film.note_attempt(pixel);
-      if (film.has_features()) film.add_sample(pixel, Rgb(round_estimate_[pixel]), round_features_[pixel], index);
-      else film.add_sample(pixel, Rgb(round_estimate_[pixel]));
-    }
-    stats.samples += film.pixel_count();
+    for (int y = region.y0; y < region.y1; ++y)
+      for (int x = region.x0; x < region.x1; ++x) {
+        const size_t pixel = static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x);
+        const uint32_t index = film.next_sample_index(pixel);
+        film.note_attempt(pixel);
+        if (film.has_features()) film.add_sample(pixel, Rgb(round_estimate_[pixel]), round_features_[pixel], index);
+        else film.add_sample(pixel, Rgb(round_estimate_[pixel]));
+      }
+    stats.samples += region.area();
   }
   return stats;
 }
 
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
-                                const std::vector<int>& tile_spp, const std::atomic<bool>* cancel) {
+                                const std::vector<int>& tile_spp, const std::atomic<bool>* cancel,
+                                const PixelRect* region) {
   if (settings.estimator == Estimator::Auto)  // mis or bdpt for the scene as it is now (materials edited since)
-    return render_pass(scene, resolved_render_settings(scene, settings), film, tile_spp, cancel);
+    return render_pass(scene, resolved_render_settings(scene, settings), film, tile_spp, cancel, region);
+  const int w = film.width(), h = film.height();
+  const PixelRect area = region ? region->clipped(w, h) : full_rect(w, h);
+  if (area.empty()) return {};
   if (settings.estimator == Estimator::Bdpt) {
     int rounds = 0;
     for (const int n : tile_spp) rounds = std::max(rounds, n);
-    return render_bdpt_rounds(scene, settings, film, rounds, cancel);
+    return render_bdpt_rounds(scene, settings, film, rounds, cancel, area);
   }
-  const int w = film.width(), h = film.height();
   const int tiles_x = (w + kTileSize - 1) / kTileSize, tiles_y = (h + kTileSize - 1) / kTileSize;
   std::atomic<uint64_t> samples{0}, rays{0};
   std::atomic<bool> cancelled{false};
@@ -216,12 +233,12 @@ PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settin
       cancelled.store(true, std::memory_order_relaxed);
       return;
     }
-    const int x0 = (tile % tiles_x) * kTileSize, y0 = (tile / tiles_x) * kTileSize;
-    const int x1 = std::min(x0 + kTileSize, w), y1 = std::min(y0 + kTileSize, h);
+    const PixelRect t = tile_rect(tile, tiles_x, w, h, area);
+    const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
     RayCount count;
     uint64_t tile_samples = 0;
     const int spp = tile_spp[tile];
-    if (spp <= 0) return;
+    if (spp <= 0 || t.empty()) return;
     const bool complete =
         settings.sampler == SamplerType::Sobol
             ? render_tile<SobolSampler>(scene, settings, film, x0, y0, x1, y1, spp, count, tile_samples, cancel)

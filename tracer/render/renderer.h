@@ -31,11 +31,15 @@ class Renderer {
   // (estimator, sampler, bounces, seed: not part of the compiled scene, so changing them rebuilds nothing). If
   // `cancel` becomes true the pass stops within a sample, whatever the path length (every pixel keeps a
   // consistent mean of whole samples; some have fewer), and the result says `cancelled`.
+  // With a `region` (a render region, render/pixel_rect.h), only its pixels get samples; the others keep theirs,
+  // and the samples of a region's pixel are the ones it gets in a render of the whole film (the same numbers:
+  // under every estimator but bdpt, the same bits).
   PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,
-                        const std::atomic<bool>* cancel = nullptr);
+                        const std::atomic<bool>* cancel = nullptr, const PixelRect* region = nullptr);
   // The same with a sample count per tile (row-major tiles of kTileSize, as plan_adaptive_pass gives them).
   PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
-                        const std::vector<int>& tile_spp, const std::atomic<bool>* cancel = nullptr);
+                        const std::vector<int>& tile_spp, const std::atomic<bool>* cancel = nullptr,
+                        const PixelRect* region = nullptr);
 
   static constexpr int kTileSize = 16;
 
@@ -48,8 +52,12 @@ class Renderer {
   // part of every pixel, so a pixel's samples stay independent and identically distributed: the running mean
   // and the film's variance estimate keep their meaning. A cancelled round is dropped whole. Adaptive
   // per-tile counts do not apply (splats reach every tile): a pass runs the largest count for every pixel.
+  // In a render region only the region's pixels trace, so a round has R light subpaths instead of one per
+  // pixel (P): each splat landing in the region counts P/R times (the light-tracing estimate of a pixel is
+  // P/M times the sum of the splats of M light subpaths; pbrt-v4's splat scale is the same with M = P), and splats
+  // outside it are dropped.
   PassStats render_bdpt_rounds(const Scene& scene, const RenderSettings& settings, Film& film, int rounds,
-                               const std::atomic<bool>* cancel);
+                               const std::atomic<bool>* cancel, const PixelRect& region);
   ThreadPool pool_;
   std::vector<glm::dvec3> round_estimate_;           // per pixel: the round's camera-subpath estimate
   std::vector<PixelFeatures> round_features_;        // per pixel: its features this round (film with features)
