@@ -7,6 +7,7 @@
 #include "viewer/viewer_model.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace pt {
@@ -26,7 +27,36 @@ void escape(ViewerModel& model) {
   model.shortcut(Shortcut::Quit);
 }
 
+// The image pixel under window point p, rounded to the nearest pixel corner (a region's edge), within the image.
+std::array<int, 2> pixel_corner(const ImageArea& image, ImVec2 p) {
+  const ImVec2 q = image.to_image(p);
+  return {std::clamp(static_cast<int>(std::lround(q.x)), 0, image.image_width),
+          std::clamp(static_cast<int>(std::lround(q.y)), 0, image.image_height)};
+}
+
 }  // namespace
+
+std::optional<PixelRect> region_being_drawn(const ImGuiIO& io, const ViewerModel& model, const ImageArea& image) {
+  if (!model.drawing_region || !(io.MouseDown[0] || io.MouseReleased[0]) || !image.contains(io.MouseClickedPos[0]))
+    return std::nullopt;
+  const std::array<int, 2> a = pixel_corner(image, io.MouseClickedPos[0]), b = pixel_corner(image, io.MousePos);
+  return PixelRect{std::min(a[0], b[0]), std::min(a[1], b[1]), std::max(a[0], b[0]), std::max(a[1], b[1])};
+}
+
+void draw_region_overlay(const ImGuiIO& io, const ViewerModel& model, const ImageArea& image) {
+  if (image.w <= 0.f || image.image_width <= 0 || image.image_height <= 0) return;
+  const auto to_window = [&](int x, int y) {
+    return ImVec2(image.x + image.w * static_cast<float>(x) / static_cast<float>(image.image_width),
+                  image.y + image.h * static_cast<float>(y) / static_cast<float>(image.image_height));
+  };
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();  // over the image, under the panels
+  const std::optional<PixelRect> drawn = region_being_drawn(io, model, image);
+  const std::optional<PixelRect>& region = drawn ? drawn : model.region();
+  if (!region) return;
+  const ImVec2 a = to_window(region->x0, region->y0), b = to_window(region->x1, region->y1);
+  dl->AddRect(ImVec2(a.x - 1.f, a.y - 1.f), ImVec2(b.x + 1.f, b.y + 1.f), IM_COL32(0, 0, 0, 160), 0.f, 0, 3.f);
+  dl->AddRect(a, b, drawn ? IM_COL32(255, 255, 255, 255) : IM_COL32(255, 170, 40, 255), 0.f, 0, 1.5f);
+}
 
 ImageArea place_image(const ImageZoom& zoom, int image_width, int image_height, float ax, float ay, float aw, float ah,
                       float pixel_ratio) {
@@ -77,6 +107,11 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       model.zoom.pan_x += io.MouseDelta.x;
       model.zoom.pan_y += io.MouseDelta.y;
     }
+  } else if (!io.WantCaptureMouse && model.drawing_region) {
+    // Drawing the render region: a left drag spans it (released, it applies); nothing orbits meanwhile.
+    if (io.MouseReleased[0])
+      if (const std::optional<PixelRect> r = region_being_drawn(io, model, image)) model.set_region(*r);
+    in.wheel = io.MouseWheel;
   } else if (!io.WantCaptureMouse) {
     const bool left = io.MouseDown[0], middle = io.MouseDown[2];
     in.drag = Vec2(io.MouseDelta.x, io.MouseDelta.y);
@@ -117,6 +152,11 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
   if (io.KeyCtrl && !io.WantTextInput) {
     if (ImGui::IsKeyPressed(GLFW_KEY_Z, true)) model.shortcut(io.KeyShift ? Shortcut::Redo : Shortcut::Undo);
     if (ImGui::IsKeyPressed(GLFW_KEY_Y, true)) model.shortcut(Shortcut::Redo);
+    // Blender's keys for the render border: Ctrl+B draws one, Ctrl+Alt+B clears it.
+    if (ImGui::IsKeyPressed(GLFW_KEY_B, false)) {
+      if (io.KeyAlt) model.set_region(std::nullopt);
+      else model.drawing_region = !model.drawing_region;
+    }
   }
   if (ImGui::IsKeyPressed(GLFW_KEY_ESCAPE, false)) escape(model);
   if (ImGui::IsKeyPressed(GLFW_KEY_F1, false)) model.shortcut(Shortcut::Help);

@@ -4,6 +4,7 @@
 #pragma once
 #include <imgui.h>
 
+#include <optional>
 #include <vector>
 
 #include "viewer/viewer_model.h"
@@ -35,6 +36,11 @@ void zoom_image(ImageZoom& zoom, const ImageArea& now, ImVec2 cursor, float fact
 // One UI frame's input, between ImGui::NewFrame() and drawing the panels. `seconds` is the time since the
 // last frame (fly speed).
 void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, const ImageArea& image);
+
+// The render region a left drag is drawing now (ViewerModel::drawing_region), corner to corner in image pixels.
+std::optional<PixelRect> region_being_drawn(const ImGuiIO& io, const ViewerModel& model, const ImageArea& image);
+// The render region's outline over the image (the one being drawn, else the model's), under the panels.
+void draw_region_overlay(const ImGuiIO& io, const ViewerModel& model, const ImageArea& image);
 
 // The pixel under the last click: its mean, error, sample count and the material and object there, in a
 // tooltip while the pointer rests near the click. Call after handle_viewer_input, within the ImGui frame.

@@ -233,6 +233,7 @@ std::optional<PickResult> ViewerModel::pick(double x, double y) {
   r.distance = hit.t;
   r.point = c.position + static_cast<double>(hit.t) * DVec3(ray.d);
   r.material = s.material_of(hit.prim);
+  r.object = object_containing(scene_, r.shape);
   return r;
 }
 
@@ -243,7 +244,7 @@ bool ViewerModel::select_at(double x, double y) {
     return false;
   }
   const uint64_t serial = selection_ ? selection_->serial + 1 : 1;
-  selection_ = Selection{p->material, p->shape, x, y, serial};
+  selection_ = Selection{p->material, p->shape, p->object, x, y, serial};
   return true;
 }
 
@@ -279,6 +280,11 @@ bool ViewerModel::move_shape(size_t index, DVec3 offset) {
     set_status("not applied: the offset must be finite", true);
     return false;
   }
+  if (const std::optional<size_t> o = object_containing(scene_, index)) {
+    ObjectTransform t = scene_.objects[*o].transform;
+    t.translate += offset;
+    return set_object_transform(*o, t);
+  }
   SceneDesc edited = scene_;
   ShapeDesc& sh = edited.shapes[index];
   if (sh.type == ShapeType::Sphere) sh.center += offset;
@@ -289,6 +295,10 @@ bool ViewerModel::move_shape(size_t index, DVec3 offset) {
 
 bool ViewerModel::set_sphere_radius(size_t index, double radius) {
   if (index >= scene_.shapes.size() || scene_.shapes[index].type != ShapeType::Sphere) return false;
+  if (object_containing(scene_, index)) {
+    set_status("not applied: the sphere is part of an object (scale the object)", true);
+    return false;
+  }
   SceneDesc edited = scene_;
   edited.shapes[index].radius = radius;
   return set_geometry(std::move(edited), "shape " + std::to_string(index));
@@ -296,9 +306,38 @@ bool ViewerModel::set_sphere_radius(size_t index, double radius) {
 
 bool ViewerModel::set_shape_material(size_t index, size_t material) {
   if (index >= scene_.shapes.size() || material >= scene_.materials.size()) return false;
+  if (const std::optional<size_t> o = object_containing(scene_, index)) return set_object_material(*o, material);
   SceneDesc edited = scene_;
   edited.shapes[index].material = static_cast<int>(material);
   return set_geometry(std::move(edited), "shape " + std::to_string(index));
+}
+
+bool ViewerModel::set_object_transform(size_t object, const ObjectTransform& transform) {
+  if (object >= scene_.objects.size()) return false;
+  if (std::string err = transform_error(transform); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  SceneDesc edited = scene_;
+  ObjectDesc& o = edited.objects[object];
+  for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) {
+    ShapeDesc& sh = edited.shapes[k];
+    if (!transform_shape(sh, o.transform, false) || !transform_shape(sh, transform, true)) {
+      set_status("not applied: " + o.name + " holds a sphere, which takes the same scale on every axis", true);
+      return false;
+    }
+  }
+  o.transform = transform;
+  return set_geometry(std::move(edited), "object " + std::to_string(object));
+}
+
+bool ViewerModel::set_object_material(size_t object, size_t material) {
+  if (object >= scene_.objects.size() || material >= scene_.materials.size()) return false;
+  SceneDesc edited = scene_;
+  const ObjectDesc& o = edited.objects[object];
+  for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k)
+    edited.shapes[k].material = static_cast<int>(material);
+  return set_geometry(std::move(edited), "object " + std::to_string(object));
 }
 
 bool ViewerModel::set_resolution(int width, int height) {
@@ -325,6 +364,10 @@ bool ViewerModel::apply_film_size(int width, int height) {
     return false;
   }
   apply_edit(scene_, size);
+  if (settings_.region) {  // a region of the old size means nothing at the new one
+    settings_.region.reset();
+    session_->set_settings(settings_);
+  }
   camera_.set_aspect(static_cast<double>(width) / height);
   note_edit(session_->edit(size));
   return true;
@@ -359,7 +402,10 @@ ViewerModel::UndoStep ViewerModel::step_of(const SceneDesc& d, std::vector<Emiss
   s.render = d.render;
   s.width = d.width;
   s.height = d.height;
-  if (geometry) s.shapes = std::make_shared<const std::vector<ShapeDesc>>(d.shapes);
+  if (geometry) {
+    s.shapes = std::make_shared<const std::vector<ShapeDesc>>(d.shapes);
+    s.objects = d.objects;
+  }
   return s;
 }
 
@@ -399,6 +445,7 @@ void ViewerModel::restore(const UndoStep& s) {
   fixed_height_ = s.height;
   if (s.shapes) {
     scene_.shapes = *s.shapes;
+    scene_.objects = s.objects;
     pick_scene_.reset();
   }
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
@@ -435,6 +482,31 @@ void ViewerModel::set_session_settings(const SessionSettings& settings) {
   session_->set_settings(settings_);
 }
 
+bool ViewerModel::set_region(std::optional<PixelRect> region) {
+  drawing_region = false;
+  if (region) {
+    // Corners in any order, clipped to the film.
+    PixelRect r{std::min(region->x0, region->x1), std::min(region->y0, region->y1), std::max(region->x0, region->x1),
+                std::max(region->y0, region->y1)};
+    r = r.clipped(scene_.width, scene_.height);
+    if (r.empty()) {
+      set_status("render region not set: it holds no pixel of the image", true);
+      return false;
+    }
+    region = r == full_rect(scene_.width, scene_.height) ? std::nullopt : std::optional<PixelRect>(r);
+  }
+  if (region == settings_.region) return true;
+  settings_.region = region;
+  session_->set_settings(settings_);
+  if (region)
+    set_status("render region " + std::to_string(region->x1 - region->x0) + " x " + std::to_string(region->y1 - region->y0) +
+                   " at (" + std::to_string(region->x0) + ", " + std::to_string(region->y0) + ")",
+               false);
+  else
+    set_status("render region cleared: the whole image renders", false);
+  return true;
+}
+
 void ViewerModel::set_denoise(bool on) {
   present.denoise = on;
   settings_.denoise = on;
@@ -469,6 +541,8 @@ bool ViewerModel::load(const std::string& spec) {
   // Stop conditions and the A/B snapshot belong to a scene: a new one starts from the command line's conditions
   // (threads and the preview stay the user's).
   settings_.stop = launch_settings_.stop;
+  settings_.region.reset();  // so does a render region
+  drawing_region = false;
   session_->set_settings(settings_);
   snapshot.reset();
   snapshot_requested = false;
@@ -540,7 +614,8 @@ bool ViewerModel::save_scene(const std::string& path, bool replace) {
     const fs::path parent = fs::path(path).parent_path();
     if (!parent.empty() && !fs::exists(parent) && !fs::create_directories(parent, ec) && ec)
       throw std::runtime_error("cannot create folder " + parent.string() + ": " + ec.message());
-    write_file_safely(path, scene_to_json(scene_));
+    // Files the scene refers to (a mesh, an environment map) are named from the saved file's folder.
+    write_file_safely(path, scene_to_json(scene_, parent.string()));
   } catch (const std::exception& e) {
     set_status(std::string("scene not saved: ") + e.what(), true);
     return false;

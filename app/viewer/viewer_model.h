@@ -56,12 +56,14 @@ struct PickResult {
   DVec3 point{0.0};     // world position of the hit
   double distance = 0;  // from the camera
   size_t material = 0;  // index into SceneDesc::materials
-  size_t shape = 0;     // index into SceneDesc::shapes (the object)
+  size_t shape = 0;     // index into SceneDesc::shapes
+  std::optional<size_t> object;  // index into SceneDesc::objects; none for a shape standing alone
 };
 
 // What the user clicked last: the panels open that material and show that object.
 struct Selection {
   size_t material = 0, shape = 0;
+  std::optional<size_t> object;  // the object holding the shape (a click picks the whole object)
   double x = 0, y = 0;  // image point clicked (pixel units)
   uint64_t serial = 0;  // bumped by every click, so the panels can scroll to it once
 };
@@ -104,9 +106,14 @@ class ViewerModel {
   const std::optional<Selection>& selection() const { return selection_; }
 
   // --- Geometry (a full recompile of the scene; refused with a status message when invalid).
+  // A shape standing alone; one inside an object moves, or changes material, with its object.
   bool move_shape(size_t index, DVec3 offset);  // translates a triangle, quad or sphere
   bool set_sphere_radius(size_t index, double radius);
   bool set_shape_material(size_t index, size_t material);
+  // An object (SceneDesc::objects): its transform applies to all of its shapes (those are mapped back into the
+  // object's coordinates by the old transform and out by the new one); its material is one for all.
+  bool set_object_transform(size_t object, const ObjectTransform& transform);
+  bool set_object_material(size_t object, size_t material);
   // The film size (the render, not the window): 1 … kMaxViewerResolution per side. An edit (undoable, saved);
   // refused while the render follows the window.
   bool set_resolution(int width, int height);
@@ -133,6 +140,13 @@ class ViewerModel {
   void set_session_settings(const SessionSettings& settings);
   void restart();
   void set_paused(bool paused);
+  // The render region (Blender's render border, render_session.h): only its pixels accumulate, the rest keep
+  // what they have; the spp, relMSE and stop conditions count the region. A view of the session like the
+  // denoiser (no restart, not undone, not saved); corners in any order, clipped to the film. nullopt, or the
+  // whole image, clears it; so do a new film size and a new scene. False (and a status) when it holds no pixel.
+  bool set_region(std::optional<PixelRect> region);
+  const std::optional<PixelRect>& region() const { return settings_.region; }
+  bool drawing_region = false;  // the next left drag on the image draws the region (Ctrl+B), not an orbit
   // Denoising is a view: the colour view shows the denoised image and the session denoises its film, without
   // restarting the accumulation (present.denoise and the session's setting change together).
   void set_denoise(bool on);
@@ -216,6 +230,7 @@ class ViewerModel {
     RenderSettings render;
     int width = 0, height = 0;
     std::shared_ptr<const std::vector<ShapeDesc>> shapes;  // null: the geometry was not changed by this step
+    std::vector<ObjectDesc> objects;                        // with the shapes
     uint64_t state_id = 0;  // which scene state this is (state_id_ below)
   };
   // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <functional>
 #include <string_view>
 #include <initializer_list>
 
@@ -244,6 +245,22 @@ void progress_bar(const ViewerModel& model, const SessionStats& st, const std::v
   ImGui::ProgressBar(st.done ? 1.f : static_cast<float>(std::max(p.fraction, 0.0)), ImVec2(-1.f, 0.f), overlay);
 }
 
+// The render region (Blender's render border): drawn on the image with a drag, cleared here or with Ctrl+Alt+B.
+void region_row(ViewerModel& model, PanelState& state) {
+  if (ImGui::Button(model.drawing_region ? "Drag on the image..." : "Render region [Ctrl+B]"))
+    model.drawing_region = !model.drawing_region;
+  note_item(state, "render region");
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("drag a rectangle on the image: only its pixels accumulate (the rest keep what they have)");
+  if (const std::optional<PixelRect>& r = model.region()) {
+    ImGui::SameLine();
+    if (ImGui::Button("Clear region")) model.set_region(std::nullopt);
+    note_item(state, "clear region");
+    ImGui::TextDisabled("region %d x %d at (%d, %d); spp and relMSE count it alone", r->x1 - r->x0, r->y1 - r->y0,
+                        r->x0, r->y0);
+  }
+}
+
 void render_section(ViewerModel& model, PanelState& state) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Render", ImGuiTreeNodeFlags_DefaultOpen)) return;
@@ -308,6 +325,7 @@ void render_section(ViewerModel& model, PanelState& state) {
   if (ImGui::Button(model.paused() ? "Resume [P]" : "Pause [P]")) model.set_paused(!model.paused());
   ImGui::SameLine();
   if (ImGui::Button("Reset [R]")) model.restart();
+  region_row(model, state);
 
   const SessionStats st = model.session().stats();
   const char* state_text = !st.error.empty() ? "scene error"
@@ -557,25 +575,65 @@ void materials_section(ViewerModel& model, PanelState& state) {
   if (shown_count == 0) ImGui::TextDisabled("no material matches \"%s\"", state.material_filter);
 }
 
-// The object under the last click: its material, and where it is (numeric moves; a light is an emitting
-// object, so this moves lights too).
-void object_section(ViewerModel& model, PanelState& state) {
-  const std::optional<Selection>& sel = model.selection();
-  if (!sel || sel->shape >= model.scene().shapes.size()) return;
-  if (sel->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
-  expand_if(state);
-  if (!ImGui::CollapsingHeader("Object")) return;
-  const size_t index = sel->shape;
-  const ShapeDesc& sh = model.scene().shapes[index];
-  ImGui::Text("shape %zu: %s", index, enum_label(sh.type));
+// The material combo of the object section: one entry for the whole object or lone shape.
+void material_combo(ViewerModel& model, int current, const std::function<bool(size_t)>& set) {
   const auto& mats = model.scene().materials;
-  const int current = std::clamp(sh.material, 0, static_cast<int>(mats.size()) - 1);
-  if (ImGui::BeginCombo("material", mats[current].name.c_str())) {
+  if (ImGui::BeginCombo("material", mats[static_cast<size_t>(current)].name.c_str())) {
     for (size_t i = 0; i < mats.size(); ++i)
       if (ImGui::Selectable(mats[i].name.c_str(), static_cast<int>(i) == current) && static_cast<int>(i) != current)
-        model.set_shape_material(index, i);
+        set(i);
     ImGui::EndCombo();
   }
+}
+
+// A light is an object whose material emits: its emission here too (the material's, shared by its shapes).
+void object_emission(ViewerModel& model, PanelState& state, size_t material) {
+  if (model.emission_strength(material) <= 0.f) return;
+  ImGui::PushID("object");
+  emission_fields(model, state, material);
+  ImGui::PopID();
+}
+
+// An object (a mesh, a group): its material and its transform (position, rotation, scale), for all its shapes.
+void object_fields(ViewerModel& model, PanelState& state, size_t index) {
+  const ObjectDesc& o = model.scene().objects[index];
+  ImGui::Text("%s: %s, %zu %s", o.name.c_str(), enum_label(o.kind), o.shape_count, o.shape_count == 1 ? "shape" : "shapes");
+  if (o.kind == ObjectKind::Mesh && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", o.file.c_str());
+  const int current = std::clamp(model.scene().shapes[o.first_shape].material, 0, static_cast<int>(model.scene().materials.size()) - 1);
+  material_combo(model, current, [&](size_t m) { return model.set_object_material(index, m); });
+  const ObjectTransform t = o.transform;
+  const auto field = [&](const char* label, DVec3 value, const char* tip, auto&& with) {
+    numeric_field(state, label, std::array<double, 3>{value.x, value.y, value.z}, true,
+                  [label](double* p) { return ImGui::InputScalarN(label, ImGuiDataType_Double, p, 3, nullptr, nullptr, "%.4g"); },
+                  [&](const std::array<double, 3>& p) {
+                    ObjectTransform edited = t;
+                    with(edited, DVec3(p[0], p[1], p[2]));
+                    return outcome(model.set_object_transform(index, edited), model);
+                  });
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", tip);
+  };
+  field("position##object", t.translate, "where the object's origin sits (its file's or group's coordinates)",
+        [](ObjectTransform& e, DVec3 v) { e.translate = v; });
+  field("rotation axis", t.axis, "the axis the object turns about (through its origin)",
+        [](ObjectTransform& e, DVec3 v) { e.axis = v; });
+  numeric_field(state, "rotation (deg)", std::array<double, 1>{t.degrees}, false,
+                [](double* d) { return ImGui::DragScalar("rotation (deg)", ImGuiDataType_Double, d, 0.5f, nullptr, nullptr, "%.1f"); },
+                [&](const std::array<double, 1>& d) {
+                  ObjectTransform edited = t;
+                  edited.degrees = d[0];
+                  return outcome(model.set_object_transform(index, edited), model);
+                });
+  field("scale", t.scale, "per axis, about the object's origin; a sphere inside takes the same on every axis",
+        [](ObjectTransform& e, DVec3 v) { e.scale = v; });
+  object_emission(model, state, static_cast<size_t>(current));
+}
+
+// A shape standing alone: its material, where it is, a sphere's radius.
+void lone_shape_fields(ViewerModel& model, PanelState& state, size_t index) {
+  const ShapeDesc& sh = model.scene().shapes[index];
+  ImGui::Text("shape %zu: %s", index, enum_label(sh.type));
+  const int current = std::clamp(sh.material, 0, static_cast<int>(model.scene().materials.size()) - 1);
+  material_combo(model, current, [&](size_t m) { return model.set_shape_material(index, m); });
   // Position: the sphere's centre, or the polygon's first vertex; a typed position moves the whole shape.
   const DVec3 at = sh.type == ShapeType::Sphere ? sh.center : sh.vertices[0];
   numeric_field(state, "position##object", std::array<double, 3>{at.x, at.y, at.z}, true,
@@ -585,17 +643,23 @@ void object_section(ViewerModel& model, PanelState& state) {
                 });
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip(sh.type == ShapeType::Sphere ? "the centre" : "the first vertex; the shape moves as a whole");
-  // A light is an object whose material emits: its emission here too (the material's, shared by its shapes).
-  const size_t m = static_cast<size_t>(current);
-  if (model.emission_strength(m) > 0.f) {
-    ImGui::PushID("object");
-    emission_fields(model, state, m);
-    ImGui::PopID();
-  }
+  object_emission(model, state, static_cast<size_t>(current));
   if (sh.type == ShapeType::Sphere)
     numeric_field(state, "radius", std::array<double, 1>{sh.radius}, true,
                   [](double* r) { return ImGui::InputDouble("radius", r, 0.0, 0.0, "%.4g"); },
                   [&](const std::array<double, 1>& r) { return outcome(model.set_sphere_radius(index, r[0]), model); });
+}
+
+// The object under the last click (a click picks the whole object a shape belongs to; a shape outside every
+// object is one of its own). A light is an emitting object, so this moves lights too.
+void object_section(ViewerModel& model, PanelState& state) {
+  const std::optional<Selection>& sel = model.selection();
+  if (!sel || sel->shape >= model.scene().shapes.size()) return;
+  if (sel->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
+  expand_if(state);
+  if (!ImGui::CollapsingHeader("Object")) return;
+  if (sel->object && *sel->object < model.scene().objects.size()) object_fields(model, state, *sel->object);
+  else lone_shape_fields(model, state, sel->shape);
 }
 
 // Undo, redo and revert, above the sections.
@@ -807,6 +871,7 @@ void help_section(ViewerModel& model, PanelState& state) {
       {"Tab", "hide / show panels"},               {"F1", "this help"},
       {"Ctrl+wheel / Ctrl+drag", "zoom / pan the image"}, {"F / 1", "fit the image / 1:1"},
       {"K / B", "keep an A/B snapshot / flip to it"},
+      {"Ctrl+B, then drag / Ctrl+Alt+B", "draw a render region (only it accumulates) / clear it"},
       {"Esc", "close a list / cancel typing; else quit (asks if the scene has unsaved edits)"}};
   // Both columns wrap inside the panel's width (a fixed-fit table ran past the panel's edge and was clipped).
   if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_SizingStretchProp)) {

@@ -269,6 +269,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       // Drawn where this frame's input left it (a zoom applies at once); GL counts y from the bottom.
       const ImageArea shown_area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
                                                io.DisplaySize.x - panel, io.DisplaySize.y, scale);
+      draw_region_overlay(io, model, shown_area);
       Rect r;
       r.x = static_cast<int>(std::lround(shown_area.x * scale));
       r.w = static_cast<int>(std::lround(shown_area.w * scale));

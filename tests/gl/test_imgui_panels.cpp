@@ -93,6 +93,20 @@ TEST_CASE("gl: the viewer panels render offscreen with the ImGui OpenGL3 backend
   CHECK(ImGui::GetDrawData()->TotalVtxCount > vertices);
   CHECK(state.item_rects.count("position##object") == 1);
   CHECK(state.item_rects.count("red/type") == 1);  // the clicked material is open
+  CHECK(state.item_rects.count("scale") == 0);     // a lone wall has no object transform
+
+  // A click on a block shows the block as one object: its transform's fields.
+  bool block = false;
+  for (int y = 16; y < 32 && !block; ++y)
+    for (int x = 16; x < 32 && !block; ++x) block = model.select_at(x + 0.5, y + 0.5) && model.selection()->object;
+  REQUIRE(block);
+  state.item_rects.clear();
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui::NewFrame();
+  draw_viewer_panels(model, state, shown);
+  ImGui::Render();
+  CHECK(state.item_rects.count("scale") == 1);
+  CHECK(state.item_rects.count("rotation (deg)") == 1);
 
   // Hidden panels draw nothing.
   model.ui_visible = false;

@@ -901,3 +901,63 @@ TEST_CASE("viewer: a dropped .obj opens in a studio scene (ground, sky, a camera
   CHECK(model.pick(model.scene().width / 2.0, model.scene().height / 2.0).has_value());  // something in view
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("viewer input: Ctrl+B and a drag draw a render region: only it accumulates, without a restart, and Ctrl+Alt+B clears it") {
+  SessionSettings s = few_samples();
+  s.stop.spp = 4;
+  ViewerModel model(small("cornell"), "cornell", s);
+  Ui ui(model);
+  ui.area.w = ui.area.h = 240.f;  // the 24 × 24 image drawn 10× at the top-left
+  ui.area.image_width = ui.area.image_height = 24;
+  REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  const SessionStats before = model.session().stats();
+  const DVec3 eye = model.camera().camera().position;
+  ImGuiIO& io = ImGui::GetIO();
+  io.KeyCtrl = true;
+  ui.press(GLFW_KEY_B);
+  io.KeyCtrl = false;
+  REQUIRE(model.drawing_region);
+  // Drag from image point (4, 6) to (16, 20): the region, and no orbit.
+  io.MousePos = ImVec2(40.f, 60.f);
+  ui.frame();
+  io.MouseDown[0] = true;
+  ui.frame();
+  for (float t : {0.25f, 0.5f, 1.f}) {
+    io.MousePos = ImVec2(40.f + t * 120.f, 60.f + t * 140.f);
+    ui.frame();
+    if (t == 0.5f) CHECK(region_being_drawn(io, model, ui.area) == PixelRect{4, 6, 10, 13});
+  }
+  io.MouseDown[0] = false;
+  ui.frame();
+  REQUIRE(model.region());
+  CHECK(*model.region() == PixelRect{4, 6, 16, 20});
+  CHECK_FALSE(model.drawing_region);
+  CHECK(model.camera().camera().position == eye);
+  CHECK(model.session().stats().generation == before.generation);  // not a restart
+  // Four more samples, in the region alone.
+  SessionSettings more = model.session_settings();
+  more.stop.spp = 8;
+  model.set_session_settings(more);
+  REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done && st.spp == 8; }, 60.0));
+  CHECK(model.session().stats().generation == before.generation);
+  DisplayFrame f;
+  const auto start = std::chrono::steady_clock::now();
+  while (!(f.spp == 8 && f.generation == before.generation) && std::chrono::steady_clock::now() - start < std::chrono::seconds(30))
+    if (!model.session().take_frame(f)) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  REQUIRE(f.count.size() == 24u * 24u);
+  size_t inside = 0, outside = 0;
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 24; ++x) {
+      const float c = f.count[static_cast<size_t>(y) * 24 + x];
+      (model.region()->contains(x, y) ? inside : outside) += (c == (model.region()->contains(x, y) ? 8.f : 4.f));
+    }
+  CHECK(inside == 12u * 14u);
+  CHECK(outside == 24u * 24u - 12u * 14u);
+  // Ctrl+Alt+B clears it: the whole image counts again (4 spp < 8), so the render resumes outside.
+  io.KeyCtrl = io.KeyAlt = true;
+  ui.press(GLFW_KEY_B);
+  io.KeyCtrl = io.KeyAlt = false;
+  CHECK_FALSE(model.region());
+  REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done && st.spp == 8; }, 60.0));
+  CHECK(model.session().stats().generation == before.generation);
+}

@@ -349,6 +349,56 @@ TEST_CASE("viewer: pick finds the material under an image point, double-click's 
   CHECK(glm::length(centre->point - left->point) < 1.0);
 }
 
+TEST_CASE("viewer: a click on a block picks the whole block: its material and transform move its five quads, undo restores") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(1));
+  const SceneDesc before = model.scene();
+  // The short block stands right of centre, low in the image (the camera looks down +z, +x to the left).
+  std::set<size_t> shapes;  // of the short block, seen in the image's lower right quarter
+  for (int y = 20; y < 40; ++y)
+    for (int x = 20; x < 40; ++x)
+      if (const std::optional<PickResult> hit = model.pick(x + 0.5, y + 0.5); hit && hit->object == 0u) {
+        CHECK(hit->shape >= 6);
+        CHECK(hit->shape <= 10);
+        shapes.insert(hit->shape);
+        REQUIRE(model.select_at(x + 0.5, y + 0.5));
+      }
+  CHECK(shapes.size() >= 2);  // its top and a side: different shapes, one object
+  REQUIRE(model.selection());
+  CHECK(model.selection()->object == 0u);
+  // One material for the whole object.
+  const size_t red = material_index(model, "red");
+  REQUIRE(model.set_object_material(0, red));
+  for (size_t k = 0; k < before.shapes.size(); ++k)
+    CHECK(model.scene().shapes[k].material == (k >= 6 && k <= 10 ? static_cast<int>(red) : before.shapes[k].material));
+  // Its transform: 90 degrees about +y through the origin, then up by 100: (x, y, z) → (z, y + 100, −x).
+  ObjectTransform t;
+  t.degrees = 90.0;
+  t.translate = DVec3(0, 100, 0);
+  REQUIRE(model.set_object_transform(0, t));
+  for (size_t k = 6; k <= 10; ++k)
+    for (int v = 0; v < 4; ++v) {
+      const DVec3 p = before.shapes[k].vertices[v], q = model.scene().shapes[k].vertices[v];
+      CHECK(glm::length(q - DVec3(p.z, p.y + 100, -p.x)) < 1e-9);
+    }
+  for (size_t k = 11; k <= 15; ++k) CHECK(model.scene().shapes[k].vertices == before.shapes[k].vertices);
+  // Moving one of its quads moves the object; a zero scale is refused and changes nothing.
+  REQUIRE(model.move_shape(8, DVec3(5, 0, 0)));
+  CHECK(model.scene().objects[0].transform.translate == DVec3(5, 100, 0));
+  const std::vector<ShapeDesc> moved = model.scene().shapes;
+  ObjectTransform flat = model.scene().objects[0].transform;
+  flat.scale = DVec3(1, 0, 1);
+  CHECK_FALSE(model.set_object_transform(0, flat));
+  CHECK(model.status().find("scale must be finite and not 0") != std::string::npos);
+  for (size_t k = 0; k < moved.size(); ++k) CHECK(model.scene().shapes[k].vertices == moved[k].vertices);
+  // Undo walks back to the box as loaded, transform and all.
+  while (model.can_undo()) model.undo();
+  CHECK(model.scene().objects[0].transform == ObjectTransform{});
+  for (size_t k = 0; k < before.shapes.size(); ++k) {
+    CHECK(model.scene().shapes[k].vertices == before.shapes[k].vertices);
+    CHECK(model.scene().shapes[k].material == before.shapes[k].material);
+  }
+}
+
 TEST_CASE("viewer: the relMSE plot's axis is finite and bounded for every history a film can give") {
   // Before, the axis loop ran from floor(log10(0)) = -inf: a black film froze the window.
   auto axis = [](std::initializer_list<double> values) {
