@@ -80,8 +80,8 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
                     "512²) or the à-trous wavelet filter of the viewer (~0.1 s); default regression")
       ->check(CLI::IsMember(enum_name_list<DenoiseMethod>()));
   r->add_option("--exposure", o.exposure, "PNG exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
-  r->add_option("--tonemap", o.tonemap, "PNG tone map: clamp | reinhard | aces")
-      ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
+  r->add_option("--tonemap", o.tonemap, "PNG tone map: " + enum_names_joined<ToneMap>(" | "))
+      ->check(CLI::IsMember(enum_name_list<ToneMap>()))
       ->capture_default_str();
   r->add_flag("--adaptive", o.adaptive,
               "Adaptive sampling: passes spend samples where the film's error estimate is high (every 4th pass uniform)");
@@ -487,9 +487,7 @@ int run_render(const RenderOptions& o) {
     }
     DisplaySettings display;
     display.exposure_ev = o.exposure;
-    display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
-                       : o.tonemap == "aces"   ? ToneMap::AcesFitted
-                                               : ToneMap::Clamp;
+    parse_enum(o.tonemap, display.tone_map);  // checked against the table by the command line
     // Each output on its own: one that fails does not keep the others from being written.
     int failed = 0;
     for (const OutputFile& out : outputs) {

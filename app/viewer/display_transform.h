@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/enum_table.h"
 #include "render/tonemap.h"
 
 namespace pt {
@@ -20,6 +21,35 @@ enum class DenoiseView { Raw, Denoised, Split };
 
 // A/B compare in the colour view: the live image, the kept snapshot, or the snapshot left and live right.
 enum class SnapshotView { Off, Snapshot, Split };
+
+// Names for `view --mode` and `--denoise-view`, labels for the Display section. The difference view needs a kept
+// snapshot, so the command line does not offer it (kStartupViewModes).
+template <>
+struct EnumTable<ViewMode> {
+  static constexpr std::array<EnumEntry<ViewMode>, 4> kEntries{{
+      {ViewMode::Colour, "colour", "colour"},
+      {ViewMode::RelativeError, "error", "rel. error"},
+      {ViewMode::SampleCount, "samples", "samples"},
+      {ViewMode::Difference, "difference", "A/B diff"},
+  }};
+};
+inline constexpr size_t kStartupViewModes = 3;  // the table's first three
+template <>
+struct EnumTable<DenoiseView> {
+  static constexpr std::array<EnumEntry<DenoiseView>, 3> kEntries{{
+      {DenoiseView::Raw, "raw", "raw"},
+      {DenoiseView::Denoised, "denoised", "denoised"},
+      {DenoiseView::Split, "split", "split"},
+  }};
+};
+template <>
+struct EnumTable<SnapshotView> {
+  static constexpr std::array<EnumEntry<SnapshotView>, 3> kEntries{{
+      {SnapshotView::Off, "live", "live"},
+      {SnapshotView::Snapshot, "snapshot", "snapshot [B]"},
+      {SnapshotView::Split, "split", "A|B"},
+  }};
+};
 
 struct PresentSettings {
   DisplaySettings display;        // exposure and tone map of the colour view

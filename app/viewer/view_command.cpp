@@ -5,6 +5,7 @@
 
 #include "cli/option_checks.h"
 #include "cli/scene_arg.h"
+#include "viewer/display_transform.h"
 #include "viewer/viewer_script.h"
 #include "viewer/viewer_window.h"
 
@@ -22,18 +23,21 @@ void add_view_command(CLI::App& app, ViewOptions& o) {
   v->add_option("--target-relmse", o.target_relmse, "Stop when the film's estimated relMSE falls to E (from 16 spp on)")
       ->check(finite_in(1e-12, 1e6));
   v->add_option("--exposure", o.exposure, "Display exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
-  v->add_option("--tonemap", o.tonemap, "Display tone map: clamp | reinhard | aces")
-      ->check(CLI::IsMember({"clamp", "reinhard", "aces"}))
+  v->add_option("--tonemap", o.tonemap, "Display tone map: " + enum_names_joined<ToneMap>(" | "))
+      ->check(CLI::IsMember(enum_name_list<ToneMap>()))
       ->capture_default_str();
+  std::vector<std::string> modes = enum_name_list<ViewMode>();
+  modes.resize(kStartupViewModes);  // the difference view needs a kept snapshot
   v->add_option("--mode", o.mode, "View: colour | error (relative standard error heat map) | samples")
-      ->check(CLI::IsMember({"colour", "error", "samples"}))
+      ->check(CLI::IsMember(modes))
       ->capture_default_str();
   v->add_flag("--denoise,!--no-denoise", o.denoise,
               "Denoise the display (default; feature-guided filters on the render thread, docs/denoising.md); "
               "--no-denoise shows the raw film")
       ->capture_default_str();
-  v->add_option("--denoise-view", o.denoise_view, "While denoising: raw | denoised | split (raw left, denoised right)")
-      ->check(CLI::IsMember({"raw", "denoised", "split"}))
+  v->add_option("--denoise-view", o.denoise_view,
+                "While denoising: " + enum_names_joined<DenoiseView>(" | ") + " (split: raw left, denoised right)")
+      ->check(CLI::IsMember(enum_name_list<DenoiseView>()))
       ->capture_default_str();
   v->add_option("--output-dir", o.output_dir, "Folder for saved images (S key)")->capture_default_str();
   v->add_option("--preview-divisor", o.preview_divisor,

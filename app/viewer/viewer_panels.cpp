@@ -55,15 +55,14 @@ bool enum_combo(PanelState& st, const char* label, E& value) {
   return changed;
 }
 
-// Radio buttons on one line for an enum's first values, labelled in order.
+// Radio buttons on one line for an enum's first `count` values (all by default), with the table's labels.
 template <class E>
-void radio_row(E& value, std::initializer_list<const char*> labels) {
-  int v = static_cast<int>(value), i = 0;
-  for (const char* label : labels) {
+void radio_row(E& value, size_t count = enum_entries<E>().size()) {
+  const auto entries = enum_entries<E>();
+  for (size_t i = 0; i < count && i < entries.size(); ++i) {
     if (i > 0) ImGui::SameLine();
-    ImGui::RadioButton(label, &v, i++);
+    if (ImGui::RadioButton(entries[i].label, value == entries[i].value)) value = entries[i].value;
   }
-  value = static_cast<E>(v);
 }
 
 FieldMemory* find_refused(PanelState& st, ImGuiID id) {
@@ -353,24 +352,14 @@ void display_section(ViewerModel& model, PanelState& state, const ShownImage& sh
   expand_if(state);
   if (!ImGui::CollapsingHeader("Display", ImGuiTreeNodeFlags_DefaultOpen)) return;
   PresentSettings& p = model.present;
-  int mode = static_cast<int>(p.mode);
-  ImGui::RadioButton("colour", &mode, 0);
-  ImGui::SameLine();
-  ImGui::RadioButton("rel. error", &mode, 1);
-  ImGui::SameLine();
-  ImGui::RadioButton("samples", &mode, 2);
-  if (model.snapshot_usable()) {
-    ImGui::SameLine();
-    ImGui::RadioButton("A/B diff", &mode, 3);
-  } else if (mode == 3) {
-    mode = 0;
-  }
-  p.mode = static_cast<ViewMode>(mode);
+  // The difference view is offered only while a snapshot fits the image.
+  if (!model.snapshot_usable() && p.mode == ViewMode::Difference) p.mode = ViewMode::Colour;
+  radio_row(p.mode, model.snapshot_usable() ? enum_entries<ViewMode>().size() : kStartupViewModes);
   // A/B compare: keep the current image, then flip to it, split, or view the difference heat map.
   if (ImGui::Button("Keep snapshot [K]")) model.shortcut(Shortcut::KeepSnapshot);
   if (model.snapshot_usable()) {
     ImGui::SameLine();
-    radio_row(p.snapshot_view, {"live", "snapshot [B]", "A|B"});
+    radio_row(p.snapshot_view);
     ImGui::TextDisabled("snapshot: %llu spp%s", static_cast<unsigned long long>(model.snapshot->spp),
                         p.snapshot_view == SnapshotView::Split ? " (left), live (right)" : "");
   } else {
@@ -389,7 +378,7 @@ void display_section(ViewerModel& model, PanelState& state, const ShownImage& sh
     ImGui::SetTooltip("Feature-guided a-trous filter (docs/denoising.md); saved PFMs stay the raw estimate");
   if (p.denoise) {
     ImGui::SameLine();
-    radio_row(p.denoise_view, {"raw", "denoised", "split"});
+    radio_row(p.denoise_view);
   }
   SessionSettings ss = model.session_settings();
   if (ImGui::Checkbox("clean preview while moving", &ss.preview_denoise)) model.set_session_settings(ss);
@@ -405,9 +394,7 @@ void display_section(ViewerModel& model, PanelState& state, const ShownImage& sh
   if (model.zoom.fit) ImGui::TextDisabled("zoom: fit");
   else ImGui::TextDisabled("zoom: %.0f %%", 100.0 * model.zoom.scale);
   ImGui::SliderFloat("exposure", &p.display.exposure_ev, -10.f, 10.f, "%+.2f EV");
-  int tone = static_cast<int>(p.display.tone_map);
-  if (ImGui::Combo("tone map", &tone, "none (clamp)\0Reinhard\0ACES fitted\0"))
-    p.display.tone_map = static_cast<ToneMap>(tone);
+  enum_combo(state, "tone map", p.display.tone_map);
   if (p.mode == ViewMode::RelativeError || p.mode == ViewMode::Difference) {
     ImGui::DragFloatRange2("log10 range", &p.error_log10_min, &p.error_log10_max, 0.05f, -8.f, 2.f, "%.1f");
     if (p.error_log10_max <= p.error_log10_min) p.error_log10_max = p.error_log10_min + 0.1f;

@@ -432,15 +432,10 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
     try {
       ViewerModel model(scene, scene_short_name(o.scene), settings);
       model.present.display.exposure_ev = o.exposure;
-      model.present.display.tone_map = o.tonemap == "reinhard" ? ToneMap::Reinhard
-                                       : o.tonemap == "aces"   ? ToneMap::AcesFitted
-                                                               : ToneMap::Clamp;
-      model.present.mode = o.mode == "error" ? ViewMode::RelativeError
-                           : o.mode == "samples" ? ViewMode::SampleCount
-                                                 : ViewMode::Colour;
-      model.present.denoise_view = o.denoise_view == "raw"   ? DenoiseView::Raw
-                                   : o.denoise_view == "split" ? DenoiseView::Split
-                                                               : DenoiseView::Denoised;
+      // The command line checked the names against the same tables.
+      parse_enum(o.tonemap, model.present.display.tone_map);
+      parse_enum(o.mode, model.present.mode);
+      parse_enum(o.denoise_view, model.present.denoise_view);
       model.output_dir = o.output_dir;
       RecentFiles recent;  // ~/.config/pathtracer/recent-scenes.txt
       model.recent = &recent;

@@ -1,11 +1,21 @@
 // The display transform, defined once for the PNG writer and mirrored exactly by shaders/present.frag
 // (the GL test compares the two): exposure in EV stops → tone curve → sRGB encoding → 8-bit.
 #pragma once
+#include "core/enum_table.h"
 #include "core/math.h"
 
 namespace pt {
 
 enum class ToneMap { Clamp, Reinhard, AcesFitted };
+
+template <>
+struct EnumTable<ToneMap> {
+  static constexpr std::array<EnumEntry<ToneMap>, 3> kEntries{{
+      {ToneMap::Clamp, "clamp", "none (clamp)"},
+      {ToneMap::Reinhard, "reinhard", "Reinhard"},
+      {ToneMap::AcesFitted, "aces", "ACES fitted"},
+  }};
+};
 
 struct DisplaySettings {
   float exposure_ev = 0.f;
