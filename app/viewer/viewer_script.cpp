@@ -1,5 +1,6 @@
 #include "viewer/viewer_script.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -29,6 +30,13 @@ double number(std::istringstream& in, const std::string& file, int line, const c
     used = 0;
   }
   if (used != word.size() || !std::isfinite(v)) fail(file, line, std::string(what) + ": '" + word + "' is not a finite number");
+  return v;
+}
+
+// A number in [0, 1]: a fraction of the image's width or height.
+double fraction(std::istringstream& in, const std::string& file, int line, const char* what) {
+  const double v = number(in, file, line, what);
+  if (v < 0.0 || v > 1.0) fail(file, line, std::string(what) + " must be in [0, 1] (a fraction of the image)");
   return v;
 }
 
@@ -67,6 +75,16 @@ std::vector<ScriptAction> parse_viewer_script(const std::string& text, const std
         if (!(in >> a.name)) fail(file, line, "missing the material's name");
         a.x = number(in, file, line, "STRENGTH");
         break;
+      case ScriptVerb::Select:
+        a.x = fraction(in, file, line, "FX");
+        a.y = fraction(in, file, line, "FY");
+        break;
+      case ScriptVerb::Region:
+        a.x = fraction(in, file, line, "FX0");
+        a.y = fraction(in, file, line, "FY0");
+        a.x1 = fraction(in, file, line, "FX1");
+        a.y1 = fraction(in, file, line, "FY1");
+        break;
       case ScriptVerb::Screenshot:
         if (!(in >> a.name)) fail(file, line, "missing the file name");
         break;
@@ -100,6 +118,18 @@ std::string apply_script_action(ViewerModel& model, const ScriptAction& a) {
           return model.status();
         }
       return "no material named '" + a.name + "'";
+    }
+    case ScriptVerb::Select: {
+      const int w = model.scene().width, h = model.scene().height;
+      const double x = std::min(a.x * w, w - 0.5), y = std::min(a.y * h, h - 0.5);
+      if (!model.select_at(x, y)) return "nothing under the image point (" + std::to_string(a.x) + ", " + std::to_string(a.y) + ")";
+      return "";
+    }
+    case ScriptVerb::Region: {
+      const int w = model.scene().width, h = model.scene().height;
+      const auto px = [](double f, int n) { return static_cast<int>(std::lround(f * n)); };
+      if (model.set_region(PixelRect{px(a.x, w), px(a.y, h), px(a.x1, w), px(a.y1, h)})) return "";
+      return model.status();
     }
     case ScriptVerb::Screenshot: return "";
     case ScriptVerb::Quit: model.request_quit(); return "";

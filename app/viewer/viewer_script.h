@@ -15,13 +15,17 @@ namespace pt {
 
 class ViewerModel;
 
-enum class ScriptVerb { Orbit, Emission, Screenshot, Quit };
+enum class ScriptVerb { Orbit, Emission, Select, Region, Screenshot, Quit };
 
 template <>
 struct EnumTable<ScriptVerb> {
-  static constexpr std::array<EnumEntry<ScriptVerb>, 4> kEntries{{
+  static constexpr std::array<EnumEntry<ScriptVerb>, 6> kEntries{{
       {ScriptVerb::Orbit, "orbit", "DX DY: orbit as a drag of DX, DY image heights would (1 = half a turn)"},
       {ScriptVerb::Emission, "emission", "MATERIAL STRENGTH: set that material's emission strength (0 = off)"},
+      {ScriptVerb::Select, "select", "FX FY: click the image at that point (fractions of its width and height): "
+                                     "select the material and object there"},
+      {ScriptVerb::Region, "region", "FX0 FY0 FX1 FY1: set the render region, corners as fractions of the image "
+                                     "(0 0 1 1 clears it)"},
       {ScriptVerb::Screenshot, "screenshot", "FILE: write the window as it is drawn next (PNG, panels included)"},
       {ScriptVerb::Quit, "quit", "quit (asking first if the scene has unsaved edits, as Esc does)"},
   }};
@@ -31,7 +35,8 @@ struct ScriptAction {
   double at_seconds = 0.0;
   ScriptVerb verb = ScriptVerb::Quit;
   std::string name;            // emission: the material; screenshot: the file
-  double x = 0.0, y = 0.0;     // orbit: DX, DY; emission: x = the strength
+  double x = 0.0, y = 0.0;     // orbit: DX, DY; emission: x = the strength; select, region: a point
+  double x1 = 0.0, y1 = 0.0;   // region: the other corner
   int line = 0;                // in the file, for messages
 };
 

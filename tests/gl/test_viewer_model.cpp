@@ -457,7 +457,9 @@ TEST_CASE("viewer: --script lines parse into timed actions, a bad line is refuse
   CHECK(error("1 orbit 1\n") == "s.txt:1: missing DY");
   CHECK(error("1 orbit 1 2\n0.5 quit\n").rfind("s.txt:2: the time goes back", 0) == 0);
   CHECK(error("x quit\n") == "s.txt:1: the time in seconds: 'x' is not a finite number");
-  CHECK(error("1 dance\n").rfind("s.txt:1: unknown action 'dance' (orbit, emission, screenshot, quit)", 0) == 0);
+  CHECK(error("1 dance\n").rfind("s.txt:1: unknown action 'dance' (orbit, emission, select, region, screenshot, quit)", 0) == 0);
+  CHECK(error("1 region 0 0 1.5 1\n") == "s.txt:1: FX1 must be in [0, 1] (a fraction of the image)");
+  CHECK(error("1 select 0.5\n") == "s.txt:1: missing FY");
   CHECK(error("1 quit now\n") == "s.txt:1: unexpected 'now' after the action");
   CHECK(error("1 emission light nan\n") == "s.txt:1: STRENGTH: 'nan' is not a finite number");
   CHECK(error("-1 quit\n") == "s.txt:1: the time must be >= 0");
@@ -475,6 +477,16 @@ TEST_CASE("viewer: --script lines parse into timed actions, a bad line is refuse
   ScriptAction missing = a[1];
   missing.name = "lamp";
   CHECK(apply_script_action(model, missing) == "no material named 'lamp'");
+  // select clicks the image: the red wall fills its left edge; region sets the render region in pixels.
+  const std::vector<ScriptAction> more = parse_viewer_script("1 select 0.02 0.5\n1 region 0.25 0.5 0.75 1\n2 region 0 0 1 1\n", "s.txt");
+  CHECK(apply_script_action(model, more[0]) == "");
+  REQUIRE(model.selection());
+  CHECK(model.selection()->material == material_index(model, "red"));
+  CHECK(apply_script_action(model, more[1]) == "");
+  REQUIRE(model.region());
+  CHECK(*model.region() == PixelRect{10, 20, 30, 40});
+  CHECK(apply_script_action(model, more[2]) == "");
+  CHECK_FALSE(model.region());  // the whole image clears it
   const DVec3 before = model.camera().camera().position;
   CHECK(apply_script_action(model, a[0]) == "");
   CHECK(glm::length(model.camera().camera().position - before) > 1.0);
