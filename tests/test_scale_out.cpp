@@ -9,6 +9,7 @@
 #include <random>
 #include <unistd.h>
 
+#include "skip.h"
 #include "io/film_state.h"
 #include "render/renderer.h"
 #include "run_command.h"
@@ -290,7 +291,7 @@ bool have_mpirun() { return std::system("command -v mpirun > /dev/null 2>&1") ==
 // The MPI tests' guard: true (with a message) where mpirun is missing and the test should return.
 bool skip_without_mpirun() {
   if (have_mpirun()) return false;
-  MESSAGE("mpirun not found: skipping the MPI test");
+  pt::test::skip_for_missing("mpirun", "the MPI test");
   return true;
 }
 

@@ -12,6 +12,7 @@
 #include <map>
 #include <vector>
 
+#include "../skip.h"
 #include "../run_command.h"
 #include "scene/scene_json.h"
 
@@ -57,7 +58,7 @@ TEST_CASE("view cli: --help lists view, without a display it says so and exits 2
 
 TEST_CASE("view cli: under Xvfb the window shows the Cornell box (red left, green right) and a screenshot") {
   if (!have_xvfb_run()) {
-    MESSAGE("xvfb-run not found: skipping the windowed end-to-end test");
+    pt::test::skip_for_missing("xvfb-run", "the windowed end-to-end test");
     return;
   }
   const std::string shot = "view_shot_" + std::to_string(getpid()) + ".png";
@@ -95,7 +96,7 @@ TEST_CASE("view cli: under Xvfb the window shows the Cornell box (red left, gree
 
 TEST_CASE("view cli: Ctrl-C saves the image so far (PNG and PFM, as the S key does) and quits with status 0") {
   if (!have_xvfb_run()) {
-    MESSAGE("xvfb-run not found: skipping the windowed interrupt test");
+    pt::test::skip_for_missing("xvfb-run", "the windowed interrupt test");
     return;
   }
   // Before, SIGINT just closed the window and the accumulated image was lost.
@@ -159,7 +160,7 @@ long red_pixels_in_xwd(const std::string& path, int width) {
 
 TEST_CASE("view cli: a window unmapped and mapped again (restored) after the render finished shows the image again") {
   if (!have_xvfb_run() || std::system("command -v xdotool > /dev/null && command -v xwd > /dev/null") != 0) {
-    MESSAGE("xvfb-run, xdotool or xwd not found: skipping the expose test");
+    pt::test::skip_for_missing("xvfb-run, xdotool or xwd", "the expose test");
     return;
   }
   // Before, a finished (or paused) render drew nothing more, and a window whose pixels the X server had dropped
@@ -212,7 +213,7 @@ std::map<std::string, RssTrace> parse_rss_traces(const std::string& out) {
 TEST_CASE("view cli: an all-black frame (camera looking out of the box, or its light switched off live) neither "
           "freezes nor grows: --seconds 60 quits on time with resident memory flat") {
   if (!have_xvfb_run()) {
-    MESSAGE("xvfb-run not found: skipping the black-frame test");
+    pt::test::skip_for_missing("xvfb-run", "the black-frame test");
     return;
   }
   // Before the fix the relMSE plot's axis loop started at log10(0) = -inf and never ended: the window froze
@@ -272,7 +273,7 @@ run away "$d/away.json" & run off cornell --script "$d/off.txt" & wait
 
 TEST_CASE("view cli: following the window, a window resize changes the render's size") {
   if (!have_xvfb_run() || std::system("command -v xdotool > /dev/null") != 0) {
-    MESSAGE("xvfb-run or xdotool not found: skipping the resize test");
+    pt::test::skip_for_missing("xvfb-run or xdotool", "the resize test");
     return;
   }
   // The viewer follows its window (--size window); 5 s in, the window is resized to 1000 × 700, and 4 s later
