@@ -2,7 +2,7 @@
 // (docs/estimators.md measures both estimators there), and the renderer resolving it per pass.
 #include <doctest/doctest.h>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 #include "run_command.h"
 #include "scene/estimator_choice.h"

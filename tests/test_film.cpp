@@ -3,7 +3,7 @@
 
 #include <limits>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "core/rng.h"
 
 using namespace pt;

@@ -2,7 +2,7 @@
 #pragma once
 #include <memory>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 #include "cli/stress_scenes.h"

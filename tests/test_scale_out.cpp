@@ -11,6 +11,7 @@
 
 #include "skip.h"
 #include "io/film_state.h"
+#include "scene/scene_identity.h"
 #include "render/renderer.h"
 #include "run_command.h"
 #include "scene/scene.h"

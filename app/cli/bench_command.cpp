@@ -21,8 +21,9 @@
 
 #include "denoise/denoiser.h"
 #include "render/progressive.h"
-#include "render/film.h"
+#include "film/film.h"
 #include "io/film_state.h"
+#include "scene/scene_identity.h"
 #include "io/image_io.h"
 #include "io/safe_file.h"
 #include "render/metrics.h"

@@ -18,10 +18,11 @@
 #include "core/memory_budget.h"
 #include "io/safe_file.h"
 
-#include "render/film.h"
+#include "film/film.h"
 #include "denoise/denoiser.h"
 #include "io/film_exr.h"
 #include "io/film_state.h"
+#include "scene/scene_identity.h"
 #include "io/image_io.h"
 #include "cli/progress.h"
 #include "render/progressive.h"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "scene/scene.h"
 
 namespace pt::stress {

@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "core/enum_table.h"
-#include "render/tonemap.h"
+#include "film/tonemap.h"
 
 namespace pt {
 

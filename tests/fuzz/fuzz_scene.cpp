@@ -10,7 +10,7 @@
 #include <string>
 
 #include "fuzz_input.h"
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"

@@ -1,5 +1,5 @@
 // The real presenter and shaders on an OSMesa core 3.3 context, read back and compared with the CPU definition of
-// the display transform (tracer/render/tonemap.h for colour, app/viewer/display_transform.h for the diagnostic views).
+// the display transform (tracer/film/tonemap.h for colour, app/viewer/display_transform.h for the diagnostic views).
 #include <doctest/doctest.h>
 
 #include <cmath>

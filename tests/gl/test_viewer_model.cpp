@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "io/image_io.h"
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 #include "../frame_helpers.h"

@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "render/film.h"
+#include "film/film.h"
 
 namespace pt {
 

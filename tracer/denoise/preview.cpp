@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "denoise/exp_neg.h"
-#include "render/film.h"
+#include "film/film.h"
 
 namespace pt {
 

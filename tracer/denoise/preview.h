@@ -29,7 +29,7 @@
 
 #include "core/thread_pool.h"
 #include "denoise/denoiser.h"
-#include "integrators/feature_pass.h"
+#include "film/pixel_features.h"
 
 namespace pt {
 

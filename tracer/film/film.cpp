@@ -1,4 +1,4 @@
-#include "render/film.h"
+#include "film/film.h"
 
 #include <stdexcept>
 #include <string>

@@ -12,7 +12,7 @@
 // mean, from which the image's relMSE is estimated without a reference.
 //
 // With features enabled (enable_features) the film also keeps, per pixel and with the same running mean, the
-// feature buffers of integrators/features.h (albedo, normal, depth, emission) and the mean of "half A", one of two halves
+// feature buffers of film/pixel_features.h (albedo, normal, depth, emission) and the mean of "half A", one of two halves
 // into which the samples are split (the other half's mean follows from the total), for denoisers that estimate
 // their own error from two independent half images (Bitterli et al. 2016, §4).
 #pragma once
@@ -22,8 +22,8 @@
 
 #include "core/math.h"
 #include "core/rng.h"
-#include "integrators/features.h"
-#include "render/pixel_rect.h"
+#include "film/pixel_features.h"
+#include "film/pixel_rect.h"
 
 namespace pt {
 

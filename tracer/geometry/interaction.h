@@ -1,7 +1,7 @@
 // Surface interaction: the hit point with a bound on its rounding error, the geometric normal, and robust
 // spawning of new rays from it (after pbrt-v4 §6.8: offset along the normal by the error bound, then round away).
 #pragma once
-#include "scene/scene.h"
+#include "geometry/primitives.h"
 
 namespace pt {
 
@@ -22,7 +22,7 @@ struct Interaction {
 
 // F: the kernel's feature set (KernelFeature); a kind of primitive outside it is never hit, so its code is left out.
 template <uint32_t F = kAllFeatures>
-inline Interaction make_interaction(const Scene& s, const Ray& ray, const Hit& h) {
+inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, const Hit& h) {
   Interaction it;
   it.prim = h.prim;
   it.material = s.material_of(h.prim);

@@ -2,13 +2,13 @@
 // tested, not even by a branch. With F = kAllFeatures each kind is tested when the scene has some.
 #pragma once
 #include "geometry/packet_polygons.h"
-#include "scene/scene.h"
+#include "geometry/primitives.h"
 
 namespace pt {
 
 // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
 template <uint32_t F>
-inline bool intersect_scene(const Scene& s, const Ray& ray, float t_max, uint32_t skip, Hit& hit) {
+inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip, Hit& hit) {
   bool found = false;
   if constexpr ((F & kFeaturePolygons) != 0) {
     const RayShear shear(ray.d);
@@ -38,7 +38,7 @@ inline bool intersect_scene(const Scene& s, const Ray& ray, float t_max, uint32_
 
 // Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
 template <uint32_t F>
-inline bool occluded_scene(const Scene& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
+inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
   if constexpr ((F & kFeaturePolygons) != 0) {
     const RayShear shear(ray.d);
     const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
@@ -65,7 +65,7 @@ inline bool occluded_scene(const Scene& s, const Ray& ray, float t_max, uint32_t
 // intersect_scene: polygons kept in brute-force lanes go through the packet kernel (packet_polygons.h); polygons
 // in a BVH and spheres are searched ray by ray.
 template <uint32_t F>
-inline void intersect_scene_packet(const Scene& s, const Ray* rays, const float* t_max, const uint32_t* skip, int n,
+inline void intersect_scene_packet(const SceneGeometry& s, const Ray* rays, const float* t_max, const uint32_t* skip, int n,
                                    Hit* hits, bool* found) {
   if constexpr ((F & kFeaturePolygons) != 0) {
     if (s.polygon_bvh.empty()) {
@@ -98,7 +98,7 @@ inline void intersect_scene_packet(const Scene& s, const Ray* rays, const float*
 // Any hits of n ≤ kLanes shadow rays at once: bit l of the result is occluded_scene's answer for ray l. skip_b
 // may be null (no second primitive to ignore).
 template <uint32_t F>
-inline uint32_t occluded_scene_packet(const Scene& s, const Ray* rays, const float* t_max, const uint32_t* skip_a,
+inline uint32_t occluded_scene_packet(const SceneGeometry& s, const Ray* rays, const float* t_max, const uint32_t* skip_a,
                                       const uint32_t* skip_b, int n) {
   uint32_t bits = 0;
   if constexpr ((F & kFeaturePolygons) != 0) {

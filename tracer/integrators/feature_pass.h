@@ -8,16 +8,10 @@
 #include <vector>
 
 #include "core/thread_pool.h"
+#include "film/pixel_features.h"
 #include "scene/scene.h"
 
 namespace pt {
-
-// Row-major planes, top row first: albedo, normal and emission 3 floats per pixel, depth 1 (features.h's meaning).
-struct FeatureImage {
-  int width = 0, height = 0;
-  std::vector<float> albedo, normal, depth, emission;
-  size_t pixel_count() const { return static_cast<size_t>(width) * height; }
-};
 
 // Fills `out` at the scene's resolution (reusing its planes' capacity). Rows run on `pool`.
 void trace_feature_image(const Scene& scene, const RenderSettings& settings, ThreadPool& pool, FeatureImage& out);

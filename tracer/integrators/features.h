@@ -14,22 +14,14 @@
 //   no noise but the pixel footprint's, so the denoiser leaves it out of the filtered part.
 // A path that ends on a specular chain (it escapes, or is absorbed) keeps the features of the last specular
 // vertex; a camera ray that escapes has albedo 0 and normal 0.
+// The per-pixel record itself (PixelFeatures) is film/pixel_features.h: the film, the denoisers and the file
+// writers read it; this file is how a path gathers it.
 #pragma once
+#include "film/pixel_features.h"
 #include "geometry/interaction.h"
 #include "materials/bsdf.h"
 
 namespace pt {
-
-// Depth written where nothing is hit: Cycles' and Blender's "infinitely far" value, finite so that running
-// means and filters stay finite.
-inline constexpr float kNoHitDepth = 1e10f;
-
-struct PixelFeatures {
-  Rgb albedo{0.f};
-  Vec3 normal{0.f};
-  float depth = kNoHitDepth;
-  Rgb emission{0.f};
-};
 
 // The features of one path while they are being gathered: `out` is null when none are requested, or once the
 // first non-specular vertex has been recorded.

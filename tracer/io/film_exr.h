@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/enum_table.h"
-#include "render/film.h"
+#include "film/film.h"
 
 namespace pt {
 

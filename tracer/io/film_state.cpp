@@ -4,9 +4,9 @@
 #include <cstring>
 #include <filesystem>
 
+#include "core/fnv1a.h"
 #include "io/little_endian.h"
 #include "io/safe_file.h"
-#include "scene/scene_json.h"
 
 namespace pt {
 
@@ -24,27 +24,6 @@ constexpr size_t kPixelBytes = 2 * 4 + 9 * 8, kFeaturePixelBytes = 10 * 8 + 4 + 
 size_t pixel_bytes(bool features) { return kPixelBytes + (features ? kFeaturePixelBytes : 0); }
 constexpr int kMaxSide = 65536;
 
-uint64_t fnv1a(const unsigned char* p, size_t n, uint64_t h = 0xcbf29ce484222325ull) {
-  for (size_t i = 0; i < n; ++i) {
-    h ^= p[i];
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
-
-void put_f64(std::string& out, double d) {
-  uint64_t v;
-  std::memcpy(&v, &d, 8);
-  put_le_u64(out, v);
-}
-
-double get_f64(const unsigned char* p) {
-  const uint64_t v = get_le_u64(p);
-  double d;
-  std::memcpy(&d, &v, 8);
-  return d;
-}
-
 // Bounds-checked reading: every read names what it wanted when the file ends early.
 struct Reader {
   const unsigned char* p;
@@ -58,13 +37,13 @@ struct Reader {
   }
   uint32_t u32(const char* what) { return get_le_u32(take(4, what)); }
   uint64_t u64(const char* what) { return get_le_u64(take(8, what)); }
-  double f64(const char* what) { return get_f64(take(8, what)); }
+  double f64(const char* what) { return get_le_f64(take(8, what)); }
 };
 
 template <class T>
 void put_array(std::string& out, const std::vector<T>& v) {
   for (const T& x : v) {
-    if constexpr (std::is_same_v<T, double>) put_f64(out, x);
+    if constexpr (std::is_same_v<T, double>) put_le_f64(out, x);
     else put_le_u32(out, x);
   }
 }
@@ -73,7 +52,7 @@ template <class T>
 void get_array(Reader& r, std::vector<T>& v, const char* what) {
   const unsigned char* p = r.take(v.size() * sizeof(T), what);
   for (size_t i = 0; i < v.size(); ++i) {
-    if constexpr (std::is_same_v<T, double>) v[i] = get_f64(p + 8 * i);
+    if constexpr (std::is_same_v<T, double>) v[i] = get_le_f64(p + 8 * i);
     else v[i] = get_le_u32(p + 4 * i);
   }
 }
@@ -82,44 +61,6 @@ void get_array(Reader& r, std::vector<T>& v, const char* what) {
 
 uint64_t film_state_checksum(std::string_view body) {
   return fnv1a(reinterpret_cast<const unsigned char*>(body.data()), body.size());
-}
-
-uint64_t scene_content_hash(const SceneDesc& scene) {
-  // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
-  // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
-  // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
-  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}};
-  head.render.seed = 0;
-  const std::string json = scene_to_json(head);
-  uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
-  std::string record;
-  for (const ShapeDesc& shape : scene.shapes) {
-    record.clear();
-    put_le_u32(record, static_cast<uint32_t>(shape.type));
-    put_le_u32(record, static_cast<uint32_t>(shape.material));
-    // The fields the shape's type uses, as the writer does (parse_scene(scene_to_json(s)) keeps the hash).
-    if (shape.type == ShapeType::Sphere) {
-      for (int a = 0; a < 3; ++a) put_f64(record, shape.center[a]);
-      put_f64(record, shape.radius);
-    } else {
-      for (int k = 0; k < (shape.type == ShapeType::Quad ? 4 : 3); ++k)
-        for (int a = 0; a < 3; ++a) put_f64(record, shape.vertices[k][a]);
-    }
-    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
-  }
-  return h;
-}
-
-FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name) {
-  FilmStateInfo info;
-  info.scene_hash = scene_content_hash(scene);
-  info.seed = scene.render.seed;
-  info.estimator = static_cast<uint32_t>(scene.render.estimator);
-  info.sampler = static_cast<uint32_t>(scene.render.sampler);
-  info.max_bounces = scene.render.max_bounces;
-  info.rr_depth = scene.render.russian_roulette_depth;
-  info.scene_name = scene_name;
-  return info;
 }
 
 std::string encode_film_state(const Film& film, const FilmStateInfo& info) {
@@ -142,7 +83,7 @@ std::string encode_film_state(const Film& film, const FilmStateInfo& info) {
   put_le_u32(out, static_cast<uint32_t>(info.rr_depth));
   put_le_u32(out, info.sample_begin);
   put_le_u64(out, film.rejected());
-  put_f64(out, info.render_seconds);
+  put_le_f64(out, info.render_seconds);
   put_le_u32(out, static_cast<uint32_t>(name.size()));
   out += name;
   put_array(out, *a.count);
@@ -245,23 +186,6 @@ LoadedFilmState decode_film_state(std::string_view bytes, const std::string& pat
       throw FilmStateError(path + ": corrupted (pixel " + std::to_string(i) + " has more samples than sample indices)");
   s.film.set_rejected(rejected);
   return s;
-}
-
-std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene) {
-  if (info.mixed_seeds) return "it was merged from renders with different seeds: it can be merged, not resumed";
-  if (info.seed != scene.render.seed)
-    return "it was rendered with seed " + std::to_string(info.seed) + ", not " + std::to_string(scene.render.seed) +
-           " (give --seed " + std::to_string(info.seed) + ")";
-  if (info.scene_hash != scene_content_hash(scene)) {
-    std::string why = "it was rendered from another scene or other settings";
-    if (info.max_bounces != scene.render.max_bounces)
-      why += " (max bounces " + std::to_string(info.max_bounces) + ", not " + std::to_string(scene.render.max_bounces) + ")";
-    else if (info.estimator != static_cast<uint32_t>(scene.render.estimator) ||
-             info.sampler != static_cast<uint32_t>(scene.render.sampler))
-      why += " (estimator or sampler)";
-    return why + "; the scene, its film size and its render settings must be the same";
-  }
-  return "";
 }
 
 LoadedFilmState merge_film_states(const std::vector<LoadedFilmState>& states, const std::vector<std::string>& names) {

@@ -14,8 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "render/film.h"
-#include "scene/scene_desc.h"
+#include "film/film.h"
 
 namespace pt {
 
@@ -28,7 +27,7 @@ inline constexpr uint32_t kFilmStateVersion = 2;
 
 // What a state was rendered from, besides the film itself.
 struct FilmStateInfo {
-  uint64_t scene_hash = 0;     // scene_content_hash of the scene, render settings included
+  uint64_t scene_hash = 0;     // scene_content_hash of the scene, render settings included (scene/scene_identity.h)
   uint64_t seed = 0;
   uint32_t estimator = 0, sampler = 0;  // enum values, for messages
   int32_t max_bounces = 0, rr_depth = 0;
@@ -37,13 +36,6 @@ struct FilmStateInfo {
   double render_seconds = 0;   // total render time of the samples in it
   std::string scene_name;      // for messages
 };
-
-// FNV-1a 64 of the scene without its shapes as scene_to_json writes it with the seed set to 0 (materials,
-// camera, film size, environment and the render settings that change samples: estimator, sampler, bounces,
-// Russian roulette), continued over each shape's binary record (docs/scale-out.md); the seed is compared on its
-// own. An environment map enters by its file name, not its pixels.
-uint64_t scene_content_hash(const SceneDesc& scene);
-FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name);
 
 void write_film_state(const std::string& path, const Film& film, const FilmStateInfo& info);
 // The same bytes in memory (what ranks send each other, io/mpi).
@@ -59,9 +51,6 @@ LoadedFilmState read_film_state(const std::string& path);
 uint64_t film_state_checksum(std::string_view body);
 // Decodes bytes of encode_film_state; `name` labels the errors.
 LoadedFilmState decode_film_state(std::string_view bytes, const std::string& name);
-
-// "" when a state of `info` may continue rendering `scene` (same content hash and seed, resumable), else the reason.
-std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene);
 
 // Merges states rendered from the same scene (content hash): with one seed their sample ranges must be
 // disjoint in every pixel; with different seeds any samples combine (the result is marked mixed: mergeable, not

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "render/tonemap.h"
+#include "film/tonemap.h"
 
 namespace pt {
 

@@ -1,5 +1,5 @@
 // Little-endian encoding of binary file fields, whatever the machine's byte order (ray files, the peers'
-// triangle file).
+// triangle file, film states).
 #pragma once
 #include <cstdint>
 #include <cstring>
@@ -20,6 +20,12 @@ inline void put_le_f32(std::string& out, float f) {
   put_le_u32(out, v);
 }
 
+inline void put_le_f64(std::string& out, double d) {
+  uint64_t v;
+  std::memcpy(&v, &d, 8);
+  put_le_u64(out, v);
+}
+
 inline uint32_t get_le_u32(const unsigned char* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
@@ -29,6 +35,12 @@ inline float get_le_f32(const unsigned char* p) {
   float f;
   std::memcpy(&f, &v, 4);
   return f;
+}
+inline double get_le_f64(const unsigned char* p) {
+  const uint64_t v = get_le_u64(p);
+  double d;
+  std::memcpy(&d, &v, 8);
+  return d;
 }
 
 }  // namespace pt

@@ -15,6 +15,7 @@
 // - Sun: uniform in its cone.
 #pragma once
 #include "geometry/interaction.h"
+#include "scene/scene.h"  // the lights and their selection probabilities (the one arrow up: tools/include_graph.py)
 #include "lights/spherical_rectangle.h"
 #include "sampling/sampling.h"
 

@@ -11,7 +11,7 @@
 #pragma once
 #include <vector>
 
-#include "render/film.h"
+#include "film/film.h"
 
 namespace pt {
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <span>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 
 namespace pt {

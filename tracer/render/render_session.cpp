@@ -12,7 +12,7 @@
 #include "denoise/denoiser.h"
 #include "denoise/preview.h"
 #include "integrators/feature_pass.h"
-#include "render/film.h"
+#include "film/film.h"
 #include "render/renderer.h"
 #include "scene/scene.h"
 

@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-#include "render/film.h"
+#include "film/film.h"
 #include "render/progressive.h"
 #include "scene/scene.h"
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "integrators/bdpt.h"
-#include "render/film.h"
+#include "film/film.h"
 #include "scene/scene.h"
 #include "core/thread_pool.h"
 
@@ -31,7 +31,7 @@ class Renderer {
   // (estimator, sampler, bounces, seed: not part of the compiled scene, so changing them rebuilds nothing). If
   // `cancel` becomes true the pass stops within a sample, whatever the path length (every pixel keeps a
   // consistent mean of whole samples; some have fewer), and the result says `cancelled`.
-  // With a `region` (a render region, render/pixel_rect.h), only its pixels get samples; the others keep theirs,
+  // With a `region` (a render region, film/pixel_rect.h), only its pixels get samples; the others keep theirs,
   // and the samples of a region's pixel are the ones it gets in a render of the whole film (the same numbers:
   // under every estimator but bdpt, the same bits).
   PassStats render_pass(const Scene& scene, const RenderSettings& settings, Film& film, int spp,

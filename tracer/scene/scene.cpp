@@ -227,11 +227,6 @@ std::string validate_scene(const SceneDesc& s) {
   return {};
 }
 
-uint32_t Scene::material_of(uint32_t prim) const {
-  if (prim < sphere_begin()) return polygons.material[prim];
-  return spheres.material[prim - sphere_begin()];
-}
-
 namespace {
 
 // Smallest barycentrics (b0, b1, b2) of a point inside triangle (a, b, c) that keep it `err` away from each

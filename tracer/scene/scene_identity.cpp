@@ -1,0 +1,65 @@
+#include "scene/scene_identity.h"
+
+#include "core/fnv1a.h"
+#include "io/little_endian.h"
+#include "scene/scene_json.h"
+
+namespace pt {
+
+uint64_t scene_content_hash(const SceneDesc& scene) {
+  // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
+  // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
+  // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}};
+  head.render.seed = 0;
+  const std::string json = scene_to_json(head);
+  uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
+  std::string record;
+  for (const ShapeDesc& shape : scene.shapes) {
+    record.clear();
+    put_le_u32(record, static_cast<uint32_t>(shape.type));
+    put_le_u32(record, static_cast<uint32_t>(shape.material));
+    // The fields the shape's type uses, as the writer does (parse_scene(scene_to_json(s)) keeps the hash).
+    if (shape.type == ShapeType::Sphere) {
+      for (int a = 0; a < 3; ++a) put_le_f64(record, shape.center[a]);
+      put_le_f64(record, shape.radius);
+    } else {
+      for (int k = 0; k < (shape.type == ShapeType::Quad ? 4 : 3); ++k)
+        for (int a = 0; a < 3; ++a) put_le_f64(record, shape.vertices[k][a]);
+    }
+    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+  }
+  return h;
+}
+
+FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name) {
+  FilmStateInfo info;
+  info.scene_hash = scene_content_hash(scene);
+  info.seed = scene.render.seed;
+  info.estimator = static_cast<uint32_t>(scene.render.estimator);
+  info.sampler = static_cast<uint32_t>(scene.render.sampler);
+  info.max_bounces = scene.render.max_bounces;
+  info.rr_depth = scene.render.russian_roulette_depth;
+  info.scene_name = scene_name;
+  return info;
+}
+
+
+std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene) {
+  if (info.mixed_seeds) return "it was merged from renders with different seeds: it can be merged, not resumed";
+  if (info.seed != scene.render.seed)
+    return "it was rendered with seed " + std::to_string(info.seed) + ", not " + std::to_string(scene.render.seed) +
+           " (give --seed " + std::to_string(info.seed) + ")";
+  if (info.scene_hash != scene_content_hash(scene)) {
+    std::string why = "it was rendered from another scene or other settings";
+    if (info.max_bounces != scene.render.max_bounces)
+      why += " (max bounces " + std::to_string(info.max_bounces) + ", not " + std::to_string(scene.render.max_bounces) + ")";
+    else if (info.estimator != static_cast<uint32_t>(scene.render.estimator) ||
+             info.sampler != static_cast<uint32_t>(scene.render.sampler))
+      why += " (estimator or sampler)";
+    return why + "; the scene, its film size and its render settings must be the same";
+  }
+  return "";
+}
+
+}  // namespace pt
