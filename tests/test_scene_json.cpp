@@ -1,6 +1,7 @@
 // Scene files: the built-in scenes, the JSON round trip, and the error messages of malformed input.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -817,4 +818,55 @@ TEST_CASE("scene_json: a model file alone opens in a studio: the mesh on a groun
   CHECK(validate_scene(s).empty());
   // Bad model files are refused with the file's name.
   CHECK_THROWS_WITH_AS(load_scene("no/such/model.obj"), doctest::Contains("model.obj"), SceneError);
+}
+
+TEST_CASE("scene_json: each material type reads, writes and refuses exactly the parameters of its table row") {
+  // kMaterialParams (materials/material.h) is the one statement of which keys a type takes; here the reader and
+  // the writer are held to it, key by key, for every type. The expected keys are written out per type (the
+  // scene-format table), not derived from kMaterialParams.
+  const std::vector<std::pair<MaterialType, std::vector<std::string>>> expected = {
+      {MaterialType::Diffuse, {"albedo"}},
+      {MaterialType::Mirror, {"albedo"}},
+      {MaterialType::Conductor, {"albedo", "metal", "eta", "k", "roughness"}},
+      {MaterialType::Dielectric, {"ior", "roughness"}},
+      {MaterialType::Plastic, {"albedo", "ior", "roughness"}},
+      {MaterialType::Subsurface, {"albedo", "ior", "g"}},
+  };
+  const std::vector<std::string> all = {"albedo", "metal", "eta", "k", "ior", "roughness", "g"};
+  const auto value_of = [](const std::string& key) -> std::string {
+    if (key == "metal") return "\"gold\"";
+    if (key == "albedo" || key == "eta" || key == "k") return "[0.5, 0.5, 0.5]";
+    return key == "ior" ? "1.4" : key == "g" ? "0.3" : "0.2";
+  };
+  for (const auto& [type, keys] : expected) {
+    for (const std::string& key : all) {
+      const bool takes_it = std::find(keys.begin(), keys.end(), key) != keys.end();
+      std::string text(builtin_scene_json("cornell").value());
+      const std::string white = R"("white": {"type": "diffuse", "albedo": [0.725, 0.71, 0.68]})";
+      std::string m = R"("white": {"type": ")" + std::string(to_string(type)) + R"(", ")" + key + "\": " + value_of(key);
+      if (key == "eta") m += R"(, "k": [0.5, 0.5, 0.5])";
+      if (key == "k") m += R"(, "eta": [0.5, 0.5, 0.5])";
+      text.replace(text.find(white), white.size(), m + "}");
+      INFO(to_string(type) << " with " << key);
+      if (!takes_it) {
+        std::string error = "accepted";
+        try {
+          parse_scene(text, "m.json");
+        } catch (const SceneError& e) {
+          error = e.what();
+        }
+        CHECK(error.find(key + ": does not apply to a " + to_string(type) + " material") != std::string::npos);
+        continue;
+      }
+      const SceneDesc s = parse_scene(text, "m.json");
+      // Written back: the key given (eta with k, k with eta), nothing of another type's.
+      const std::string json = scene_to_json(s);
+      const size_t at = json.find("\"white\": {");
+      REQUIRE(at != std::string::npos);
+      const std::string line = json.substr(at, json.find('}', at) - at);
+      CHECK(line.find("\"" + key + "\"") != std::string::npos);
+      for (const std::string& other : all)
+        if (std::find(keys.begin(), keys.end(), other) == keys.end()) CHECK(line.find("\"" + other + "\"") == std::string::npos);
+    }
+  }
 }

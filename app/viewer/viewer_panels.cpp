@@ -528,13 +528,14 @@ void materials_section(ViewerModel& model, PanelState& state) {
       MaterialDesc m = mats[i];
       bool changed = enum_combo(state, "type", m.type);
       const MaterialType t = m.type;
-      const bool rough = t == MaterialType::Conductor || t == MaterialType::Dielectric || t == MaterialType::Plastic;
-      const bool has_ior = t == MaterialType::Dielectric || t == MaterialType::Plastic || t == MaterialType::Subsurface;
-      if (t == MaterialType::Conductor) {
+      // Only the parameters the type takes (kMaterialParams, materials/material.h).
+      const bool rough = takes(t, MaterialParam::Roughness), has_ior = takes(t, MaterialParam::Ior);
+      if (takes(t, MaterialParam::Metal)) {
         changed |= enum_combo(state, "metal", m.metal);
         if (m.metal != MetalPreset::None) m.complex_ior = false;
       }
-      const bool uses_albedo = t != MaterialType::Dielectric && !(t == MaterialType::Conductor && (m.metal != MetalPreset::None || m.complex_ior));
+      const bool uses_albedo = takes(t, MaterialParam::Albedo) &&
+                               !(takes(t, MaterialParam::Metal) && (m.metal != MetalPreset::None || m.complex_ior));
       if (uses_albedo) changed |= ImGui::ColorEdit3("albedo", &m.albedo.x, ImGuiColorEditFlags_Float);
       changed |= ImGui::Checkbox("two-sided emission", &m.two_sided);
       if (changed) model.set_material(i, m);
@@ -551,7 +552,7 @@ void materials_section(ViewerModel& model, PanelState& state) {
         property("roughness", &MaterialDesc::roughness, [](float* v) { return ImGui::SliderFloat("roughness", v, 0.f, 1.f, "%.3f"); });
       if (has_ior)
         property("IOR", &MaterialDesc::ior, [](float* v) { return ImGui::DragFloat("IOR", v, 0.002f, 1.0f, 4.0f, "%.3f"); });
-      if (t == MaterialType::Subsurface)
+      if (takes(t, MaterialParam::G))
         property("g (anisotropy)", &MaterialDesc::g, [](float* v) { return ImGui::SliderFloat("g (anisotropy)", v, -0.95f, 0.95f, "%.2f"); });
       emission_fields(model, state, i);
       state.scope.clear();

@@ -26,6 +26,34 @@ struct EnumTable<MaterialType> {
   }};
 };
 
+// Which parameters each material type takes, besides the emission every material may have: the one table the
+// scene reader (which refuses the others, naming the type), the writer (which writes only these) and the viewer's
+// Materials section (which shows only these) read. Names are the scene file's keys (docs/scene-format.md).
+enum class MaterialParam : uint8_t {
+  Albedo = 1,     // "albedo": diffuse reflectance, mirror tint, conductor F0, plastic base, subsurface α′
+  Ior = 2,        // "ior"
+  Roughness = 4,  // "roughness"
+  G = 8,          // "g": the subsurface phase function's asymmetry
+  Metal = 16,     // "metal", or "eta" and "k": a conductor's measured or given complex index (instead of albedo)
+};
+struct MaterialParams {
+  MaterialType type;
+  uint8_t params;  // MaterialParam bits
+};
+inline constexpr std::array<MaterialParams, 6> kMaterialParams{{
+    {MaterialType::Diffuse, uint8_t(MaterialParam::Albedo)},
+    {MaterialType::Mirror, uint8_t(MaterialParam::Albedo)},
+    {MaterialType::Conductor, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Metal) | uint8_t(MaterialParam::Roughness))},
+    {MaterialType::Dielectric, uint8_t(uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::Roughness))},
+    {MaterialType::Plastic, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::Roughness))},
+    {MaterialType::Subsurface, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::G))},
+}};
+constexpr bool takes(MaterialType type, MaterialParam p) {
+  for (const MaterialParams& m : kMaterialParams)
+    if (m.type == type) return (m.params & uint8_t(p)) != 0;
+  return false;
+}
+
 // Named conductors: RGB complex index of refraction η + ik (materials/conductor_presets.h has the values).
 enum class MetalPreset { None, Gold, Silver, Copper, Aluminium };
 

@@ -438,7 +438,7 @@ void check_known_keys(const Json& obj, const std::string& path, std::initializer
 }
 
 // Keys that are known but do not apply to this variant (e.g. "ior" on a diffuse material).
-void check_applicable_keys(const Json& obj, const std::string& path, std::initializer_list<const char*> applicable,
+void check_applicable_keys(const Json& obj, const std::string& path, const std::vector<const char*>& applicable,
                            const std::string& variant) {
   for (const auto& item : obj.items()) {
     bool found = false;
@@ -577,37 +577,27 @@ MaterialDesc read_material(const std::string& name, const Json& j, const std::st
   m.name = name;
   m.type = read_enum<MaterialType>(required_key(j, path, "type"), member(path, "type"), "material type");
   const std::string variant = std::string("a ") + to_string(m.type) + " material";
-  switch (m.type) {
-    case MaterialType::Diffuse:
-    case MaterialType::Mirror:
-      check_applicable_keys(j, path, {"type", "albedo", "emission", "two_sided"}, variant);
-      if (m.type == MaterialType::Mirror) m.albedo = Rgb(1.f);
-      break;
-    case MaterialType::Conductor: {
-      check_applicable_keys(j, path, {"type", "albedo", "metal", "eta", "k", "roughness", "emission", "two_sided"},
-                            variant);
-      const int given = (optional_key(j, "albedo") ? 1 : 0) + (optional_key(j, "metal") ? 1 : 0) +
-                        (optional_key(j, "eta") || optional_key(j, "k") ? 1 : 0);
-      if (given > 1) fail(path, "a conductor takes one of: albedo, metal, or eta and k");
-      if (const Json* v = optional_key(j, "metal"))
-        m.metal = read_enum<MetalPreset>(*v, member(path, "metal"), "metal");
-      if (optional_key(j, "eta") || optional_key(j, "k")) {
-        m.complex_ior = true;
-        m.eta = read_rgb(required_key(j, path, "eta"), member(path, "eta"));
-        m.k = read_rgb(required_key(j, path, "k"), member(path, "k"));
-      }
-      break;
+  // The keys this type takes (kMaterialParams, materials/material.h); any other known key is refused by name.
+  std::vector<const char*> applicable{"type", "emission", "two_sided"};
+  if (takes(m.type, MaterialParam::Albedo)) applicable.push_back("albedo");
+  if (takes(m.type, MaterialParam::Metal)) applicable.insert(applicable.end(), {"metal", "eta", "k"});
+  if (takes(m.type, MaterialParam::Ior)) applicable.push_back("ior");
+  if (takes(m.type, MaterialParam::Roughness)) applicable.push_back("roughness");
+  if (takes(m.type, MaterialParam::G)) applicable.push_back("g");
+  check_applicable_keys(j, path, applicable, variant);
+  if (m.type == MaterialType::Mirror) m.albedo = Rgb(1.f);     // a mirror's default tint: none
+  if (m.type == MaterialType::Subsurface) m.ior = 1.3f;        // skin, wax, milk: ~1.3-1.4
+  if (takes(m.type, MaterialParam::Metal)) {
+    const int given = (optional_key(j, "albedo") ? 1 : 0) + (optional_key(j, "metal") ? 1 : 0) +
+                      (optional_key(j, "eta") || optional_key(j, "k") ? 1 : 0);
+    if (given > 1) fail(path, "a conductor takes one of: albedo, metal, or eta and k");
+    if (const Json* v = optional_key(j, "metal"))
+      m.metal = read_enum<MetalPreset>(*v, member(path, "metal"), "metal");
+    if (optional_key(j, "eta") || optional_key(j, "k")) {
+      m.complex_ior = true;
+      m.eta = read_rgb(required_key(j, path, "eta"), member(path, "eta"));
+      m.k = read_rgb(required_key(j, path, "k"), member(path, "k"));
     }
-    case MaterialType::Dielectric:
-      check_applicable_keys(j, path, {"type", "emission", "two_sided", "ior", "roughness"}, variant);
-      break;
-    case MaterialType::Plastic:
-      check_applicable_keys(j, path, {"type", "albedo", "ior", "roughness", "emission", "two_sided"}, variant);
-      break;
-    case MaterialType::Subsurface:
-      check_applicable_keys(j, path, {"type", "albedo", "ior", "g", "emission", "two_sided"}, variant);
-      m.ior = 1.3f;
-      break;
   }
   if (const Json* v = optional_key(j, "albedo")) m.albedo = read_rgb(*v, member(path, "albedo"));
   if (const Json* v = optional_key(j, "ior")) m.ior = read_float(*v, member(path, "ior"));
@@ -982,19 +972,18 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
   Json materials = Json::object();
   for (const MaterialDesc& m : s.materials) {
     Json j = {{"type", to_string(m.type)}};
-    const MaterialType t = m.type;
-    if (t == MaterialType::Conductor && m.metal != MetalPreset::None) {
+    const MaterialType t = m.type;  // only the parameters its type takes (kMaterialParams)
+    if (takes(t, MaterialParam::Metal) && m.metal != MetalPreset::None) {
       j["metal"] = to_string(m.metal);
-    } else if (t == MaterialType::Conductor && m.complex_ior) {
+    } else if (takes(t, MaterialParam::Metal) && m.complex_ior) {
       j["eta"] = triple(m.eta);
       j["k"] = triple(m.k);
-    } else if (t != MaterialType::Dielectric) {
+    } else if (takes(t, MaterialParam::Albedo)) {
       j["albedo"] = triple(m.albedo);
     }
-    if (t == MaterialType::Dielectric || t == MaterialType::Plastic || t == MaterialType::Subsurface) j["ior"] = number(m.ior);
-    if (t == MaterialType::Conductor || t == MaterialType::Dielectric || t == MaterialType::Plastic)
-      j["roughness"] = number(m.roughness);
-    if (t == MaterialType::Subsurface) j["g"] = number(m.g);
+    if (takes(t, MaterialParam::Ior)) j["ior"] = number(m.ior);
+    if (takes(t, MaterialParam::Roughness)) j["roughness"] = number(m.roughness);
+    if (takes(t, MaterialParam::G)) j["g"] = number(m.g);
     if (!(positive_zero(m.emission.x) && positive_zero(m.emission.y) && positive_zero(m.emission.z)))
       j["emission"] = triple(m.emission);
     if (m.two_sided) j["two_sided"] = true;
