@@ -265,7 +265,7 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
   v.it.p_error = es.p_error;
   v.it.ng = es.n;
   v.it.prim = l.prim;
-  v.it.planar = l.kind != LightKind::Sphere;
+  v.it.planar = !l.sphere();
   v.beta = es.Le;
   v.pdf_fwd = es.pdf_pos * pmf;
   path.push_back(v);

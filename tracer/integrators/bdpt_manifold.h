@@ -95,7 +95,7 @@ inline bool find_chain(const Scene& s, DVec3 x, uint32_t sphere, bool refracts, 
 }
 
 // A light the strategy samples: a polygon, uniform by area.
-inline bool manifold_light(const Light& l) { return l.kind == LightKind::Polygon || l.kind == LightKind::Rectangle; }
+inline bool manifold_light(const Light& l) { return l.polygon(); }
 
 // Camera vertex k may be the x of a manifold path: it scatters non-specularly, and no connection strategy can
 // make a path that passes through the camera subpath's first k vertices, the vertex before x and the eye's

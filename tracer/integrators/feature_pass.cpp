@@ -1,7 +1,7 @@
 #include "integrators/feature_pass.h"
 
 #include "geometry/scene_queries.h"
-#include "integrators/integrator_kernels.h"
+#include "integrators/path_tracer.h"
 
 namespace pt {
 

@@ -13,7 +13,7 @@ namespace pt {
 // only has to guard against geometry coplanar with the light (relative, so scale-independent). Shared by the
 // path tracer's light samples and the bidirectional estimator's connections.
 inline constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
-// Russian roulette's survival probability cap (integrator_kernels.h explains the value; bdpt uses it too).
+// Russian roulette's survival probability cap (path_tracer.h explains the value; bdpt uses it too).
 inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
 
 struct RayCount {

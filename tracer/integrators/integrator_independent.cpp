@@ -1,5 +1,5 @@
-// The path-tracing kernels for the IndependentSampler (see integrator_kernels.h), scalar and wavefront.
-#include "integrators/wavefront_kernels.h"
+// The path-tracing kernels for the IndependentSampler (see path_tracer.h), scalar and wavefront.
+#include "integrators/wavefront_loop.h"
 
 namespace pt {
 

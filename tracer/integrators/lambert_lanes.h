@@ -1,4 +1,4 @@
-// shade_vertex (integrator_kernels.h) for a packet's worth of paths at once, in the case that dominates the
+// shade_vertex (path_tracer.h) for a packet's worth of paths at once, in the case that dominates the
 // Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation of a parallelogram light
 // sampled by area. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
 // step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width); each
@@ -17,7 +17,7 @@
 
 #include "core/simd_sqrt_warnings.h"
 #include "geometry/simd_polygons.h"
-#include "integrators/integrator_kernels.h"
+#include "integrators/path_tracer.h"
 
 namespace pt {
 namespace integrator_detail {
@@ -216,9 +216,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     if (!s.lights.empty()) {
       const int li = choose_light(s, rng.get_1d(choice_dim));
       const Light& light = s.lights[li];
-      const bool polygon = light.kind == LightKind::Polygon || light.kind == LightKind::Rectangle;
-      if (!polygon || !P.parallelogram[light.prim] ||
-          (light.kind == LightKind::Rectangle && use_spherical_rect(light, ref))) {
+      if (!parallelogram_by_area(P, light, ref)) {
         active[l] = 0;  // the scalar path
         continue;
       }

@@ -4,7 +4,7 @@
 // (geometry/packet_polygons.h), then each path's vertex (the scalar loop's own shade_vertex), then the queued
 // shadow rays, kLanes at a time. Paths that end drop out of the queue, so the packets stay full.
 //
-// Each path performs exactly the arithmetic of the scalar loop (integrator_kernels.h), and its random numbers
+// Each path performs exactly the arithmetic of the scalar loop (path_tracer.h), and its random numbers
 // depend on (pixel, sample, seed, dimension) alone (sample_dimensions.h), so every sample's radiance is
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain).
@@ -32,7 +32,9 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// What PathLoop::Auto resolves to for this scene.
-bool wavefront_pays(const Scene& scene);
+// What PathLoop::Auto resolves to for this scene: the wavefront where polygons are searched by brute force.
+inline bool wavefront_pays(const Scene& scene) {
+  return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty();
+}
 
 }  // namespace pt

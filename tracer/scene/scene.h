@@ -43,6 +43,8 @@ struct Light {
   Vec3 direction{0.f};           // Sun: unit direction towards it
   float one_minus_cos_max = 0.f; // Sun: angular radius as 1 − cos
   bool infinite() const { return kind == LightKind::Environment || kind == LightKind::Sun; }
+  bool polygon() const { return kind == LightKind::Polygon || kind == LightKind::Rectangle; }  // a triangle or quad
+  bool sphere() const { return kind == LightKind::Sphere; }
 };
 
 // The environment as compiled: what escaping rays see (besides the sun, a Light of its own).

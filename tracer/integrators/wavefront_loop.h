@@ -1,7 +1,7 @@
 // The wavefront batch kernel template (wavefront.h); integrator_independent.cpp and integrator_sobol.cpp
 // instantiate it per feature set, beside the scalar kernels whose vertex code it shares.
 #pragma once
-#include "integrators/integrator_kernels.h"
+#include "integrators/path_tracer.h"
 #include "integrators/lambert_lanes.h"
 #include "integrators/wavefront.h"
 #include "sampling/sobol_batch.h"
@@ -131,7 +131,7 @@ constexpr std::array<BatchKernel<Sampler>, sizeof...(F)> batch_kernels_for(std::
   return {&trace_batch<Sampler, static_cast<uint32_t>(F)>...};
 }
 
-// As kKernels (integrator_kernels.h), generic only in instrumented builds (but for the lanes' kernel).
+// As kKernels (path_tracer.h), generic only in instrumented builds (but for the lanes' kernel).
 template <class Sampler>
 constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> make_batch_kernels() {
   if constexpr (kGenericKernelsOnly) {
