@@ -344,3 +344,20 @@ TEST_CASE("cli: render --exr writes the layers exrheader lists, --exr-half halve
 }
 
 }  // namespace pt
+
+TEST_CASE("cli: with --denoise, --pfm stays the raw film and --denoised-pfm is the filtered image") {
+  // README: "--pfm stays raw". The same render without --denoise (same seed, so the same samples) is the raw
+  // film: the two PFMs must be the same bytes, and the denoised PFM must differ from them.
+  const std::string stem = "test_cli_raw_" + std::to_string(getpid());
+  const std::string common = "render -q --scene cornell --width 32 --height 24 --spp 4 --seed 3 --threads 2 ";
+  const auto with = pt::test::run_pathtracer("", common + "--denoise --pfm " + stem + "_a.pfm --denoised-pfm " + stem + "_d.pfm");
+  const auto without = pt::test::run_pathtracer("", common + "--pfm " + stem + "_b.pfm");
+  REQUIRE(with.status == 0);
+  REQUIRE(without.status == 0);
+  const std::string a = pt::test::slurp(stem + "_a.pfm"), b = pt::test::slurp(stem + "_b.pfm"), d = pt::test::slurp(stem + "_d.pfm");
+  CHECK(a.size() > 32u * 24u * 12u);
+  CHECK(a == b);
+  CHECK(d.size() == a.size());
+  CHECK(d != a);
+  for (const char* suffix : {"_a.pfm", "_b.pfm", "_d.pfm"}) std::filesystem::remove(stem + suffix);
+}
