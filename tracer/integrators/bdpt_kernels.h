@@ -213,11 +213,9 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     beta *= f * (std::abs(bs.wi.z) / bs.pdf);
     path[prev].pdf_rev = to_area_density(pdf_rev, path[cur], path[prev]);
     if (!light_subpath && is_transmissive(bs.flags)) eta_scale *= sqr(bs.eta);
-    if (o.rr_depth >= 0 && static_cast<int>(bounce) >= o.rr_depth) {
-      const float q = std::min(kMaxRouletteSurvival, max_component(beta) * eta_scale / beta_scale);
+    if (roulette_applies(static_cast<int>(bounce), o.rr_depth)) {  // russian_roulette.h
       const uint32_t dim = light_subpath ? D::light_roulette(bounce) : D::camera_roulette(bounce);
-      if (!(rng.get_1d(dim) < q)) return true;
-      beta /= q;
+      if (!survives_roulette(beta, max_component(beta) * eta_scale / beta_scale, rng.get_1d(dim))) return true;
     }
     if (is_black(beta) || !is_finite(beta)) return true;
     const Vec3 wi = frame.to_world(bs.wi);

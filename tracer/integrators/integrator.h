@@ -3,6 +3,7 @@
 #include <atomic>
 
 #include "integrators/features.h"
+#include "integrators/russian_roulette.h"
 #include "sampling/sample_dimensions.h"
 #include "sampling/sampler.h"
 #include "scene/scene.h"
@@ -13,8 +14,6 @@ namespace pt {
 // only has to guard against geometry coplanar with the light (relative, so scale-independent). Shared by the
 // path tracer's light samples and the bidirectional estimator's connections.
 inline constexpr float kShadowRayShorten = 1.f - 0x1p-12f;
-// Russian roulette's survival probability cap (path_tracer.h explains the value; bdpt uses it too).
-inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
 
 struct RayCount {
   uint64_t rays = 0;  // every ray cast: camera, bounce (closest hit) and shadow (any hit)

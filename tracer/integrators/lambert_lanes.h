@@ -47,6 +47,10 @@ using vbits = stdx::rebind_simd_t<uint32_t, vfloat>;  // unsigned: stepping wrap
 // std::max(a, b) and std::min(a, b) as the standard defines them: (a < b) ? b : a and (b < a) ? b : a.
 [[gnu::always_inline]] inline vfloat std_max(const vfloat& a, const vfloat& b) { return select(a < b, b, a); }
 [[gnu::always_inline]] inline vfloat std_min(const vfloat& a, const vfloat& b) { return select(b < a, b, a); }
+// russian_roulette.h's survival probability, lane by lane (std::min's arithmetic).
+[[gnu::always_inline]] inline vfloat roulette_survival(const vfloat& worth) {
+  return std_min(vfloat(kMaxRouletteSurvival), worth);
+}
 [[gnu::always_inline]] inline vfloat bits_plus(const vfloat& v, uint32_t k) {
   return stdx::__proposed::simd_bit_cast<vfloat>(stdx::__proposed::simd_bit_cast<vbits>(v) + k);
 }
@@ -104,7 +108,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   alignas(64) float quad[N], two_sided[N], light_ok[N];  // 0 or 1
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
-  const bool roulette = o.rr_depth >= 0 && static_cast<int>(depth) >= o.rr_depth;
+  const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
   for (int l = 0; l < N; ++l) {
     active[l] = 0;
     light_ok[l] = 0.f;
@@ -322,7 +326,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const vfloat wwy = (ld(sy) * dxs + ld(ty) * dys) + NG.y * wz;
     const vfloat wwz = (ld(sz) * dxs + ld(tz) * dys) + NG.z * wz;
     if (roulette) {
-      const vfloat q = std_min(vfloat(kMaxRouletteSurvival), std_max(nbr, std_max(nbg, nbb)) * ld(eta));
+      const vfloat q = roulette_survival(std_max(nbr, std_max(nbg, nbb)) * ld(eta));
       ok = ok && ld(u_rr) < q;
       nbr = nbr / q, nbg = nbg / q, nbb = nbb / q;
     }

@@ -196,15 +196,10 @@ template <class Sampler, uint32_t F>
   if (is_transmissive(bs.flags)) p.eta_scale *= sqr(bs.eta);
   const Vec3 wi = frame.to_world(bs.wi);
 
-  // Russian roulette (unbiased: survivors are re-weighted by 1/q). q follows the throughput, so paths through
-  // dark materials end early; q ≤ 1 − 2^-10 so even albedo-1 rooms terminate (mean length ~1000 bounces) while
-  // rooms of albedo ρ < 1 keep finite variance under cosine sampling (a cap c needs ρ² < c: 0.95 would not do
-  // for ρ = 0.999).
-  if (o.rr_depth >= 0 && depth >= o.rr_depth) {
-    const float q = std::min(kMaxRouletteSurvival, max_component(p.beta) * p.eta_scale);
-    if (!(rng.get_1d(o.dims.roulette(depth)) < q)) return result;
-    p.beta /= q;
-  }
+  // Russian roulette (russian_roulette.h).
+  if (roulette_applies(depth, o.rr_depth) &&
+      !survives_roulette(p.beta, max_component(p.beta) * p.eta_scale, rng.get_1d(o.dims.roulette(depth))))
+    return result;
   if (is_black(p.beta) || !is_finite(p.beta)) return result;
   p.ray = {offset_ray_origin(it, wi), wi};
   p.skip = skip_on_leave(it);

@@ -1,0 +1,33 @@
+// Russian roulette, the one rule of the scalar path loop (path_tracer.h), the SIMD Lambert lanes
+// (lambert_lanes.h, lane by lane with the same arithmetic) and both subpaths of bdpt (bdpt_kernels.h).
+//
+// From scattering event rr_depth on, a path survives with probability q and is then re-weighted by 1/q, which
+// keeps the estimate unbiased (pbrt-v4 PathIntegrator::Li). q follows the path's worth (its throughput's
+// largest channel, refraction's 1/η² undone so that glass does not look like a loss), so paths through dark
+// materials end early. q ≤ 1 − 2^-10 so even albedo-1 rooms terminate (mean length ~1000 bounces) while rooms of
+// albedo ρ < 1 keep finite variance under cosine sampling (a cap c needs ρ² < c: 0.95 would not do for
+// ρ = 0.999).
+#pragma once
+#include <algorithm>
+
+#include "core/math.h"
+
+namespace pt {
+
+inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
+
+// Whether roulette is played at scattering event `depth` (rr_depth < 0: never).
+inline bool roulette_applies(int depth, int rr_depth) { return rr_depth >= 0 && depth >= rr_depth; }
+
+// The survival probability of a path of worth `worth` (lambert_lanes.h has the same for SIMD lanes).
+inline float roulette_survival(float worth) { return std::min(kMaxRouletteSurvival, worth); }
+
+// Plays the roulette with the uniform number u: false when the path ends, else true with beta re-weighted.
+inline bool survives_roulette(Rgb& beta, float worth, float u) {
+  const float q = roulette_survival(worth);
+  if (!(u < q)) return false;
+  beta /= q;
+  return true;
+}
+
+}  // namespace pt
