@@ -108,10 +108,29 @@ TEST_CASE("cli: --help documents the options, --time stops, progress does not fl
   CHECK(read_pfm("timed.pfm").width == 64);
   // stderr is a file here: at most one progress line per 10 s.
   CHECK(std::count(timed.err.begin(), timed.err.end(), '\n') <= 2);
-  const Run target = run("render --width 32 --height 32 --target-relmse 0.05 --pfm target.pfm");
-  INFO(target.out << target.err);
-  CHECK(target.status == 0);
-  CHECK(target.out.find("estimated relMSE") != std::string::npos);
+  // --target-relmse stops once the film's estimate is at or below the target, never before 16 spp, and not far
+  // past it: passes are cut where the estimate reaches the target at the 1/spp rate (before, a half-second pass
+  // ran on: 565 spp and 4.5e-4 for a target of 5e-3 here).
+  const auto summary = [](const std::string& out) {
+    const size_t at = out.find(" spp in "), rel = out.find("estimated relMSE ");
+    REQUIRE(at != std::string::npos);
+    REQUIRE(rel != std::string::npos);
+    const size_t start = out.rfind(' ', at - 1) + 1;
+    return std::pair<long, double>{std::stol(out.substr(start, at - start)), std::stod(out.substr(rel + 17))};
+  };
+  for (const double goal : {5e-3, 1e-3}) {
+    const Run target = run("render --scene cornell --width 64 --height 64 --threads 2 --target-relmse " +
+                           std::to_string(goal) + " --pfm target.pfm");
+    INFO(target.out << target.err);
+    REQUIRE(target.status == 0);
+    const auto [spp, relmse] = summary(target.out);
+    CHECK(spp >= 16);
+    CHECK(relmse <= goal);
+    CHECK(relmse >= 0.5 * goal);  // at 1/spp, stopping at twice the samples needed would give 0.5 × the target
+  }
+  const Run early = run("render --scene cornell --width 64 --height 64 --threads 2 --target-relmse 0.5 --pfm target.pfm");
+  REQUIRE(early.status == 0);
+  CHECK(summary(early.out).first == 16);  // met at once, but the estimate is read from 16 spp on
 }
 
 TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {

@@ -522,8 +522,9 @@ int run_render(const RenderOptions& o) {
   for (;;) {
     // Whether to go on, whether to checkpoint, and (with --mpi) the pass size: rank 0's pace, so the ranks stay
     // in step and meet at the same collective calls.
-    bool finished = stop_reason(stop, spp, elapsed(), stop.relmse > 0.0 ? film.estimated_relmse() : 0.0) != nullptr;
-    int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed());
+    const double relmse_now = stop.relmse > 0.0 ? film.estimated_relmse() : 0.0;  // a pass over the film: if asked
+    bool finished = stop_reason(stop, spp, elapsed(), relmse_now) != nullptr;
+    int pass = next_pass_spp(seconds_per_spp, kPassSeconds, stop, spp, elapsed(), relmse_now);
     bool checkpoint = o.checkpoint_seconds > 0.0 && elapsed() - last_checkpoint >= o.checkpoint_seconds;
     bool abort = stop_now.load();
     double global_spp = static_cast<double>(spp);

@@ -99,7 +99,7 @@ StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seco
 }
 
 int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,
-                  double seconds_done) {
+                  double seconds_done, double estimated_relmse) {
   double spp = 1.0;
   if (seconds_per_spp > 0.0) {
     double budget = target_seconds;
@@ -108,6 +108,16 @@ int next_pass_spp(double seconds_per_spp, double target_seconds, const StopCondi
   }
   uint64_t n = static_cast<uint64_t>(spp);
   if (stop.spp > spp_done) n = std::min<uint64_t>(n, stop.spp - spp_done);
+  if (stop.relmse > 0.0) {
+    if (spp_done < kRelMseStopMinSpp) {
+      n = std::min<uint64_t>(n, kRelMseStopMinSpp - spp_done);
+    } else if (estimated_relmse > stop.relmse && std::isfinite(estimated_relmse)) {
+      // relMSE ∝ 1/spp: the target at spp_done · relMSE / target (rounded up; at least one more sample).
+      const double needed = std::ceil(static_cast<double>(spp_done) * (estimated_relmse / stop.relmse));
+      if (needed < static_cast<double>(kMaxPassSpp) + static_cast<double>(spp_done))
+        n = std::min<uint64_t>(n, static_cast<uint64_t>(needed) - spp_done);
+    }
+  }
   return static_cast<int>(std::max<uint64_t>(n, 1));
 }
 

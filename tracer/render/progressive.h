@@ -64,9 +64,12 @@ StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seco
                            std::span<const RelMsePoint> history = {});
 
 // Samples per pixel of the next pass: about `target_seconds` of work at the measured cost per spp (1 before any
-// measurement), never past the time or spp limit, at most kMaxPassSpp.
+// measurement), never past the time or spp limit, at most kMaxPassSpp. With a relMSE target, never past where
+// the film's `estimated_relmse` (of spp_done samples; 0 = unknown) reaches it at the 1/spp rate, nor past
+// kRelMseStopMinSpp before that (the first spp the estimate is read at): a small image otherwise ran a whole
+// half-second pass past its target (cornell 64²: target 5e-3, stopped at 565 spp and 4.5e-4).
 int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,
-                  double seconds_done);
+                  double seconds_done, double estimated_relmse = 0.0);
 
 // Renders one pass of `spp` samples per pixel: uniform, or adaptive (plan_adaptive_pass; `pass_index` counts the
 // adaptive passes, every 4th of which is uniform).

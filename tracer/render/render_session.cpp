@@ -417,7 +417,7 @@ bool RenderSession::begin_pass(Worker& w, bool preview, int& spp) {
   if (!w.scene_ok || paused_ || stats_.done || pending_scene_ || pending_restart_) return false;
   spp = preview ? 1
                 : next_pass_spp(w.full_seconds_per_spp, target_pass_seconds(stats_.seconds), w.settings.stop, w.film_spp,
-                                stats_.seconds);
+                                stats_.seconds, stats_.estimated_relmse);
   pass_running_ = true;
   pass_generation_ = w.generation;
   preview_running_ = preview;
