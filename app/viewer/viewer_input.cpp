@@ -40,7 +40,7 @@ std::optional<PixelRect> region_being_drawn(const ImGuiIO& io, const ViewerModel
   if (!model.drawing_region || !(io.MouseDown[0] || io.MouseReleased[0]) || !image.contains(io.MouseClickedPos[0]))
     return std::nullopt;
   const std::array<int, 2> a = pixel_corner(image, io.MouseClickedPos[0]), b = pixel_corner(image, io.MousePos);
-  return PixelRect{std::min(a[0], b[0]), std::min(a[1], b[1]), std::max(a[0], b[0]), std::max(a[1], b[1])};
+  return PixelRect::spanning(a[0], a[1], b[0], b[1]);
 }
 
 void draw_region_overlay(const ImGuiIO& io, const ViewerModel& model, const ImageArea& image) {

@@ -486,9 +486,7 @@ bool ViewerModel::set_region(std::optional<PixelRect> region) {
   drawing_region = false;
   if (region) {
     // Corners in any order, clipped to the film.
-    PixelRect r{std::min(region->x0, region->x1), std::min(region->y0, region->y1), std::max(region->x0, region->x1),
-                std::max(region->y0, region->y1)};
-    r = r.clipped(scene_.width, scene_.height);
+    const PixelRect r = PixelRect::spanning(region->x0, region->y0, region->x1, region->y1).clipped(scene_.width, scene_.height);
     if (r.empty()) {
       set_status("render region not set: it holds no pixel of the image", true);
       return false;

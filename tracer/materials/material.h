@@ -36,6 +36,8 @@ enum class MaterialParam : uint8_t {
   G = 8,          // "g": the subsurface phase function's asymmetry
   Metal = 16,     // "metal", or "eta" and "k": a conductor's measured or given complex index (instead of albedo)
 };
+constexpr uint8_t operator|(MaterialParam a, MaterialParam b) { return uint8_t(uint8_t(a) | uint8_t(b)); }
+constexpr uint8_t operator|(uint8_t a, MaterialParam b) { return uint8_t(a | uint8_t(b)); }
 struct MaterialParams {
   MaterialType type;
   uint8_t params;  // MaterialParam bits
@@ -43,10 +45,10 @@ struct MaterialParams {
 inline constexpr std::array<MaterialParams, 6> kMaterialParams{{
     {MaterialType::Diffuse, uint8_t(MaterialParam::Albedo)},
     {MaterialType::Mirror, uint8_t(MaterialParam::Albedo)},
-    {MaterialType::Conductor, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Metal) | uint8_t(MaterialParam::Roughness))},
-    {MaterialType::Dielectric, uint8_t(uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::Roughness))},
-    {MaterialType::Plastic, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::Roughness))},
-    {MaterialType::Subsurface, uint8_t(uint8_t(MaterialParam::Albedo) | uint8_t(MaterialParam::Ior) | uint8_t(MaterialParam::G))},
+    {MaterialType::Conductor, MaterialParam::Albedo | MaterialParam::Metal | MaterialParam::Roughness},
+    {MaterialType::Dielectric, MaterialParam::Ior | MaterialParam::Roughness},
+    {MaterialType::Plastic, MaterialParam::Albedo | MaterialParam::Ior | MaterialParam::Roughness},
+    {MaterialType::Subsurface, MaterialParam::Albedo | MaterialParam::Ior | MaterialParam::G},
 }};
 constexpr bool takes(MaterialType type, MaterialParam p) {
   for (const MaterialParams& m : kMaterialParams)

@@ -13,14 +13,13 @@ Renderer::Renderer(int threads) : pool_(threads > 0 ? threads : hardware_threads
 
 namespace {
 
-// The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel.
-// Tile `tile` of a film w × h (row-major tiles of kTileSize, tiles_x per row), within `area`.
-PixelRect tile_rect(int tile, int tiles_x, int w, int h, const PixelRect& area) {
+// Tile `tile` (row-major tiles of kTileSize, tiles_x per row) within `area`, a part of the film.
+PixelRect tile_rect(int tile, int tiles_x, const PixelRect& area) {
   const int x0 = (tile % tiles_x) * Renderer::kTileSize, y0 = (tile / tiles_x) * Renderer::kTileSize;
-  const PixelRect t{x0, y0, std::min(x0 + Renderer::kTileSize, w), std::min(y0 + Renderer::kTileSize, h)};
-  return {std::max(t.x0, area.x0), std::max(t.y0, area.y0), std::min(t.x1, area.x1), std::min(t.y1, area.y1)};
+  return PixelRect{x0, y0, x0 + Renderer::kTileSize, y0 + Renderer::kTileSize}.intersected(area);
 }
 
+// The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel.
 template <class Sampler>
 Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y) {
   const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
@@ -170,7 +169,7 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
         cancelled.store(true, std::memory_order_relaxed);
         return;
       }
-      const PixelRect t = tile_rect(tile, tiles_x, w, h, region);
+      const PixelRect t = tile_rect(tile, tiles_x, region);
       const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
       std::vector<Splat>& splats = tile_splats_[tile];
       splats.clear();
@@ -192,8 +191,9 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
     }
     for (const std::vector<Splat>& splats : tile_splats_) {
       for (const Splat& sp : splats) {
-        const int x = static_cast<int>(sp.pixel % static_cast<uint32_t>(w)), y = static_cast<int>(sp.pixel / static_cast<uint32_t>(w));
-        if (!whole && !region.contains(x, y)) continue;
+        if (!whole && !region.contains(static_cast<int>(sp.pixel % static_cast<uint32_t>(w)),
+                                       static_cast<int>(sp.pixel / static_cast<uint32_t>(w))))
+          continue;
         if (is_finite(sp.value)) round_estimate_[sp.pixel] += splat_scale * glm::dvec3(sp.value);
         else film.note_rejected();
       }
@@ -233,7 +233,7 @@ PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settin
       cancelled.store(true, std::memory_order_relaxed);
       return;
     }
-    const PixelRect t = tile_rect(tile, tiles_x, w, h, area);
+    const PixelRect t = tile_rect(tile, tiles_x, area);
     const int x0 = t.x0, y0 = t.y0, x1 = t.x1, y1 = t.y1;
     RayCount count;
     uint64_t tile_samples = 0;

@@ -1073,9 +1073,10 @@ std::string in_file_terms(const SceneDesc& d, const std::string& message) {
   constexpr std::string_view kPrefix = "shapes[";
   if (d.objects.empty() || message.compare(0, kPrefix.size(), kPrefix) != 0) return message;
   const size_t close = message.find(']');
+  if (close == std::string::npos) return message;
   size_t k = 0;
   const auto parsed = std::from_chars(message.data() + kPrefix.size(), message.data() + close, k);
-  if (close == std::string::npos || parsed.ec != std::errc() || parsed.ptr != message.data() + close) return message;
+  if (parsed.ec != std::errc() || parsed.ptr != message.data() + close) return message;
   size_t element_index = k;  // counting each object before k as one element
   std::string inner;
   for (const ObjectDesc& o : d.objects) {
