@@ -137,32 +137,22 @@ Series run_series(const std::string& name, const SceneDesc& desc, bool adaptive,
   Denoiser denoiser;
   FilmPlanes planes;
   std::vector<float> denoised;
-  double elapsed = 0, seconds_per_spp = 0;
-  uint64_t spp = 0, samples = 0, rays = 0, pass_index = 0;
+  ProgressivePasses passes(renderer, *scene, desc.render, film, adaptive);
   for (double budget : budgets) {
     StopConditions stop;
     stop.seconds = budget;
-    while (!stop_reason(stop, spp, elapsed, 0.0)) {
-      const int pass = next_pass_spp(seconds_per_spp, budget - elapsed, stop, spp, elapsed);
-      const auto t0 = Clock::now();
-      const PassStats ps = run_pass(renderer, *scene, desc.render, film, pass, adaptive, pass_index);
-      const double dt = seconds_since(t0);
-      elapsed += dt;
-      seconds_per_spp = dt / static_cast<double>(pass);
-      spp += static_cast<uint64_t>(pass);
-      samples += ps.samples;
-      rays += ps.rays;
-    }
+    while (!stop_reason(stop, passes.passes_spp(), passes.busy_seconds(), 0.0))
+      passes.render(passes.next_spp(budget - passes.busy_seconds(), stop, passes.passes_spp(), passes.busy_seconds()));
     const Image img = film_image(film);
     const auto d0 = Clock::now();
     planes.copy_from(film);
     denoiser.run(planes.input(), {}, renderer.pool(), denoised);
     const double denoise_seconds = seconds_since(d0);
-    s.points.push_back({elapsed, spp, relmse(img, ref), rmse(img, ref),
+    s.points.push_back({passes.busy_seconds(), passes.passes_spp(), relmse(img, ref), rmse(img, ref),
                         relmse(Image{img.width, img.height, denoised}, ref), denoise_seconds});
   }
-  s.msamples_per_s = static_cast<double>(samples) / elapsed * 1e-6;
-  s.mrays_per_s = static_cast<double>(rays) / elapsed * 1e-6;
+  s.msamples_per_s = static_cast<double>(passes.samples()) / passes.busy_seconds() * 1e-6;
+  s.mrays_per_s = static_cast<double>(passes.rays()) / passes.busy_seconds() * 1e-6;
   return s;
 }
 

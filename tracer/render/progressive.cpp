@@ -1,6 +1,7 @@
 #include "render/progressive.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "render/adaptive.h"
@@ -121,11 +122,19 @@ int next_pass_spp(double seconds_per_spp, double target_seconds, const StopCondi
   return static_cast<int>(std::max<uint64_t>(n, 1));
 }
 
-PassStats run_pass(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film, int spp,
-                   bool adaptive, uint64_t& pass_index, const std::atomic<bool>* cancel) {
-  if (!adaptive) return renderer.render_pass(scene, settings, film, spp, cancel);
-  return renderer.render_pass(scene, settings, film, plan_adaptive_pass(film, Renderer::kTileSize, spp, pass_index++),
-                              cancel);
+PassStats ProgressivePasses::render(int spp, const std::atomic<bool>* cancel) {
+  const auto start = std::chrono::steady_clock::now();
+  const PassStats ps =
+      adaptive_ ? renderer_.render_pass(scene_, settings_, film_,
+                                        plan_adaptive_pass(film_, Renderer::kTileSize, spp, adaptive_pass_index_++), cancel)
+                : renderer_.render_pass(scene_, settings_, film_, spp, cancel);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!ps.cancelled) seconds_per_spp_ = seconds / spp;
+  busy_seconds_ += seconds;
+  samples_ += ps.samples;
+  rays_ += ps.rays;
+  passes_spp_ += static_cast<uint64_t>(spp);
+  return ps;
 }
 
 }  // namespace pt

@@ -71,9 +71,41 @@ StopProgress stop_progress(const StopConditions& stop, uint64_t spp, double seco
 int next_pass_spp(double seconds_per_spp, double target_seconds, const StopConditions& stop, uint64_t spp_done,
                   double seconds_done, double estimated_relmse = 0.0);
 
-// Renders one pass of `spp` samples per pixel: uniform, or adaptive (plan_adaptive_pass; `pass_index` counts the
-// adaptive passes, every 4th of which is uniform).
-PassStats run_pass(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film, int spp,
-                   bool adaptive, uint64_t& pass_index, const std::atomic<bool>* cancel = nullptr);
+// One accumulation's passes, the progressive run shared by `render` and `bench`: it renders each pass (uniform,
+// or adaptive: plan_adaptive_pass, every 4th pass uniform) and carries what the loop needs from pass to pass: the
+// measured cost per spp that sizes the next pass, the render time, and the sample and ray counts. The caller keeps
+// its own clock for the stop conditions (render: wall time; bench: render time only), its output and its
+// cancellation. The viewer's RenderSession runs its own loop (restarts, previews) over the same rules.
+class ProgressivePasses {
+ public:
+  ProgressivePasses(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film,
+                    bool adaptive)
+      : renderer_(renderer), scene_(scene), settings_(settings), film_(film), adaptive_(adaptive) {}
+
+  // next_pass_spp at this run's measured cost.
+  int next_spp(double target_seconds, const StopConditions& stop, uint64_t spp_done, double seconds_done,
+               double estimated_relmse = 0.0) const {
+    return next_pass_spp(seconds_per_spp_, target_seconds, stop, spp_done, seconds_done, estimated_relmse);
+  }
+  // Renders one pass of `spp` samples per pixel (on average, when adaptive). A cancelled pass counts its samples
+  // and time but leaves the measured cost per spp as it was.
+  PassStats render(int spp, const std::atomic<bool>* cancel = nullptr);
+
+  double seconds_per_spp() const { return seconds_per_spp_; }  // 0 before the first whole pass
+  double busy_seconds() const { return busy_seconds_; }        // time spent in passes
+  uint64_t samples() const { return samples_; }
+  uint64_t rays() const { return rays_; }
+  uint64_t passes_spp() const { return passes_spp_; }  // the passes' spp summed (cancelled ones included)
+
+ private:
+  Renderer& renderer_;
+  const Scene& scene_;
+  const RenderSettings& settings_;
+  Film& film_;
+  bool adaptive_;
+  uint64_t adaptive_pass_index_ = 0;
+  double seconds_per_spp_ = 0.0, busy_seconds_ = 0.0;
+  uint64_t samples_ = 0, rays_ = 0, passes_spp_ = 0;
+};
 
 }  // namespace pt
