@@ -144,7 +144,7 @@ Chi2Outcome run_chi2(const Chi2Case& c, uint64_t seed, int n_samples) {
   const int cells = rows * cols;
   std::vector<double> observed(cells + 1, 0.0), expected(cells + 1, 0.0);
   Chi2Outcome out;
-  const uint32_t flags = bsdf_flags(c.m);
+  const BsdfFlags flags = bsdf_flags(c.m);
   Pcg32 rng(seed, 7);
   for (int k = 0; k < n_samples; ++k) {
     const float uc = rng.next_float();
@@ -154,7 +154,7 @@ Chi2Outcome run_chi2(const Chi2Case& c, uint64_t seed, int n_samples) {
       observed[cells] += 1;
       continue;
     }
-    if ((s.flags & ~flags) != 0) ++out.bad_flags;
+    if (any(s.flags & ~flags)) ++out.bad_flags;
     if (is_specular(s.flags)) {
       observed[cells] += 1;
       continue;
@@ -451,17 +451,17 @@ TEST_CASE("bsdf: chi-square goodness of fit of bsdf_sample against bsdf_pdf, and
 
 
 TEST_CASE("bsdf: flags, and two-sided reflection-only materials") {
-  CHECK(bsdf_flags(make_material(MaterialType::Diffuse, 0.f)) == (kBsdfReflection | kBsdfDiffuse));
-  CHECK(bsdf_flags(make_material(MaterialType::Mirror, 0.f)) == (kBsdfReflection | kBsdfSpecular));
-  CHECK(bsdf_flags(make_material(MaterialType::Conductor, 0.f)) == (kBsdfReflection | kBsdfSpecular));
-  CHECK(bsdf_flags(make_material(MaterialType::Conductor, 0.5f)) == (kBsdfReflection | kBsdfGlossy));
+  CHECK(bsdf_flags(make_material(MaterialType::Diffuse, 0.f)) == (BsdfFlags::Reflection | BsdfFlags::Diffuse));
+  CHECK(bsdf_flags(make_material(MaterialType::Mirror, 0.f)) == (BsdfFlags::Reflection | BsdfFlags::Specular));
+  CHECK(bsdf_flags(make_material(MaterialType::Conductor, 0.f)) == (BsdfFlags::Reflection | BsdfFlags::Specular));
+  CHECK(bsdf_flags(make_material(MaterialType::Conductor, 0.5f)) == (BsdfFlags::Reflection | BsdfFlags::Glossy));
   CHECK(bsdf_flags(make_material(MaterialType::Dielectric, 0.f)) ==
-        (kBsdfReflection | kBsdfTransmission | kBsdfSpecular));
+        (BsdfFlags::Reflection | BsdfFlags::Transmission | BsdfFlags::Specular));
   CHECK(bsdf_flags(make_material(MaterialType::Dielectric, 0.5f)) ==
-        (kBsdfReflection | kBsdfTransmission | kBsdfGlossy));
-  CHECK(bsdf_flags(make_material(MaterialType::Plastic, 0.f)) == (kBsdfReflection | kBsdfDiffuse | kBsdfSpecular));
-  CHECK(bsdf_flags(make_material(MaterialType::Plastic, 0.5f)) == (kBsdfReflection | kBsdfDiffuse | kBsdfGlossy));
-  CHECK(bsdf_flags(make_subsurface(Rgb(0.5f), 0.f, 1.3f)) == (kBsdfReflection | kBsdfDiffuse));
+        (BsdfFlags::Reflection | BsdfFlags::Transmission | BsdfFlags::Glossy));
+  CHECK(bsdf_flags(make_material(MaterialType::Plastic, 0.f)) == (BsdfFlags::Reflection | BsdfFlags::Diffuse | BsdfFlags::Specular));
+  CHECK(bsdf_flags(make_material(MaterialType::Plastic, 0.5f)) == (BsdfFlags::Reflection | BsdfFlags::Diffuse | BsdfFlags::Glossy));
+  CHECK(bsdf_flags(make_subsurface(Rgb(0.5f), 0.f, 1.3f)) == (BsdfFlags::Reflection | BsdfFlags::Diffuse));
   // Below the surface, reflection-only materials behave as mirrored above it.
   const Material ms[] = {make_material(MaterialType::Diffuse, 0.f), make_material(MaterialType::Conductor, 0.4f),
                          make_material(MaterialType::Plastic, 0.4f), make_subsurface(Rgb(0.7f), 0.3f, 1.3f)};
@@ -764,10 +764,10 @@ TEST_CASE("bsdf: smooth cases: mirror, dielectric, conductor, plastic") {
           const bool refl = (s.wi.z > 0) == (wo.z > 0);
           const float w = s.f.x * std::abs(s.wi.z) / s.pdf;
           if (refl) {
-            bad += !(std::abs(w - 1.f) < 1e-4f && s.eta == 1.f && (s.flags & kBsdfReflection));
+            bad += !(std::abs(w - 1.f) < 1e-4f && s.eta == 1.f && is_reflective(s.flags));
             bad += !(std::abs(s.wi.z + wo.z * (inside ? 0 : 0) - wo.z) < 1e-6f);
           } else {
-            bad += !(std::abs(w * eta * eta - 1.f) < 1e-4f && s.eta == eta && (s.flags & kBsdfTransmission));
+            bad += !(std::abs(w * eta * eta - 1.f) < 1e-4f && s.eta == eta && is_transmissive(s.flags));
           }
           bad += !is_specular(s.flags);
           reflected += refl;

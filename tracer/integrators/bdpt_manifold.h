@@ -41,7 +41,7 @@ template <class Visit>
 void for_each_chain(const Scene& s, DVec3 x, Visit&& visit) {
   for (uint32_t i = 0; i < s.spheres.size(); ++i) {
     const Material& m = s.materials[s.spheres.material[i]];
-    const uint32_t flags = bsdf_flags(m);
+    const BsdfFlags flags = bsdf_flags(m);
     if (!only_specular(flags) || s.light_of_prim[s.sphere_begin() + i] >= 0) continue;
     SpecularSphere chain{s.spheres.center[i], s.spheres.radius[i], false, static_cast<double>(m.ior)};
     const DVec3 to_c = chain.center - x;

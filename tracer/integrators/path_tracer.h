@@ -139,7 +139,7 @@ template <class Sampler, uint32_t F>
   const Frame frame = Frame::from_normal(it.ng);
   const Vec3 wo_local = frame.to_local(wo);
   const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
-  const uint32_t flags = bsdf_flags<kM>(m);
+  const BsdfFlags flags = bsdf_flags<kM>(m);
 
   if (o.light_sampling && has_non_specular(flags)) {
     const float u_light = rng.get_1d(o.dims.light_choice(depth));
@@ -174,10 +174,10 @@ template <class Sampler, uint32_t F>
   const float uc = rng.get_1d(o.dims.bsdf_lobe(depth));
   const Vec2 u = rng.get_2d(o.dims.bsdf_direction(depth));
   BsdfSample bs;
-  if (o.uniform && (flags & ~(kBsdfReflection | kBsdfDiffuse)) == 0) {
+  if (o.uniform && !any(flags & ~(BsdfFlags::Reflection | BsdfFlags::Diffuse))) {
     Vec3 local = sample_uniform_hemisphere(u);
     if (wo_local.z < 0.f) local.z = -local.z;
-    bs = {local, bsdf_eval<kM>(m, wo_local, local), uniform_hemisphere_pdf(), kBsdfReflection | kBsdfDiffuse, 1.f};
+    bs = {local, bsdf_eval<kM>(m, wo_local, local), uniform_hemisphere_pdf(), BsdfFlags::Reflection | BsdfFlags::Diffuse, 1.f};
   } else if (!bsdf_sample<kM>(m, wo_local, uc, u, bs)) {
     return result;
   }

@@ -6,7 +6,7 @@
 // Conventions (pbrt-v4 ch. 9):
 // - eval returns f (sr⁻¹) without the cosine; pdf is per steradian; a sample's weight is f·|cos θi|/pdf.
 // - Specular (delta) lobes are never returned by eval or pdf (their f is a Dirac); sample returns them with
-//   flags containing kBsdfSpecular, f = (lobe weight)/|cos θi| and pdf = the lobe's selection probability.
+//   flags containing BsdfFlags::Specular, f = (lobe weight)/|cos θi| and pdf = the lobe's selection probability.
 // - Reflection-only materials are two-sided: they mirror wo to the front (wo.z > 0) and treat wi likewise;
 //   dielectrics use the sign of wo.z to tell entering (outside, z > 0) from leaving.
 // - Transmission carries radiance scaling 1/η² (non-symmetric transport, Veach 1997 §5.2); BsdfSample::eta is
@@ -41,32 +41,33 @@ inline Vec3 front(Vec3 w, bool flip) { return flip ? Vec3(w.x, w.y, -w.z) : w; }
 }  // namespace bsdf_detail
 
 // True when the BSDF has a lobe that eval/pdf can see (diffuse or glossy): light sampling makes sense there.
-inline bool has_non_specular(uint32_t flags) { return (flags & (kBsdfDiffuse | kBsdfGlossy)) != 0; }
-inline bool is_specular(uint32_t flags) { return (flags & kBsdfSpecular) != 0; }
+inline bool has_non_specular(BsdfFlags flags) { return any(flags & (BsdfFlags::Diffuse | BsdfFlags::Glossy)); }
+inline bool is_specular(BsdfFlags flags) { return any(flags & BsdfFlags::Specular); }
 // Only Dirac lobes (smooth mirror, smooth glass): nothing to connect to or evaluate, a direction is only drawn.
-inline bool only_specular(uint32_t flags) { return is_specular(flags) && !has_non_specular(flags); }
-inline bool is_transmissive(uint32_t flags) { return (flags & kBsdfTransmission) != 0; }
+inline bool only_specular(BsdfFlags flags) { return is_specular(flags) && !has_non_specular(flags); }
+inline bool is_transmissive(BsdfFlags flags) { return any(flags & BsdfFlags::Transmission); }
+inline bool is_reflective(BsdfFlags flags) { return any(flags & BsdfFlags::Reflection); }
 
 // The lobes this material has (a union over its lobes: plastic with a smooth coat is Specular|Diffuse).
 template <MaterialSet S = MaterialSet::Any>
-inline uint32_t bsdf_flags(const Material& m) {
-  if constexpr (S == MaterialSet::Lambert) return kBsdfReflection | kBsdfDiffuse;
+inline BsdfFlags bsdf_flags(const Material& m) {
+  if constexpr (S == MaterialSet::Lambert) return BsdfFlags::Reflection | BsdfFlags::Diffuse;
   const bool smooth = effectively_smooth(m.alpha);
   switch (m.type) {
     case MaterialType::Diffuse:
-      return kBsdfReflection | kBsdfDiffuse;
+      return BsdfFlags::Reflection | BsdfFlags::Diffuse;
     case MaterialType::Mirror:
-      return kBsdfReflection | kBsdfSpecular;
+      return BsdfFlags::Reflection | BsdfFlags::Specular;
     case MaterialType::Conductor:
-      return kBsdfReflection | (smooth ? kBsdfSpecular : kBsdfGlossy);
+      return BsdfFlags::Reflection | (smooth ? BsdfFlags::Specular : BsdfFlags::Glossy);
     case MaterialType::Dielectric:
-      return kBsdfReflection | kBsdfTransmission | (smooth ? kBsdfSpecular : kBsdfGlossy);
+      return BsdfFlags::Reflection | BsdfFlags::Transmission | (smooth ? BsdfFlags::Specular : BsdfFlags::Glossy);
     case MaterialType::Plastic:
-      return kBsdfReflection | kBsdfDiffuse | (smooth ? kBsdfSpecular : kBsdfGlossy);
+      return BsdfFlags::Reflection | BsdfFlags::Diffuse | (smooth ? BsdfFlags::Specular : BsdfFlags::Glossy);
     case MaterialType::Subsurface:
-      return kBsdfReflection | kBsdfDiffuse;
+      return BsdfFlags::Reflection | BsdfFlags::Diffuse;
   }
-  return kBsdfNone;
+  return BsdfFlags::None;
 }
 
 // f(wo, wi) of the non-specular lobes.

@@ -28,7 +28,7 @@ namespace pt {
 inline bool mirror_sample(const Material& m, Vec3 wo, BsdfSample& out) {
   if (!(wo.z > 0.f) || is_black(m.albedo)) return false;
   const Vec3 wi(-wo.x, -wo.y, wo.z);
-  out = {wi, m.albedo / wi.z, 1.f, kBsdfReflection | kBsdfSpecular, 1.f};
+  out = {wi, m.albedo / wi.z, 1.f, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
   return true;
 }
 
@@ -75,7 +75,7 @@ inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfS
     const Vec3 wi(-wo.x, -wo.y, wo.z);
     const Rgb F = conductor_fresnel(m, wo.z);
     if (is_black(F)) return false;
-    out = {wi, F / wi.z, 1.f, kBsdfReflection | kBsdfSpecular, 1.f};
+    out = {wi, F / wi.z, 1.f, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
     return true;
   }
   Vec3 wi;
@@ -88,7 +88,7 @@ inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfS
   if (!(wi.z > 0.f)) return false;
   const float pdf = conductor_pdf(m, wo, wi);
   if (!(pdf > 0.f)) return false;
-  out = {wi, conductor_eval(m, wo, wi), pdf, kBsdfReflection | kBsdfGlossy, 1.f};
+  out = {wi, conductor_eval(m, wo, wi), pdf, BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
   return true;
 }
 

@@ -78,11 +78,11 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
     Vec3 wt;
     if (uc < F || !refract(wo, Vec3(0.f, 0.f, 1.f), eta, wt)) {
       const Vec3 wi(-wo.x, -wo.y, wo.z);
-      out = {wi, Rgb(F / wi.z), F, kBsdfReflection | kBsdfSpecular, 1.f};
+      out = {wi, Rgb(F / wi.z), F, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
       return F > 0.f;
     }
     if (!(wt.z < 0.f)) return false;
-    out = {wt, Rgb((1.f - F) / (-wt.z * eta * eta)), 1.f - F, kBsdfTransmission | kBsdfSpecular, eta};
+    out = {wt, Rgb((1.f - F) / (-wt.z * eta * eta)), 1.f - F, BsdfFlags::Transmission | BsdfFlags::Specular, eta};
     return true;
   }
   const Vec3 wm = ggx_sample_vndf(wo, alpha, u);
@@ -94,7 +94,7 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
     const Vec3 wi = reflect(-wo, wm);
     if (!(wi.z > 0.f)) return false;
     const float f = 0.25f * ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha) * F;
-    out = {wi, Rgb(f), d_wo * F / (4.f * cos_om), kBsdfReflection | kBsdfGlossy, 1.f};
+    out = {wi, Rgb(f), d_wo * F / (4.f * cos_om), BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
     return out.pdf > 0.f;
   }
   Vec3 wi;
@@ -106,7 +106,7 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
   const float f = ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha) * (1.f - F) * std::abs(cos_im * cos_om) /
                   (denom * eta * eta);
   if (!(pdf > 0.f) || !std::isfinite(pdf) || !std::isfinite(f)) return false;
-  out = {wi, Rgb(f), pdf, kBsdfTransmission | kBsdfGlossy, eta};
+  out = {wi, Rgb(f), pdf, BsdfFlags::Transmission | BsdfFlags::Glossy, eta};
   return true;
 }
 

@@ -20,7 +20,7 @@ inline bool diffuse_sample(const Material& m, Vec3 wo, Vec2 u, BsdfSample& out) 
   if (!(wo.z > 0.f) || is_black(m.albedo)) return false;
   const Vec3 wi = sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  out = {wi, diffuse_f(m.albedo), cosine_hemisphere_pdf(wi.z), kBsdfReflection | kBsdfDiffuse, 1.f};
+  out = {wi, diffuse_f(m.albedo), cosine_hemisphere_pdf(wi.z), BsdfFlags::Reflection | BsdfFlags::Diffuse, 1.f};
   return true;
 }
 

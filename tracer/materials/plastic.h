@@ -69,14 +69,14 @@ inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSam
   if (effectively_smooth(m.alpha) && coat) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
     const float F = fresnel_dielectric(wo.z, m.ior);
-    out = {wi, Rgb(F / wi.z), p_c, kBsdfReflection | kBsdfSpecular, 1.f};
+    out = {wi, Rgb(F / wi.z), p_c, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
     return F > 0.f;
   }
   const Vec3 wi = coat ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
   const float pdf = plastic_pdf(m, wo, wi);
   if (!(pdf > 0.f)) return false;
-  out = {wi, plastic_eval(m, wo, wi), pdf, kBsdfReflection | (coat ? kBsdfGlossy : kBsdfDiffuse), 1.f};
+  out = {wi, plastic_eval(m, wo, wi), pdf, BsdfFlags::Reflection | (coat ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;
 }
 

@@ -86,7 +86,7 @@ inline bool subsurface_sample(const Material& m, Vec3 wo, Vec2 u, BsdfSample& ou
   if (!(wi.z > 0.f)) return false;
   const Rgb f = subsurface_eval(m, wo, wi);
   if (is_black(f)) return false;
-  out = {wi, f, cosine_hemisphere_pdf(wi.z), kBsdfReflection | kBsdfDiffuse, 1.f};
+  out = {wi, f, cosine_hemisphere_pdf(wi.z), BsdfFlags::Reflection | BsdfFlags::Diffuse, 1.f};
   return true;
 }
 
