@@ -818,6 +818,44 @@ TEST_CASE("bsdf: smooth cases: mirror, dielectric, conductor, plastic") {
   }
 }
 
+// Transport mode (Veach 1997 §5.2): from the light side a refraction carries no 1/η². With the same random
+// numbers an importance sample is the radiance sample (same direction, pdf, flags) with f times η² on
+// transmission and the same f on reflection; and for a rough lobe it equals the transposed radiance BSDF
+// f(wi, wo), the adjoint the light subpaths evaluate (a mode ignored fails by a factor η² = 2.25 or 1/2.25).
+TEST_CASE("bsdf: importance transport drops refraction's 1/eta^2 and matches the transposed BSDF") {
+  Pcg32 rng(41, 9);
+  int transmitted = 0, reflected = 0, rough_transmitted = 0;
+  for (float alpha : {0.f, 0.3f}) {
+    const Material glass = make_material(MaterialType::Dielectric, alpha, Rgb(1.f), 1.5f);
+    for (int k = 0; k < 4000; ++k) {
+      const float cos_o = 0.05f + 0.95f * rng.next_float(), phi = 6.2831853f * rng.next_float();
+      const float sin_o = std::sqrt(1.f - cos_o * cos_o);
+      const Vec3 wo(sin_o * std::cos(phi), sin_o * std::sin(phi), k % 2 ? -cos_o : cos_o);
+      const float uc = rng.next_float();
+      const Vec2 u(rng.next_float(), rng.next_float());
+      BsdfSample r, i;
+      const bool ok_r = bsdf_sample(glass, wo, uc, u, r, TransportMode::Radiance);
+      REQUIRE(ok_r == bsdf_sample(glass, wo, uc, u, i, TransportMode::Importance));
+      if (!ok_r) continue;
+      REQUIRE(i.wi == r.wi);
+      REQUIRE(i.pdf == r.pdf);
+      REQUIRE(i.flags == r.flags);
+      const float eta2 = is_transmissive(r.flags) ? r.eta * r.eta : 1.f;
+      INFO("alpha " << alpha << " wo " << wo.x << " " << wo.y << " " << wo.z << " eta " << r.eta);
+      REQUIRE(i.f.x == doctest::Approx(r.f.x * eta2).epsilon(1e-5));
+      (is_transmissive(r.flags) ? transmitted : reflected) += 1;
+      if (alpha > 0.f && is_transmissive(r.flags)) {
+        const float transposed = bsdf_eval(glass, r.wi, wo).x;
+        REQUIRE(i.f.x == doctest::Approx(transposed).epsilon(2e-3));
+        ++rough_transmitted;
+      }
+    }
+  }
+  CHECK(transmitted > 4000);  // both sides and both roughnesses were exercised
+  CHECK(reflected > 200);
+  CHECK(rough_transmitted > 2000);
+}
+
 TEST_CASE("bsdf: no NaN or inf at grazing angles, at the smooth threshold, and for extreme indices") {
   float r_thr = std::sqrt(kSmoothAlpha);
   while (r_thr * r_thr < kSmoothAlpha) r_thr = std::nextafter(r_thr, 1.f);

@@ -191,21 +191,20 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     if (first_split && split->forced_uc >= 0.f) uc = split->forced_uc;
     const Vec2 u = rng.get_2d(light_subpath ? D::light_direction(bounce) : D::camera_direction(bounce));
     BsdfSample bs;
-    if (!bsdf_sample<kM>(m, wo, uc, u, bs) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
+    const TransportMode mode = light_subpath ? TransportMode::Importance : TransportMode::Radiance;
+    if (!bsdf_sample<kM>(m, wo, uc, u, bs, mode) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
     if (first_split && split->forced_uc < 0.f && is_specular(bs.flags) && only_specular(bsdf_flags<kM>(m)))
       find_other_lobe<kM>(m, wo, u, bs, *split);
     Rgb f = bs.f;
     float pdf_rev = 0.f;
     if (is_specular(bs.flags)) {
-      // A Dirac lobe sampled from the light side carries no 1/η² (Veach 1997 §5.2: the adjoint of refraction);
-      // bsdf_sample's value is for radiance, sampled from the eye side.
-      if (light_subpath && is_transmissive(bs.flags)) f *= sqr(bs.eta);
+      // From the light side bsdf_sample gave importance's value: no 1/η² on refraction (Veach 1997 §5.2).
       path[cur].delta = true;
       pdf_dir = 0.f;
       if (feature_trace.out) [[unlikely]]
         feature_trace.through_specular(bs);
     } else {
-      // Light subpath: the light arrives from wo and leaves along wi, the reverse of what bsdf_sample assumed.
+      // Light subpath: the light arrives from wo and leaves along wi; the adjoint BSDF is the transpose.
       if (light_subpath) f = bsdf_eval<kM>(m, bs.wi, wo);
       pdf_dir = bs.pdf;
       pdf_rev = bsdf_pdf<kM>(m, bs.wi, wo);

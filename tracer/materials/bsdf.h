@@ -122,15 +122,18 @@ inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
 }
 
 // Samples wi from wo with uc (lobe choice) and u (direction). Returns false when no sample was produced
-// (grazing, below the surface, zero albedo).
+// (grazing, below the surface, zero albedo). `mode` says what the path carries: from the light side
+// (importance) a refracted sample's f has no 1/η² (only dielectrics differ). eval and pdf are for radiance; the
+// adjoint of eval for a light-side vertex is its transpose, bsdf_eval(m, wi, wo) (exact for every BSDF).
 template <MaterialSet S = MaterialSet::Any>
-inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
+inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out,
+                        TransportMode mode = TransportMode::Radiance) {
   if constexpr (S == MaterialSet::Lambert) {
     if (!diffuse_sample(m, bsdf_detail::front(wo, wo.z < 0.f), u, out)) return false;
     out.wi = bsdf_detail::front(out.wi, wo.z < 0.f);
     return true;
   }
-  if (m.type == MaterialType::Dielectric) return dielectric_sample(m, wo, uc, u, out);
+  if (m.type == MaterialType::Dielectric) return dielectric_sample(m, wo, uc, u, mode, out);
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);
   bool ok = false;

@@ -6,11 +6,13 @@
 //   reflection (same side):  f_r = D(wm) G2 F(wo·wm) / (4 |cos θo cos θi|),            wm = normalize(wo + wi)
 //   transmission:            f_t = D(wm) G2 (1 − F) |wi·wm| |wo·wm| / (|cos θo cos θi| (wi·wm + wo·wm/η)²) / η²
 //                                                                                       wm = ±normalize(η wi + wo)
-//   (the final 1/η² is the radiance scaling of non-symmetric transport, Veach 1997 §5.2).
+//   (the final 1/η² is the radiance scaling of non-symmetric transport, Veach 1997 §5.2; sampled with
+//   TransportMode::Importance, from the light side, it is left out, as in pbrt-v4's importance mode).
 // Sampling: wm ~ D_wo (visible normals), reflection with probability F(wo·wm), else refraction about wm:
 //   pdf_r = D_wo(wm) F / (4 |wo·wm|),   pdf_t = D_wo(wm) (1 − F) |wi·wm| / (wi·wm + wo·wm/η)².
 // Back-facing microfacets (wm on the wrong side of wo or wi) contribute nothing.
-// Smooth model (α < kSmoothAlpha): reflect with probability F, else refract; weights 1 and 1/η².
+// Smooth model (α < kSmoothAlpha): reflect with probability F, else refract; weights 1 and 1/η² (1 for
+// importance).
 //
 // Sides: the front (wo.z > 0) has index 1, the back has m.ior. Every function first mirrors the configuration
 // in z so that wo is above (wo.z > 0) and uses η = ior (entering) or 1/ior (leaving); mirroring preserves all
@@ -71,7 +73,9 @@ inline float dielectric_pdf_up(Vec3 wo, Vec3 wi, float alpha, float eta) {
   return std::isfinite(pdf) ? pdf : 0.f;
 }
 
-inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float eta, BsdfSample& out) {
+inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float eta, TransportMode mode,
+                                 BsdfSample& out) {
+  const bool radiance = mode == TransportMode::Radiance;  // refraction scales radiance by 1/η², importance not
   if (!(wo.z > 0.f)) return false;
   if (effectively_smooth(alpha)) {
     const float F = fresnel_dielectric(wo.z, eta);
@@ -82,7 +86,9 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
       return F > 0.f;
     }
     if (!(wt.z < 0.f)) return false;
-    out = {wt, Rgb((1.f - F) / (-wt.z * eta * eta)), 1.f - F, BsdfFlags::Transmission | BsdfFlags::Specular, eta};
+    float denom = -wt.z;
+    if (radiance) denom = denom * eta * eta;
+    out = {wt, Rgb((1.f - F) / denom), 1.f - F, BsdfFlags::Transmission | BsdfFlags::Specular, eta};
     return true;
   }
   const Vec3 wm = ggx_sample_vndf(wo, alpha, u);
@@ -104,7 +110,7 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
   if (!(denom > 0.f)) return false;
   const float pdf = d_wo * (1.f - F) * std::abs(cos_im) / denom;
   const float f = ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha) * (1.f - F) * std::abs(cos_im * cos_om) /
-                  (denom * eta * eta);
+                  (radiance ? denom * eta * eta : denom);
   if (!(pdf > 0.f) || !std::isfinite(pdf) || !std::isfinite(f)) return false;
   out = {wi, Rgb(f), pdf, BsdfFlags::Transmission | BsdfFlags::Glossy, eta};
   return true;
@@ -127,11 +133,11 @@ inline float dielectric_pdf(const Material& m, Vec3 wo, Vec3 wi) {
   return dielectric_pdf_up(wo, wi, m.alpha, eta);
 }
 
-inline bool dielectric_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
+inline bool dielectric_sample(const Material& m, Vec3 wo, float uc, Vec2 u, TransportMode mode, BsdfSample& out) {
   if (wo.z == 0.f) return false;
   const float eta = dielectric_eta(m, wo);
   const bool below = wo.z < 0.f;
-  if (!dielectric_sample_up(below ? flip_z(wo) : wo, uc, u, m.alpha, eta, out)) return false;
+  if (!dielectric_sample_up(below ? flip_z(wo) : wo, uc, u, m.alpha, eta, mode, out)) return false;
   if (below) out.wi = flip_z(out.wi);
   return true;
 }
