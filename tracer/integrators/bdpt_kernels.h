@@ -6,6 +6,7 @@
 
 #include "geometry/scene_queries.h"
 #include "integrators/bdpt_manifold.h"
+#include "integrators/direct_light.h"
 #include "sampling/sample_dimensions.h"
 
 namespace pt {
@@ -448,17 +449,8 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
   // The shadow ray as the path tracer casts it: the light's own primitive is skipped (a sphere light's sampled
   // point is on the side facing the receiver).
   ++count.rays;
-  const Vec3 origin = offset_ray_origin(pt.it, wi);
-  float t_max = kInfinity;
-  Vec3 dir = wi;
-  if (!sampled.infinite) {
-    const Vec3 to_light = sampled.it.p - origin;
-    const float dist = glm::length(to_light);
-    if (!(dist > 0.f)) return Rgb(0.f);
-    dir = to_light / dist;
-    t_max = dist * kShadowRayShorten;
-  }
-  if (occluded_scene<F>(s, {origin, dir}, t_max, skip_on_leave(pt.it), l.prim)) return Rgb(0.f);
+  const ShadowSegment seg = shadow_segment(pt.it, wi, sampled.it.p, sampled.infinite);  // direct_light.h
+  if (!(seg.t_max > 0.f) || occluded_scene<F>(s, seg.ray, seg.t_max, skip_on_leave(pt.it), l.prim)) return Rgb(0.f);
   return L;
 }
 

@@ -1,4 +1,5 @@
-// shade_vertex (path_tracer.h) for a packet's worth of paths at once, in the case that dominates the
+// shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette (russian_roulette.h), for a
+// packet's worth of paths at once, in the case that dominates the
 // Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation of a parallelogram light
 // sampled by area. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
 // step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width); each

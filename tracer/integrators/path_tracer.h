@@ -20,6 +20,7 @@
 // unit.
 #pragma once
 #include "integrators/integrator.h"
+#include "integrators/direct_light.h"
 #include "integrators/features.h"
 
 #include <array>
@@ -141,31 +142,17 @@ template <class Sampler, uint32_t F>
   const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
   const BsdfFlags flags = bsdf_flags<kM>(m);
 
-  if (o.light_sampling && has_non_specular(flags)) {
+  if (o.light_sampling && has_non_specular(flags)) {  // next-event estimation (direct_light.h)
     const float u_light = rng.get_1d(o.dims.light_choice(depth));
     const Vec2 u_point = rng.get_2d(o.dims.light_point(depth));
-    LightSample ls;
-    int li;
-    if (sample_lights<F>(s, {it.p, n, it.prim}, u_light, u_point, ls, li) && !is_black(ls.Le)) {
-      const Vec3 wi_local = frame.to_local(ls.wi);
-      const Rgb f = bsdf_eval<kM>(m, wo_local, wi_local);
-      if (!is_black(f)) {  // no shadow ray where the BSDF is zero
-        const Vec3 origin = offset_ray_origin(it, ls.wi);
-        Vec3 dir = ls.wi;
-        float t_max = kInfinity;
-        if (ls.dist != kInfinity) {
-          const Vec3 to_light = ls.p - origin;
-          const float dist = glm::length(to_light);
-          dir = to_light / dist;
-          t_max = dist * kShadowRayShorten;
-        }
-        ++count.rays;
-        if (t_max > 0.f) {
-          const float w = o.mis ? power_heuristic(ls.pdf, bsdf_pdf<kM>(m, wo_local, wi_local)) : 1.f;
-          shadow = {{origin, dir}, t_max, skip_on_leave(it), ls.prim,
-                    p.beta * f * ls.Le * (std::abs(wi_local.z) * w / ls.pdf)};
-          result.shadow_ray = true;
-        }
+    DirectLightSample d;
+    if (sample_direct<kM, F>(s, it, n, frame, m, wo_local, u_light, u_point, d)) {
+      ++count.rays;
+      if (d.shadow.t_max > 0.f) {
+        const float w = o.mis ? power_heuristic(d.ls.pdf, bsdf_pdf<kM>(m, wo_local, d.wi_local)) : 1.f;
+        shadow = {d.shadow.ray, d.shadow.t_max, skip_on_leave(it), d.ls.prim,
+                  p.beta * d.f * d.ls.Le * (std::abs(d.wi_local.z) * w / d.ls.pdf)};
+        result.shadow_ray = true;
       }
     }
   }

@@ -1,0 +1,59 @@
+// Next-event estimation's one step (pbrt-v4's SampleLd, src/pbrt/cpu/integrators.cpp): from a receiver, choose a
+// light in proportion to its power, sample it as seen from there, evaluate the BSDF towards the sample, and set
+// up the shadow ray that decides whether it is seen. The path tracer's scalar and wavefront loops call
+// sample_direct at every vertex with a non-specular lobe (path_tracer.h: shade_vertex); bdpt's strategy s = 1
+// (bdpt_kernels.h: connect_light_sample) samples the light itself, since it picks infinite lights' directions
+// by their emission distribution to match its MIS densities, and shares the shadow ray (shadow_segment). The
+// SIMD Lambert lanes (lambert_lanes.h) are this function written over lanes for Lambertian receivers and
+// parallelogram lights, with the same operations in the same order (the wavefront renders the scalar loop's
+// bits). Each caller weights the sample its own way (MIS against BSDF sampling, or bdpt's weights).
+#pragma once
+#include "geometry/interaction.h"
+#include "integrators/integrator.h"
+#include "lights/light_sampling.h"
+#include "materials/bsdf.h"
+
+namespace pt {
+
+// The shadow ray from receiver `it` towards a light sample along wi: it leaves the receiver on wi's side
+// (offset_ray_origin) and stops short of the light's point by kShadowRayShorten, relative, so that geometry
+// coplanar with the light does not hide it (the light's own primitive is skipped as well); towards an infinite
+// light it is unbounded. t_max ≤ 0 (or NaN) when the light's point is at the origin: no ray to cast.
+struct ShadowSegment {
+  Ray ray{Vec3(0.f), Vec3(0.f)};
+  float t_max = 0.f;
+};
+inline ShadowSegment shadow_segment(const Interaction& it, Vec3 wi, Vec3 p_light, bool infinite) {
+  ShadowSegment seg{{offset_ray_origin(it, wi), wi}, kInfinity};
+  if (infinite) return seg;
+  const Vec3 to_light = p_light - seg.ray.o;
+  const float dist = glm::length(to_light);
+  seg.ray.d = to_light / dist;
+  seg.t_max = dist * kShadowRayShorten;
+  return seg;
+}
+
+struct DirectLightSample {
+  LightSample ls;       // ls.pdf includes the light's choice probability
+  int light = -1;       // its index in Scene::lights
+  Vec3 wi_local;        // ls.wi in the receiver's shading frame
+  Rgb f;                // the BSDF at (wo, wi), for radiance
+  ShadowSegment shadow;
+};
+
+// Samples one light for the receiver `it` (shading frame `frame`, `n` the normal of the side lit, `wo_local` the
+// outgoing direction in that frame) with u_choice (which light) and u (where on it). False when there is nothing
+// to trace: no light, no usable sample, no emission towards the receiver, or a BSDF that is zero there.
+template <MaterialSet kM, uint32_t F>
+[[gnu::always_inline]] inline bool sample_direct(const Scene& s, const Interaction& it, Vec3 n, const Frame& frame,
+                                                 const Material& m, Vec3 wo_local, float u_choice, Vec2 u,
+                                                 DirectLightSample& d) {
+  if (!sample_lights<F>(s, {it.p, n, it.prim}, u_choice, u, d.ls, d.light) || is_black(d.ls.Le)) return false;
+  d.wi_local = frame.to_local(d.ls.wi);
+  d.f = bsdf_eval<kM>(m, wo_local, d.wi_local);
+  if (is_black(d.f)) return false;  // no shadow ray where the BSDF is zero
+  d.shadow = shadow_segment(it, d.ls.wi, d.ls.p, d.ls.dist == kInfinity);
+  return true;
+}
+
+}  // namespace pt
