@@ -41,35 +41,19 @@ void ViewerModel::adopt(const SceneDesc& scene, const std::string& name) {
     scene_.height = followed_side(area_height_);
   }
   scene_name_ = name;
-  state_id_ = saved_state_id_ = 0;
+  history_.clear();
   ++loads_;
   pick_scene_.reset();
   selection_.reset();
-  undo_.clear();
-  redo_.clear();
-  last_undo_what_.clear();
-  refresh_emission();
+  emission_ = emission_settings_of(scene_.materials);
   reset_camera_controller();
 }
 
 const EstimatorChoice& ViewerModel::estimator_choice() const {
-  const std::pair<uint64_t, uint64_t> key{loads_, state_id_};
+  const std::pair<uint64_t, uint64_t> key{loads_, history_.current_id()};
   if (!choice_ || choice_->first != key) choice_.emplace(key, choose_estimator(scene_));
   return choice_->second;
 }
-
-// Emission as colour × strength (max component 1), from materials.
-std::vector<ViewerModel::Emission> ViewerModel::emission_of(const std::vector<MaterialDesc>& materials) {
-  std::vector<Emission> out(materials.size());
-  for (size_t i = 0; i < materials.size(); ++i) {
-    const Rgb e = materials[i].emission;
-    const float s = max_component(e);
-    out[i] = s > 0.f ? Emission{e / s, s} : Emission{Rgb(1.f), 0.f};
-  }
-  return out;
-}
-
-void ViewerModel::refresh_emission() { emission_ = emission_of(scene_.materials); }
 
 // Scenes written for a fly-through camera give a look-at point just ahead of the eye (shadertoy's is 1 unit
 // ahead in a room 25 wide): orbiting that point barely moves the camera. When the look-at point is closer than
@@ -394,44 +378,16 @@ int ViewerModel::followed_side(int framebuffer_pixels) const {
 
 // --- Undo ---------------------------------------------------------------------------------------------------------
 
-ViewerModel::UndoStep ViewerModel::step_of(const SceneDesc& d, std::vector<Emission> emission, bool geometry) {
-  UndoStep s;
-  s.materials = d.materials;
-  s.emission = std::move(emission);
-  s.environment = d.environment;
-  s.render = d.render;
-  s.width = d.width;
-  s.height = d.height;
-  if (geometry) {
-    s.shapes = std::make_shared<const std::vector<ShapeDesc>>(d.shapes);
-    s.objects = d.objects;
-  }
-  return s;
-}
-
-ViewerModel::UndoStep ViewerModel::undo_step(bool geometry) const {
-  UndoStep s = step_of(scene_, emission_, geometry);
-  s.state_id = state_id_;
-  return s;
+SceneState ViewerModel::current_state(bool geometry) const {
+  return scene_state(scene_, emission_, geometry, history_.current_id());
 }
 
 void ViewerModel::remember(const std::string& what, bool geometry) {
   if (restoring_) return;
-  const auto now = std::chrono::steady_clock::now();
-  const bool same_drag = !undo_.empty() && what == last_undo_what_ && now - last_undo_time_ < std::chrono::seconds(1) &&
-                         (!geometry || undo_.back().shapes);
-  last_undo_time_ = now;
-  redo_.clear();
-  if (!same_drag) {  // a drag is one step (save_scene ends it)
-    last_undo_what_ = what;
-    undo_.push_back(undo_step(geometry));
-    constexpr size_t kMaxUndo = 256;
-    if (undo_.size() > kMaxUndo) undo_.erase(undo_.begin());
-  }
-  state_id_ = next_state_id_++;  // the edit about to be applied makes a new state
+  history_.record(what, geometry, [&] { return current_state(geometry); }, std::chrono::steady_clock::now());
 }
 
-void ViewerModel::restore(const UndoStep& s) {
+void ViewerModel::restore(const SceneState& s) {
   restoring_ = true;
   scene_.materials = s.materials;
   emission_ = s.emission;
@@ -449,30 +405,27 @@ void ViewerModel::restore(const UndoStep& s) {
     pick_scene_.reset();
   }
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);
-  state_id_ = s.state_id;
-  last_undo_what_.clear();
   note_edit(session_->set_scene(scene_));
   restoring_ = false;
 }
 
-// Undo and redo are one move between the two stacks: the current state goes onto `to`, `from`'s top is restored.
-bool ViewerModel::step(std::vector<UndoStep>& from, std::vector<UndoStep>& to, const char* done) {
-  if (from.empty()) return false;
-  to.push_back(undo_step(from.back().shapes != nullptr));
-  const UndoStep s = std::move(from.back());
-  from.pop_back();
-  restore(s);
-  set_status(done, false);
+bool ViewerModel::undo() {
+  if (!history_.can_undo()) return false;
+  restore(*history_.undo(current_state(history_.undo_has_shapes())));
+  set_status("undone", false);
   return true;
 }
 
-bool ViewerModel::undo() { return step(undo_, redo_, "undone"); }
-bool ViewerModel::redo() { return step(redo_, undo_, "redone"); }
+bool ViewerModel::redo() {
+  if (!history_.can_redo()) return false;
+  restore(*history_.redo(current_state(history_.redo_has_shapes())));
+  set_status("redone", false);
+  return true;
+}
 
 void ViewerModel::revert() {
-  redo_.clear();
-  undo_.push_back(undo_step(true));
-  restore(step_of(loaded_, emission_of(loaded_.materials), true));  // the loaded state: id 0
+  restore(history_.revert(current_state(true), scene_state(loaded_, emission_settings_of(loaded_.materials), true,
+                                                           0)));  // the loaded state: id 0
   reset_camera();
   set_status("reverted to the scene as loaded", false);
 }
@@ -618,8 +571,7 @@ bool ViewerModel::save_scene(const std::string& path, bool replace) {
     set_status(std::string("scene not saved: ") + e.what(), true);
     return false;
   }
-  saved_state_id_ = state_id_;
-  last_undo_what_.clear();  // the next edit is a step of its own, even within a drag's second
+  history_.mark_saved();  // and the next edit is a step of its own, even within a drag's second
   scene_file_ = path;
   set_status("saved scene " + path, false);
   if (recent)  // a saved scene is one to open again, and its folder the next save's default

@@ -16,6 +16,7 @@
 #include "scene/camera_controller.h"
 #include "scene/estimator_choice.h"
 #include "viewer/display_transform.h"
+#include "viewer/edit_history.h"
 #include "viewer/recent_files.h"
 #include "render/render_session.h"
 
@@ -129,8 +130,8 @@ class ViewerModel {
   // --- Undo / redo of scene edits (materials, emission, environment, render settings, geometry, resolution;
   // camera moves are views and are not recorded). Consecutive edits of one thing within a second (a slider
   // drag) are one step. revert() goes back to the scene as loaded (itself undoable).
-  bool can_undo() const { return !undo_.empty(); }
-  bool can_redo() const { return !redo_.empty(); }
+  bool can_undo() const { return history_.can_undo(); }
+  bool can_redo() const { return history_.can_redo(); }
   bool undo();
   bool redo();
   void revert();
@@ -199,7 +200,7 @@ class ViewerModel {
   void request_quit();
   bool confirm_quit = false;  // the panels show "quit without saving?" while this is set
   // The scene differs from the state last loaded or saved (undoing back to that state clears it).
-  bool has_unsaved_edits() const { return state_id_ != saved_state_id_; }
+  bool has_unsaved_edits() const { return history_.unsaved(); }
 
   // "NAME[*] - 128 spp, 12.3 s, relMSE 1.2e-03 - pathtracer" (* = unsaved edits; relMSE from
   // kRelMseStopMinSpp on): the window title, so the render's state shows in the task bar.
@@ -217,31 +218,11 @@ class ViewerModel {
   uint64_t last_edit_generation() const { return last_edit_generation_; }
 
  private:
-  struct Emission {
-    Rgb colour{1.f};
-    float strength = 0.f;
-  };
-  // What undo restores: everything an edit may change except the camera; shapes only when geometry changed
-  // (scenes may have millions).
-  struct UndoStep {
-    std::vector<MaterialDesc> materials;
-    std::vector<Emission> emission;
-    EnvironmentDesc environment;
-    RenderSettings render;
-    int width = 0, height = 0;
-    std::shared_ptr<const std::vector<ShapeDesc>> shapes;  // null: the geometry was not changed by this step
-    std::vector<ObjectDesc> objects;                        // with the shapes
-    uint64_t state_id = 0;  // which scene state this is (state_id_ below)
-  };
-  // Records the state before an edit of `what` (coalescing repeats within a second) and clears redo.
+  // Records the state before an edit of `what` in the history (edit_history.h), unless undo is restoring one.
   void remember(const std::string& what, bool geometry);
-  static UndoStep step_of(const SceneDesc& d, std::vector<Emission> emission, bool geometry);
-  UndoStep undo_step(bool geometry) const;  // the current scene's
-  void restore(const UndoStep& s);
+  SceneState current_state(bool geometry) const;
+  void restore(const SceneState& s);
   bool set_geometry(SceneDesc edited, const std::string& what);
-  void refresh_emission();
-  static std::vector<Emission> emission_of(const std::vector<MaterialDesc>& materials);
-  bool step(std::vector<UndoStep>& from, std::vector<UndoStep>& to, const char* done);
   void adopt(const SceneDesc& scene, const std::string& name);  // a newly loaded scene
   void reset_camera_controller();  // to the loaded camera, with a pivot the orbit can use
   bool commit(const SceneEdit& edit);  // validate, apply to the model, send to the session
@@ -251,15 +232,13 @@ class ViewerModel {
 
   SceneDesc scene_, loaded_;  // the edited scene, and the scene as loaded (for "reset camera")
   std::string scene_name_;
-  std::vector<Emission> emission_;
+  std::vector<EmissionSetting> emission_;
   CameraController camera_;
   SessionSettings settings_;
   bool paused_ = false;
-  // Every scene state an edit makes gets a new id; undo and redo bring back a state's id with the state. The
-  // scene is saved when its id is the one last loaded or saved; the loaded state's id is 0 (revert returns there).
-  uint64_t state_id_ = 0, saved_state_id_ = 0, next_state_id_ = 1;
+  EditHistory history_;  // undo, redo, and which state was last loaded or saved
   uint64_t loads_ = 0;  // scenes adopted so far
-  mutable std::optional<std::pair<std::pair<uint64_t, uint64_t>, EstimatorChoice>> choice_;  // keyed (loads_, state_id_)
+  mutable std::optional<std::pair<std::pair<uint64_t, uint64_t>, EstimatorChoice>> choice_;  // keyed (loads_, state id)
   SessionSettings launch_settings_;  // the command line's: each scene loaded starts from its stop conditions
   bool follow_window_ = false;
   float follow_scale_ = 1.f;
@@ -272,9 +251,6 @@ class ViewerModel {
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
   std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
   std::optional<Selection> selection_;
-  std::vector<UndoStep> undo_, redo_;
-  std::string last_undo_what_;
-  std::chrono::steady_clock::time_point last_undo_time_;
   bool restoring_ = false;
   std::future<std::string> exr_save_;  // "written NAME" or "" … the task's message
   std::unique_ptr<RenderSession> session_;
