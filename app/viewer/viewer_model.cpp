@@ -3,12 +3,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 
-#include "denoise/denoiser.h"
-#include "io/film_exr.h"
-#include "io/image_io.h"
-#include "io/safe_file.h"
 #include "viewer/output_files.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -476,19 +471,15 @@ void ViewerModel::set_paused(bool paused) {
 }
 
 bool ViewerModel::load(const std::string& spec) {
-  SceneDesc loaded;
-  if (read_ahead_ && read_ahead_->first == spec) {
-    loaded = std::move(read_ahead_->second);
-  } else {
-    try {
-      loaded = load_scene(spec);
-    } catch (const std::exception& e) {  // SceneError, and anything else a broken file might raise
-      set_status(e.what(), true);
+  std::optional<SceneDesc> loaded = files.take_read_ahead(spec);
+  if (!loaded) {
+    if (const FileOutcome read = files.read_ahead(spec); !read.ok) {
+      set_status(read.message, true);
       return false;
     }
+    loaded = files.take_read_ahead(spec);
   }
-  read_ahead_.reset();
-  adopt(loaded, scene_short_name(spec));  // load_scene validated it
+  adopt(*loaded, scene_short_name(spec));  // load_scene validated it
   // Stop conditions and the A/B snapshot belong to a scene: a new one starts from the command line's conditions
   // (threads and the preview stay the user's).
   settings_.stop = launch_settings_.stop;
@@ -500,22 +491,16 @@ bool ViewerModel::load(const std::string& spec) {
   present.snapshot_view = SnapshotView::Off;
   note_edit(session_->set_scene(scene_));
   set_status("loaded " + spec, false);
-  scene_file_ = std::filesystem::is_regular_file(spec) ? spec : "";
-  if (recent && !scene_file_.empty())
-    if (std::string err = recent->add(spec); !err.empty()) set_status(err, true);
+  if (std::string err = files.note_loaded(spec); !err.empty()) set_status(err, true);
   return true;
 }
 
 void ViewerModel::request_load(const std::string& spec) {
   // Read first: a missing or broken file is reported at once, without asking about the edits it would replace.
-  SceneDesc read;
-  try {
-    read = load_scene(spec);
-  } catch (const std::exception& e) {
-    set_status(e.what(), true);
+  if (const FileOutcome read = files.read_ahead(spec); !read.ok) {
+    set_status(read.message, true);
     return;
   }
-  read_ahead_.emplace(spec, std::move(read));
   if (has_unsaved_edits()) confirm_load = spec;
   else load(spec);
 }
@@ -541,109 +526,32 @@ bool ViewerModel::open_file(const std::string& path) {
   return false;
 }
 
-std::string ViewerModel::suggested_save_path() const {
-  namespace fs = std::filesystem;
-  if (!scene_file_.empty()) return scene_file_;
-  const fs::path plain = fs::path(output_dir) / (scene_name_ + ".json");
-  std::error_code ec;
-  if (!fs::exists(plain, ec) && !ec) return plain.string();
-  return unique_output_stem(output_dir, scene_name_, {".json"}) + ".json";
-}
-
 bool ViewerModel::save_scene(const std::string& path, bool replace) {
-  namespace fs = std::filesystem;
-  if (path.empty()) {
-    set_status("scene not saved: enter a file name", true);
-    return false;
-  }
-  std::error_code ec;
-  if (!replace && fs::exists(path, ec)) {
-    set_status("scene not saved: " + path + " exists (replace it, or choose another name)", true);
-    return false;
-  }
-  try {
-    const fs::path parent = fs::path(path).parent_path();
-    if (!parent.empty() && !fs::exists(parent) && !fs::create_directories(parent, ec) && ec)
-      throw std::runtime_error("cannot create folder " + parent.string() + ": " + ec.message());
-    // Files the scene refers to (a mesh, an environment map) are named from the saved file's folder.
-    write_file_safely(path, scene_to_json(scene_, parent.string()));
-  } catch (const std::exception& e) {
-    set_status(std::string("scene not saved: ") + e.what(), true);
-    return false;
-  }
-  history_.mark_saved();  // and the next edit is a step of its own, even within a drag's second
-  scene_file_ = path;
-  set_status("saved scene " + path, false);
-  if (recent)  // a saved scene is one to open again, and its folder the next save's default
-    if (std::string err = recent->add(path); !err.empty()) set_status(err, true);
-  return true;
+  const FileOutcome saved = files.save_scene(path, replace, scene_);
+  if (saved.ok) history_.mark_saved();  // and the next edit is a step of its own, even within a drag's second
+  set_status(saved.message, saved.error);
+  return saved.ok;
 }
 
 std::optional<std::string> ViewerModel::save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame) {
-  if (frame.width <= 0 || frame.height <= 0) {
-    set_status("no image to save yet", true);
+  const FileOutcome saved = files.save_image(scene_name_, rgba8, frame);
+  if (!saved.ok) {
+    set_status(saved.message, true);
     return std::nullopt;
   }
-  std::string stem;
-  try {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (!output_dir.empty() && !fs::exists(output_dir) && !fs::create_directories(output_dir, ec) && ec)
-      throw std::runtime_error("cannot create folder " + output_dir + ": " + ec.message());
-    stem = unique_output_stem(output_dir, scene_name_, {".png", ".pfm"});
-    write_png_rgba8(stem + ".png", frame.width, frame.height, rgba8);
-    Image img{frame.width, frame.height, std::vector<float>(3ull * frame.width * frame.height)};
-    for (size_t i = 0, n = static_cast<size_t>(frame.width) * frame.height; i < n; ++i)
-      for (int c = 0; c < 3; ++c) img.rgb[3 * i + c] = frame.rgba[4 * i + c];
-    write_pfm(stem + ".pfm", img);
-  } catch (const std::exception& e) {
-    set_status(std::string("image not saved: ") + e.what(), true);
-    return std::nullopt;
-  }
-  set_status("saved " + stem + ".png and .pfm (" + std::to_string(frame.spp) + " spp)", false);
-  return stem;
+  set_status("saved " + saved.message + ".png and .pfm (" + std::to_string(frame.spp) + " spp)", false);
+  return saved.message;
 }
 
 void ViewerModel::save_exr() {
-  if (exr_save_.valid()) {
-    set_status("an EXR is being written already", false);
-    return;
-  }
-  const std::string dir = output_dir, name = scene_name_;
-  const bool denoise = present.denoise;
-  // Runs on the render thread with the film itself (no copy); the name is chosen there, so two saves in a row
-  // never take the same one.
-  exr_save_ = session_->with_film([dir, name, denoise](const Film& film) -> std::string {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (!dir.empty() && !fs::exists(dir) && !fs::create_directories(dir, ec) && ec)
-      throw std::runtime_error("cannot create folder " + dir + ": " + ec.message());
-    const std::string path = unique_output_stem(dir, name, {".exr"}) + ".exr";
-    FilmExrOptions options;
-    for (const auto& entry : enum_entries<Aov>())
-      if (entry.value != Aov::Denoised && (film.has_features() || !aov_needs_features(entry.value)))
-        options.aovs.push_back(entry.value);
-    std::vector<float> denoised;
-    if (denoise && film.has_features()) {  // the final-frame filter, as render --denoise writes it
-      ThreadPool pool(0);
-      denoised = denoise_film(film, DenoiseMethod::Regression, pool);
-      options.aovs.push_back(Aov::Denoised);
-      options.denoised = &denoised;
-    }
-    write_film_exr(path, film, options);
-    return "saved " + path + " (" + std::to_string(film.min_count()) + " spp, " +
-           std::to_string(options.aovs.size() + 1) + " layers)";
-  });
-  set_status("writing the EXR at the next pass boundary...", false);
+  const FileOutcome started = files.start_exr(*session_, scene_name_, present.denoise);
+  set_status(started.message, started.error);
 }
 
 bool ViewerModel::poll_saves() {
-  if (!exr_save_.valid() || exr_save_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
-  try {
-    set_status(exr_save_.get(), false);
-  } catch (const std::exception& e) {
-    set_status(std::string("EXR not saved: ") + e.what(), true);
-  }
+  const std::optional<FileOutcome> done = files.poll_exr();
+  if (!done) return false;
+  set_status(done->message, done->error);
   return true;
 }
 

@@ -17,7 +17,7 @@
 #include "scene/estimator_choice.h"
 #include "viewer/display_transform.h"
 #include "viewer/edit_history.h"
-#include "viewer/recent_files.h"
+#include "viewer/scene_files.h"
 #include "render/render_session.h"
 
 namespace pt {
@@ -162,25 +162,24 @@ class ViewerModel {
   // A file dropped on the window (or opened by name): a scene (.json) loads (asking first as above); an
   // environment map (.exr, .hdr, .pfm) becomes the environment; anything else is refused with a message.
   bool open_file(const std::string& path);
-  RecentFiles* recent = nullptr;  // scene files loaded successfully are added here (the window owns it)
+  // The files (viewer/scene_files.h): the output folder, the recent list, the scene file Save offers.
+  SceneFiles files;
   // The file the scene was loaded from ("" for a built-in scene), or last saved to: Save offers it again.
-  const std::string& scene_file() const { return scene_file_; }
-  // What Save offers: the file the user opened or saved to (replacing it asks first); a built-in scene has no
-  // file, so it gets a name that does not exist yet in output_dir (NAME.json, else NAME-0001.json, ...). Never
-  // another existing file: only one the user chose may be offered for replacement.
-  std::string suggested_save_path() const;
+  const std::string& scene_file() const { return files.scene_file(); }
+  // What Save offers: the file the user opened or saved to (replacing it asks first), else a new name in the
+  // output folder. Never another existing file: only one the user chose may be offered for replacement.
+  std::string suggested_save_path() const { return files.suggested_save_path(scene_name_); }
   // Never replaces an existing file unless `replace` (the panels ask the user first); creates missing folders.
   bool save_scene(const std::string& path, bool replace = false);
-  // Writes the displayed image under unique names in output_dir: NAME-NNNN.png (the RGBA8 pixels as shown) and
-  // NAME-NNNN.pfm (the frame's linear mean). Returns the stem written, or nullopt on error.
+  // Writes the displayed image under new names in the output folder: NAME-NNNN.png (the RGBA8 pixels as shown)
+  // and NAME-NNNN.pfm (the frame's linear mean). Returns the stem written, or nullopt on error.
   std::optional<std::string> save_image(const std::vector<uint8_t>& rgba8, const DisplayFrame& frame);
-  std::string output_dir = ".";
-  // The accumulation's film as one multi-layer OpenEXR, NAME-NNNN.exr in output_dir (io/film_exr.h: the beauty
-  // and every layer `render --exr` writes: albedo, normal, depth, emission, variance, spp, and the denoised image
-  // when denoising is on), written on the render thread between two passes; poll_saves() reports when done.
+  // The accumulation's film as one multi-layer OpenEXR, NAME-NNNN.exr in the output folder (io/film_exr.h: the
+  // beauty and every layer `render --exr` writes, and the denoised image when denoising is on), written on the
+  // render thread between two passes; poll_saves() reports when done.
   void save_exr();
   bool poll_saves();      // each UI frame: a finished save's message goes to status() (true: redraw)
-  bool exr_saving() const { return exr_save_.valid(); }
+  bool exr_saving() const { return files.exr_saving(); }
 
   // --- Display and UI flags.
   PresentSettings present;
@@ -246,13 +245,10 @@ class ViewerModel {
   int area_width_ = 0, area_height_ = 0;    // the image area last reported (framebuffer pixels)
   bool apply_film_size(int width, int height);  // in the scene and the session, without undo
   int followed_side(int framebuffer_pixels) const;  // a film side following the window: × follow_scale_, clamped
-  std::string scene_file_;
-  std::optional<std::pair<std::string, SceneDesc>> read_ahead_;  // request_load's scene, while the panels ask
   std::shared_ptr<const Scene> pick_scene_;  // compiled on the first pick after a load or geometry edit
   std::vector<uint32_t> pick_shapes_;        // primitive id → shape index of pick_scene_
   std::optional<Selection> selection_;
   bool restoring_ = false;
-  std::future<std::string> exr_save_;  // "written NAME" or "" … the task's message
   std::unique_ptr<RenderSession> session_;
   std::string status_;
   bool status_error_ = false;

@@ -669,7 +669,7 @@ void edit_row(ViewerModel& model) {
 // file), and again whenever a suggested file has appeared meanwhile, so a file the user never chose is never
 // offered for replacement.
 void refresh_save_path(const ViewerModel& model, PanelState& state) {
-  const std::string key = model.scene_name() + "\n" + model.scene_file() + "\n" + model.output_dir;
+  const std::string key = model.scene_name() + "\n" + model.scene_file() + "\n" + model.files.output_dir;
   std::error_code ec;
   const bool stale = state.save_path_suggested && model.scene_file() != state.save_scene_path &&
                      std::filesystem::exists(state.save_scene_path, ec);
@@ -736,8 +736,8 @@ void scene_section(ViewerModel& model, PanelState& state) {
   ImGui::InputText("file", state.scene_path, sizeof state.scene_path);
   ImGui::SameLine();
   if (ImGui::Button("Load##file")) model.request_load(state.scene_path);
-  if (model.recent && !model.recent->paths().empty() && ImGui::BeginCombo("recent", "open a recent scene...")) {
-    for (const std::string& path : model.recent->paths())
+  if (model.files.recent && !model.files.recent->paths().empty() && ImGui::BeginCombo("recent", "open a recent scene...")) {
+    for (const std::string& path : model.files.recent->paths())
       if (ImGui::Selectable(path.c_str())) {
         copy_string(state.scene_path, sizeof state.scene_path, path);
         model.request_load(path);
@@ -827,7 +827,7 @@ void discard_question(ViewerModel& model, PanelState& state) {
 void output_section(ViewerModel& model, PanelState& state, const ShownImage& shown) {
   expand_if(state);
   if (!ImGui::CollapsingHeader("Output")) return;
-  if (ImGui::InputText("folder", state.output_dir, sizeof state.output_dir)) model.output_dir = state.output_dir;
+  if (ImGui::InputText("folder", state.output_dir, sizeof state.output_dir)) model.files.output_dir = state.output_dir;
   ImGui::BeginDisabled(shown.width == 0);
   if (ImGui::Button("Save image: PNG + PFM [S]")) model.save_requested = true;
   ImGui::EndDisabled();
@@ -911,7 +911,7 @@ float draw_viewer_panels(ViewerModel& model, PanelState& state, const ShownImage
     discard_question(model, state);  // also with the panels hidden
     return 0.f;
   }
-  if (state.output_dir[0] == '\0' || model.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.output_dir);
+  if (state.output_dir[0] == '\0' || model.files.output_dir != state.output_dir) copy_string(state.output_dir, sizeof state.output_dir, model.files.output_dir);
   const ImGuiIO& io = ImGui::GetIO();
   const float width = std::min(state.width(), io.DisplaySize.x);
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - width, 0.f));

@@ -436,9 +436,9 @@ int run_viewer_window(const ViewOptions& o, const SceneDesc& scene, const Sessio
       parse_enum(o.tonemap, model.present.display.tone_map);
       parse_enum(o.mode, model.present.mode);
       parse_enum(o.denoise_view, model.present.denoise_view);
-      model.output_dir = o.output_dir;
+      model.files.output_dir = o.output_dir;
       RecentFiles recent;  // ~/.config/pathtracer/recent-scenes.txt
-      model.recent = &recent;
+      model.files.recent = &recent;
       if (std::filesystem::is_regular_file(o.scene)) recent.add(o.scene);
       model.ui_visible = !o.hide_ui;
       rc = run_loop(window, model, o, interrupts, ViewerScript(std::move(script)));

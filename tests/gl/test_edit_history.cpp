@@ -16,7 +16,7 @@ SceneState state_with_width(int width, bool geometry = false) {
 
 }  // namespace
 
-TEST_CASE("edit history: a drag within a second is one step; another thing, a pause or a save starts a new one") {
+TEST_CASE("edit history: a drag within a second is one step and another thing or a pause or a save starts a new one") {
   EditHistory h;
   using namespace std::chrono_literals;
   const auto t0 = EditHistory::Clock::time_point{} + 100s;
@@ -39,7 +39,7 @@ TEST_CASE("edit history: a drag within a second is one step; another thing, a pa
   CHECK(h.can_redo());
 }
 
-TEST_CASE("edit history: undo and redo restore the states' ids, so undoing back to the saved state clears the mark") {
+TEST_CASE("edit history: undo and redo restore the states' ids so that undoing back to the saved state clears the mark") {
   EditHistory h;
   const auto t = EditHistory::Clock::time_point{};
   CHECK_FALSE(h.unsaved());
@@ -65,7 +65,7 @@ TEST_CASE("edit history: undo and redo restore the states' ids, so undoing back 
   CHECK_FALSE(h.can_redo());
 }
 
-TEST_CASE("edit history: the shapes travel only with geometry steps, and revert is one undoable step") {
+TEST_CASE("edit history: the shapes travel only with geometry steps and revert is one undoable step") {
   EditHistory h;
   const auto t = EditHistory::Clock::time_point{};
   h.record("material 0", false, [] { return state_with_width(1); }, t);

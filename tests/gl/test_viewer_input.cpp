@@ -492,7 +492,7 @@ TEST_CASE("viewer: a dropped scene loads (asking first over unsaved edits), a dr
 
   ViewerModel model(small("cornell"), "cornell", few_samples());
   RecentFiles recent((dir / "recent.txt").string());
-  model.recent = &recent;
+  model.files.recent = &recent;
   CHECK(model.open_file(map_file));
   CHECK(model.scene().environment.type == EnvironmentType::Map);
   CHECK(model.has_unsaved_edits());
@@ -524,14 +524,14 @@ TEST_CASE("viewer: a saved scene joins the recent files, and a built-in scene's 
   {
     ViewerModel model(small("cornell"), "cornell", few_samples());
     RecentFiles recent(store);
-    model.recent = &recent;
+    model.files.recent = &recent;
     REQUIRE(model.save_scene((dir / "work" / "mine.json").string()));
     REQUIRE(recent.paths().size() == 1);
   }
   ViewerModel next(small("shadertoy"), "shadertoy", few_samples());  // a later session, a built-in scene
   RecentFiles recent(store);
-  next.recent = &recent;
-  next.output_dir = (dir / "out").string();
+  next.files.recent = &recent;
+  next.files.output_dir = (dir / "out").string();
   Ui ui(next);
   CHECK(std::string(ui.state.save_scene_path) == (dir / "out" / "shadertoy.json").string());
   // A suggested name that appears meanwhile (another program, another viewer) is never offered for replacement.
@@ -558,8 +558,8 @@ TEST_CASE("viewer input: after a scene file, a built-in scene's save-as and quit
 
   ViewerModel model(small("cornell"), "cornell", few_samples());
   RecentFiles recent((dir / "recent.txt").string());
-  model.recent = &recent;
-  model.output_dir = (dir / "out").string();
+  model.files.recent = &recent;
+  model.files.output_dir = (dir / "out").string();
   Ui ui(model);
   REQUIRE(model.load(opened));
   ui.frame();

@@ -225,7 +225,7 @@ TEST_CASE("viewer: saved images never overwrite earlier ones, load errors are sh
   const std::string dir = "viewer_out_" + std::to_string(getpid());
   std::filesystem::create_directory(dir);
   ViewerModel model(small_cornell(), "cornell", stop_at(2));
-  model.output_dir = dir;
+  model.files.output_dir = dir;
   const DisplayFrame f = final_frame(model);
   const std::vector<uint8_t> rgba(4ull * f.width * f.height, 128);
   const auto a = model.save_image(rgba, f), b = model.save_image(rgba, f);
@@ -498,7 +498,7 @@ TEST_CASE("viewer: E saves the film's layers as one OpenEXR, written between pas
   SessionSettings s = stop_at(4);
   s.denoise = true;
   ViewerModel model(small_cornell(), "cornell", s);
-  model.output_dir = dir.string();
+  model.files.output_dir = dir.string();
   REQUIRE(model.session().wait_for([](const SessionStats& st) { return st.done; }, 60.0));
   auto save = [&] {
     model.shortcut(Shortcut::SaveExr);
