@@ -222,11 +222,9 @@ double median(std::vector<double> v) {
   return v.empty() ? 0 : v[v.size() / 2];
 }
 
-}  // namespace
-
-int run_bench(const BenchOptions& o) {
-  // The binary that --instructions counts, checked before any work: a long bench should not fail at its end.
-  std::string counted_binary;
+// The binary that --instructions counts, checked before any work (a long bench should not fail at its end):
+// --instructions-binary, else this one; "" without --instructions. Returns 0 or the exit status.
+int counted_binary_for(const BenchOptions& o, std::string& counted_binary) {
   if (!o.instructions_binary.empty()) {
     std::error_code ec;
     if (!fs::is_regular_file(o.instructions_binary, ec)) {
@@ -249,12 +247,12 @@ int run_bench(const BenchOptions& o) {
       return 2;
     }
   }
-  std::vector<double> budgets;
-  const double max_s = o.quick ? 0.5 : o.max_seconds;
-  for (double b = o.quick ? 0.0625 : 0.25; b <= max_s * 1.0001; b *= 2) budgets.push_back(b);
-  Renderer renderer(o.threads);
-  std::vector<Series> all;
-  std::map<std::string, std::string> ref_labels;
+  return 0;
+}
+
+// Every scene × estimator × sampler as one progressive series against its reference. Returns 0 or the exit status.
+int run_all_series(const BenchOptions& o, const std::vector<double>& budgets, Renderer& renderer,
+                   std::vector<Series>& all, std::map<std::string, std::string>& ref_labels) {
   try {
     fs::create_directories(o.out_dir);
     for (const std::string& name : o.scenes) {
@@ -283,24 +281,27 @@ int run_bench(const BenchOptions& o) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;
   }
+  return 0;
+}
 
-  const fs::path dir(o.out_dir);
-  {
-    std::ostringstream csv;
-    csv << "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s,denoised relMSE,denoise seconds\n";
-    for (const Series& s : all)
-      for (const Checkpoint& c : s.points)
-        csv << s.scene << ',' << s.estimator << ',' << s.sampler << ',' << s.threads << ',' << c.seconds << ','
-            << c.spp << ',' << c.relmse << ',' << c.rmse << ',' << s.mrays_per_s << ',' << c.denoised_relmse << ','
-            << c.denoise_seconds << '\n';
-    if (!write_report(dir / "convergence.csv", csv.str())) return 1;
-  }
-  bool plotted = true;
-  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, all, ref_labels[name]);
+bool write_convergence_csv(const fs::path& dir, const std::vector<Series>& all) {
+  std::ostringstream csv;
+  csv << "scene,estimator,sampler,threads,seconds,spp,relMSE,RMSE,Mrays/s,denoised relMSE,denoise seconds\n";
+  for (const Series& s : all)
+    for (const Checkpoint& c : s.points)
+      csv << s.scene << ',' << s.estimator << ',' << s.sampler << ',' << s.threads << ',' << c.seconds << ','
+          << c.spp << ',' << c.relmse << ',' << c.rmse << ',' << s.mrays_per_s << ',' << c.denoised_relmse << ','
+          << c.denoise_seconds << '\n';
+  return write_report(dir / "convergence.csv", csv.str());
+}
 
-  // Thread scaling and interactive pass times on cornell.
-  SceneDesc cornell = load_scene("cornell");
-  const auto cornell_scene = compile_scene(cornell);
+// Thread scaling and interactive pass times on cornell.
+struct InteractiveFigures {
+  double one_thread = 0, all_threads = 0;  // Msamples/s
+  double full_wavefront_ms = 0, full_scalar_ms = 0, quarter_wavefront_ms = 0, quarter_scalar_ms = 0;
+};
+InteractiveFigures measure_interactive(const BenchOptions& o, Renderer& renderer) {
+  const SceneDesc cornell = load_scene("cornell");
   auto throughput = [&](int threads) {
     Renderer r(threads);
     SceneDesc d = cornell;
@@ -313,12 +314,8 @@ int run_bench(const BenchOptions& o) {
     while (seconds_since(t0) < (o.quick ? 0.3 : 2.0)) samples += r.render_pass(*sc, d.render, film, 1).samples;
     return static_cast<double>(samples) / seconds_since(t0) * 1e-6;
   };
-  const double one = throughput(1), many = throughput(renderer.threads());
   // 1-spp pass times of both path loops, alternated pass by pass so that machine noise hits both alike.
-  struct PassMs {
-    double wavefront, scalar;
-  };
-  auto pass_ms = [&](int size) {
+  auto pass_ms = [&](int size, double& wavefront, double& scalar) {
     SceneDesc d = cornell;
     d.width = d.height = size;
     const auto sc = compile_scene(d);
@@ -333,14 +330,22 @@ int run_bench(const BenchOptions& o) {
         ms[loop == PathLoop::Scalar].push_back(seconds_since(t0) * 1e3);
       }
     }
-    return PassMs{median(ms[0]), median(ms[1])};
+    wavefront = median(ms[0]);
+    scalar = median(ms[1]);
   };
-  const PassMs full_ms = pass_ms(512), quarter_ms = pass_ms(256);
+  InteractiveFigures f;
+  f.one_thread = throughput(1);
+  f.all_threads = throughput(renderer.threads());
+  pass_ms(512, f.full_wavefront_ms, f.full_scalar_ms);
+  pass_ms(256, f.quarter_wavefront_ms, f.quarter_scalar_ms);
+  return f;
+}
 
-  // Ray casting alone, one thread, on each scene's own incoherent path rays.
-  std::string rays_md = "\n## Ray casting (1 thread, incoherent path rays, median of 5 replays)\n\n"
-                        "| scene | polygons | spheres | closest hit, Mrays/s | any hit (shadow half), Mrays/s |\n"
-                        "|---|---|---|---|---|\n";
+// Ray casting alone, one thread, on each scene's own incoherent path rays.
+std::string ray_casting_table(const BenchOptions& o) {
+  std::string md = "\n## Ray casting (1 thread, incoherent path rays, median of 5 replays)\n\n"
+                   "| scene | polygons | spheres | closest hit, Mrays/s | any hit (shadow half), Mrays/s |\n"
+                   "|---|---|---|---|---|\n";
   for (const std::string& name : o.scenes) {
     const auto sc = compile_scene(load_scene(name));
     const RayBatch batch = record_path_rays(*sc, o.quick ? (1u << 14) : (1u << 20), 1);
@@ -348,43 +353,50 @@ int run_bench(const BenchOptions& o) {
     char row[200];
     std::snprintf(row, sizeof row, "| %s | %zu | %zu | %.1f | %.1f |\n", name.c_str(), sc->polygons.size(),
                   sc->spheres.size(), t.closest_mrays_per_s, t.shadow_half_mrays_per_s);
-    rays_md += row;
+    md += row;
   }
+  return md;
+}
 
-  // Instructions per sample under callgrind: a repeatable figure where wall-clock time is noisy.
-  std::string instructions_md;
-  if (!counted_binary.empty()) {
-    instructions_md = "\n## Instructions per sample (callgrind, 1 thread, 64 px wide, sobol)\n\n"
-                      "Per sample = (count at " + std::to_string(InstructionsPerSample::kHigh) +
-                      " spp − count at 1 spp) / (pixels × " + std::to_string(InstructionsPerSample::kHigh - 1) +
-                      "): set-up cancels. Binary: `" + counted_binary + "`.\n\n"
-                      "| scene | estimator | instructions per sample |\n|---|---|---|\n";
-    for (const std::string& name : o.scenes) {
-      const SceneDesc d = load_scene(name);
-      const int w = 64, h = std::max(1, d.height * 64 / d.width);
-      for (const std::string& est : o.estimators) {
-        std::fprintf(stderr, "%s / %s: counting instructions under valgrind...\n", name.c_str(), est.c_str());
-        const InstructionsPerSample n =
-            count_instructions_per_sample(counted_binary, name, est, w, h, (dir / "callgrind").string());
-        char row[300];
-        if (n.error.empty())
-          std::snprintf(row, sizeof row, "| %s | %s | %.0f |\n", name.c_str(), est.c_str(), n.per_sample);
-        else
-          std::snprintf(row, sizeof row, "| %s | %s | failed: %s |\n", name.c_str(), est.c_str(), n.error.c_str());
-        instructions_md += row;
-      }
+// Instructions per sample under callgrind: a repeatable figure where wall-clock time is noisy.
+std::string instructions_table(const BenchOptions& o, const std::string& counted_binary, const fs::path& dir) {
+  if (counted_binary.empty()) return "";
+  std::string md = "\n## Instructions per sample (callgrind, 1 thread, 64 px wide, sobol)\n\n"
+                   "Per sample = (count at " + std::to_string(InstructionsPerSample::kHigh) +
+                   " spp − count at 1 spp) / (pixels × " + std::to_string(InstructionsPerSample::kHigh - 1) +
+                   "): set-up cancels. Binary: `" + counted_binary + "`.\n\n"
+                   "| scene | estimator | instructions per sample |\n|---|---|---|\n";
+  for (const std::string& name : o.scenes) {
+    const SceneDesc d = load_scene(name);
+    const int w = 64, h = std::max(1, d.height * 64 / d.width);
+    for (const std::string& est : o.estimators) {
+      std::fprintf(stderr, "%s / %s: counting instructions under valgrind...\n", name.c_str(), est.c_str());
+      const InstructionsPerSample n =
+          count_instructions_per_sample(counted_binary, name, est, w, h, (dir / "callgrind").string());
+      char row[300];
+      if (n.error.empty())
+        std::snprintf(row, sizeof row, "| %s | %s | %.0f |\n", name.c_str(), est.c_str(), n.per_sample);
+      else
+        std::snprintf(row, sizeof row, "| %s | %s | failed: %s |\n", name.c_str(), est.c_str(), n.error.c_str());
+      md += row;
     }
   }
+  return md;
+}
 
+// The report: time against error per series, then the interactive figures.
+std::string summary_markdown(const BenchOptions& o, const std::vector<Series>& all,
+                             std::map<std::string, std::string>& ref_labels, double max_budget, int threads,
+                             const InteractiveFigures& f) {
   std::ostringstream md;
   md << "# Run time against error\n\n"
-     << "Threads: " << renderer.threads() << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
+     << "Threads: " << threads << ". relMSE = mean over pixels and channels of (x − R)²/(R² + 0.01). "
      << "Efficiency = 1/(relMSE × seconds) at the largest budget (higher is better). Denoised: the film at each "
         "budget through the denoiser (docs/denoising.md); its times include the denoising.\n\n";
   for (const std::string& name : o.scenes) md << "- reference of `" << name << "`: " << ref_labels[name] << "\n";
-  md << "\n| scene | estimator | sampler | time to 1e-2 | time to 1e-3 | relMSE at " << budgets.back()
+  md << "\n| scene | estimator | sampler | time to 1e-2 | time to 1e-3 | relMSE at " << max_budget
      << " s | efficiency | Msamples/s | Mrays/s | denoised: time to 1e-2 | denoised: time to 1e-3 | denoised relMSE at "
-     << budgets.back() << " s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << max_budget << " s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Series& s : all) {
     const Checkpoint& last = s.points.back();
     char row[500];
@@ -401,12 +413,35 @@ int run_bench(const BenchOptions& o) {
                 "scaling %.2f×.\n\n## Interactive passes (cornell, 1 spp, %d threads, median)\n\n512×512: %.1f ms; "
                 "256×256 (quarter resolution): %.1f ms (wavefront loop; the scalar loop, alternated with it: %.1f "
                 "ms and %.1f ms).\n",
-                o.quick ? 64 : 256, one, renderer.threads(), many, many / one, renderer.threads(), full_ms.wavefront,
-                quarter_ms.wavefront, full_ms.scalar, quarter_ms.scalar);
-  md << tail << rays_md << instructions_md;
-  if (!plotted) md << "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
-  if (!write_report(dir / "summary.md", md.str())) return 1;
-  std::printf("%s", md.str().c_str());
+                o.quick ? 64 : 256, f.one_thread, threads, f.all_threads, f.all_threads / f.one_thread, threads,
+                f.full_wavefront_ms, f.quarter_wavefront_ms, f.full_scalar_ms, f.quarter_scalar_ms);
+  md << tail;
+  return md.str();
+}
+
+}  // namespace
+
+int run_bench(const BenchOptions& o) {
+  std::string counted_binary;
+  if (const int status = counted_binary_for(o, counted_binary)) return status;
+  std::vector<double> budgets;
+  const double max_s = o.quick ? 0.5 : o.max_seconds;
+  for (double b = o.quick ? 0.0625 : 0.25; b <= max_s * 1.0001; b *= 2) budgets.push_back(b);
+  Renderer renderer(o.threads);
+  std::vector<Series> all;
+  std::map<std::string, std::string> ref_labels;
+  if (const int status = run_all_series(o, budgets, renderer, all, ref_labels)) return status;
+
+  const fs::path dir(o.out_dir);
+  if (!write_convergence_csv(dir, all)) return 1;
+  bool plotted = true;
+  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, all, ref_labels[name]);
+  const InteractiveFigures interactive = measure_interactive(o, renderer);
+  std::string md = summary_markdown(o, all, ref_labels, budgets.back(), renderer.threads(), interactive);
+  md += ray_casting_table(o) + instructions_table(o, counted_binary, dir);
+  if (!plotted) md += "\n(gnuplot was not found or failed: the .gp scripts are written, the PNG plots are not.)\n";
+  if (!write_report(dir / "summary.md", md)) return 1;
+  std::printf("%s", md.c_str());
   std::printf("\nwrote %s/{convergence.csv,summary.md,convergence-*.png}\n", fs::absolute(dir).c_str());
   return 0;
 }
