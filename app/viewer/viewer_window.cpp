@@ -148,6 +148,70 @@ struct FrameTimes {
   }
 };
 
+// One UI frame: ImGui's frame with the input handled, the image placed (where this frame's input left it: a
+// zoom applies at once) and the panels drawn; nothing is on screen yet.
+struct UiFrame {
+  int fb_w = 0, fb_h = 0;  // the framebuffer
+  Rect image;              // where the image goes, in framebuffer pixels counted from the bottom (GL)
+  double image_height = 1; // its height in window units (drag scaling of scripted edits)
+  bool held = false;       // a key or button is held: keep drawing
+};
+UiFrame build_ui_frame(GLFWwindow* window, ImGuiIO& io, ViewerModel& model, PanelState& panels, ShownImage& shown,
+                       const DisplayFrame& front, double dt) {
+  UiFrame ui;
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  g_keys.before_frame(io);
+  ImGui::NewFrame();
+  glfwGetFramebufferSize(window, &ui.fb_w, &ui.fb_h);
+  const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(ui.fb_w) / io.DisplaySize.x : 1.f;
+  const float panel = model.ui_visible ? std::min(panels.width(), io.DisplaySize.x) : 0.f;
+  // Following the window, the film takes the image area's size (framebuffer pixels).
+  model.note_image_area(static_cast<int>(std::lround((io.DisplaySize.x - panel) * scale)),
+                        static_cast<int>(std::lround(io.DisplaySize.y * scale)));
+  const ImageArea area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
+                                     io.DisplaySize.x - panel, io.DisplaySize.y, scale);
+  ui.image_height = area.h;
+  handle_viewer_input(io, model, dt, area);
+  draw_pixel_probe(model, front, area);
+  const ImageArea shown_area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
+                                           io.DisplaySize.x - panel, io.DisplaySize.y, scale);
+  draw_region_overlay(io, model, shown_area);
+  ui.image.x = static_cast<int>(std::lround(shown_area.x * scale));
+  ui.image.w = static_cast<int>(std::lround(shown_area.w * scale));
+  ui.image.h = static_cast<int>(std::lround(shown_area.h * scale));
+  ui.image.y = ui.fb_h - static_cast<int>(std::lround(shown_area.y * scale)) - ui.image.h;
+  ui.held = viewer_input_held(io);
+  draw_viewer_panels(model, panels, shown);
+  ImGui::Render();
+  g_keys.after_frame(io);
+  return ui;
+}
+
+// The preferences at exit: written back only if the user changed them here (the command line's --size counts
+// for this run only).
+void save_prefs_if_changed(const std::string& prefs_path, const ViewerPrefs& prefs, const PanelState& panels,
+                           const ViewerModel& model, const ViewOptions& o) {
+  ViewerPrefs now = prefs;
+  now.panel_width = std::clamp(panels.width_units, ViewerPrefs::kMinPanelWidth, ViewerPrefs::kMaxPanelWidth);
+  now.follow_scale = model.follow_scale();
+  if (o.size.empty() || (o.size == "window") != model.follow_window()) now.follow_window = model.follow_window();
+  if (now.panel_width != prefs.panel_width || now.follow_window != prefs.follow_window ||
+      now.follow_scale != prefs.follow_scale)
+    if (const std::string err = write_viewer_prefs(prefs_path, now); !err.empty())
+      std::fprintf(stderr, "warning: %s\n", err.c_str());
+}
+
+// --stats at exit.
+void print_stats(ViewerModel& model, const ViewOptions& o, const FrameTimes& times, long long frames, double seconds) {
+  std::printf("frames drawn: %lld in %.2f s%s\n", frames, seconds,
+              o.continuous || o.frames > 0 ? " (continuous)" : " (on demand)");
+  times.print();
+  const SessionStats st = model.session().stats();
+  std::printf("render: %llu spp, %.2f Msamples/s, %.2f Mrays/s, %d threads\n", static_cast<unsigned long long>(st.spp),
+              st.samples_per_second * 1e-6, st.rays_per_second * 1e-6, st.threads);
+}
+
 // Ctrl-C / SIGTERM: save the image so far (as the S key does), then close the window normally, so --stats still
 // prints and the session stops cleanly. A second signal exits at once (InterruptScope).
 int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const InterruptScope& interrupts,
@@ -250,37 +314,12 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       if (active_frames > 0) --active_frames;
 
       const Clock::time_point ui_start = Clock::now();
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      g_keys.before_frame(io);
-      ImGui::NewFrame();
-      int fb_w = 0, fb_h = 0;
-      glfwGetFramebufferSize(window, &fb_w, &fb_h);
-      const float scale = io.DisplaySize.x > 0.f ? static_cast<float>(fb_w) / io.DisplaySize.x : 1.f;
-      const float panel = model.ui_visible ? std::min(panels.width(), io.DisplaySize.x) : 0.f;
-      // Following the window, the film takes the image area's size (framebuffer pixels).
-      model.note_image_area(static_cast<int>(std::lround((io.DisplaySize.x - panel) * scale)),
-                            static_cast<int>(std::lround(io.DisplaySize.y * scale)));
-      const ImageArea area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
-                                         io.DisplaySize.x - panel, io.DisplaySize.y, scale);
-      image_height = area.h;
-      handle_viewer_input(io, model, dt, area);
-      draw_pixel_probe(model, front, area);
-      // Drawn where this frame's input left it (a zoom applies at once); GL counts y from the bottom.
-      const ImageArea shown_area = place_image(model.zoom, model.scene().width, model.scene().height, 0.f, 0.f,
-                                               io.DisplaySize.x - panel, io.DisplaySize.y, scale);
-      draw_region_overlay(io, model, shown_area);
-      Rect r;
-      r.x = static_cast<int>(std::lround(shown_area.x * scale));
-      r.w = static_cast<int>(std::lround(shown_area.w * scale));
-      r.h = static_cast<int>(std::lround(shown_area.h * scale));
-      r.y = fb_h - static_cast<int>(std::lround(shown_area.y * scale)) - r.h;
-      held = viewer_input_held(io);
-
       shown.frame_ms = smoothed_ms;
-      draw_viewer_panels(model, panels, shown);
-      ImGui::Render();
-      g_keys.after_frame(io);
+      const UiFrame ui = build_ui_frame(window, io, model, panels, shown, front, dt);
+      const int fb_w = ui.fb_w, fb_h = ui.fb_h;
+      const Rect& r = ui.image;
+      image_height = ui.image_height;
+      held = ui.held;
       times.ui.add(ms_between(ui_start, Clock::now()));
 
       glViewport(0, 0, fb_w, fb_h);
@@ -336,23 +375,8 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
     if (remaining_ms > 0.0) glfwWaitEventsTimeout(remaining_ms * 1e-3);
   }
 
-  ViewerPrefs now = prefs;
-  now.panel_width = std::clamp(panels.width_units, ViewerPrefs::kMinPanelWidth, ViewerPrefs::kMaxPanelWidth);
-  now.follow_scale = model.follow_scale();
-  if (o.size.empty() || (o.size == "window") != model.follow_window()) now.follow_window = model.follow_window();
-  if (now.panel_width != prefs.panel_width || now.follow_window != prefs.follow_window ||
-      now.follow_scale != prefs.follow_scale)
-    if (const std::string err = write_viewer_prefs(prefs_path, now); !err.empty())
-      std::fprintf(stderr, "warning: %s\n", err.c_str());
-
-  if (o.stats) {
-    std::printf("frames drawn: %lld in %.2f s%s\n", frame, ms_between(t0, Clock::now()) * 1e-3,
-                o.continuous || o.frames > 0 ? " (continuous)" : " (on demand)");
-    times.print();
-    const SessionStats st = model.session().stats();
-    std::printf("render: %llu spp, %.2f Msamples/s, %.2f Mrays/s, %d threads\n", static_cast<unsigned long long>(st.spp),
-                st.samples_per_second * 1e-6, st.rays_per_second * 1e-6, st.threads);
-  }
+  save_prefs_if_changed(prefs_path, prefs, panels, model, o);
+  if (o.stats) print_stats(model, o, times, frame, ms_between(t0, Clock::now()) * 1e-3);
   return rc;
 }
 
