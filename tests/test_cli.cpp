@@ -91,6 +91,21 @@ TEST_CASE("cli: errors name the file, the JSON path and the reason, with exit st
     CHECK(no_manifold.err.find("--no-manifold: needs --estimator bdpt") != std::string::npos);
     CHECK_FALSE(std::filesystem::exists("x.png"));
   }
+  {
+    // A glTF file whose index runs past its vertices: the file, the glTF path and the reason; nothing written.
+    std::ofstream("bad_index.gltf") << R"({"asset": {"version": "2.0"},
+      "buffers": [{"byteLength": 44, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAkAAAA="}],
+      "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+      "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                    {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+      "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+      "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}]})";
+    const Run r = run("render --scene bad_index.gltf --spp 1 --png gltf.png");
+    CHECK(r.status == 2);
+    CHECK(r.err.find("bad_index.gltf: meshes[0].primitives[0].indices: index 2 is 9, past the 3 vertices") !=
+          std::string::npos);
+    CHECK_FALSE(std::filesystem::exists("gltf.png"));
+  }
   CHECK(run("render --estimator magic").status == 2);
   CHECK(run("render --spp 0").status == 2);
   CHECK(run("frobnicate").status == 2);

@@ -58,6 +58,10 @@ find_package(OpenEXR REQUIRED CONFIG)
 # tinyobjloader (libtinyobjloader-dev): Wavefront OBJ meshes of the scene's "mesh" shape (scene/mesh_obj.cpp).
 find_package(tinyobjloader REQUIRED CONFIG)
 
+# tinygltf (libtinygltf-dev, header-only): glTF 2.0 scenes (scene/gltf_import.cpp, the one translation unit that
+# holds its implementation); it includes nlohmann/json.hpp (nlohmann-json3-dev).
+find_path(TINYGLTF_INCLUDE_DIR tiny_gltf.h REQUIRED)
+
 # Open MPI (libopenmpi-dev, openmpi-bin): `render --mpi` spreads one frame over ranks (docs/scale-out.md). Only the
 # C API is used (through the CXX component: the project enables no C language); MPI_Init runs only with --mpi,
 # so a plain render never touches it.

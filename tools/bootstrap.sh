@@ -16,6 +16,8 @@ PACKAGES=(
   libopenexr-dev                            # HDR environment maps, multi-layer film output (.exr)
   openexr                                   # exrheader: the tests check the layers other tools will see
   libtinyobjloader-dev                      # OBJ meshes
+  libtinygltf-dev                           # glTF 2.0 scenes
+  assimp-testmodels                         # tests: the glTF 2.0 corpus (well-formed and broken files)
   libopenmpi-dev openmpi-bin                # render --mpi (scale-out over ranks and machines)
 )
 

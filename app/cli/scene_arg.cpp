@@ -18,7 +18,7 @@ std::optional<SceneDesc> load_scene_arg(const std::string& spec) {
 std::string scene_arg_help() {
   std::string names;
   for (const std::string& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
-  return "Scene: a built-in name (" + names + "), a .json file path, or an .obj model (shown in a studio)";
+  return "Scene: a built-in name (" + names + "), a .json file path, an .obj model (shown in a studio) or a glTF 2.0 file (.gltf, .glb)";
 }
 
 }  // namespace pt

@@ -1164,7 +1164,7 @@ SceneDesc load_scene(const std::string& spec) {
   std::string names;
   for (const std::string& n : builtin_scene_names()) names += (names.empty() ? "" : ", ") + n;
   throw SceneError(spec + ": unknown built-in scene (built-in scenes: " + names +
-                   "; a scene file path must end in .json or contain '/', a model file in .obj)");
+                   "; a scene file path must end in .json or contain '/', a model file in .obj, .gltf or .glb)");
 }
 
 }  // namespace pt

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "scene/gltf_import.h"
 #include "scene/mesh_obj.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -15,10 +16,38 @@ namespace pt {
 bool is_model_file(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".obj";
+  return ext == ".obj" || is_gltf_file(path);
+}
+
+CameraDesc framing_camera(DVec3 lo, DVec3 hi) {
+  const DVec3 centre = 0.5 * (lo + hi);
+  const double radius = std::max(0.5 * glm::length(hi - lo), 1e-9);
+  CameraDesc c;
+  c.fov_deg = 35.0;
+  c.fov_axis = FovAxis::Vertical;
+  c.up = DVec3(0, 1, 0);
+  const double elevation = glm::radians(25.0), azimuth = glm::radians(30.0);
+  const DVec3 from(std::sin(azimuth) * std::cos(elevation), std::sin(elevation), std::cos(azimuth) * std::cos(elevation));
+  const double distance = radius / std::sin(0.5 * 0.9 * glm::radians(c.fov_deg));
+  c.look_at = centre;
+  c.position = centre + distance * from;
+  return c;
+}
+
+EnvironmentDesc daylight_environment() {
+  EnvironmentDesc e;
+  e.type = EnvironmentType::Sky;
+  const double sun = glm::radians(40.0), sun_azimuth = glm::radians(35.0);
+  e.sun_direction = DVec3(std::sin(sun_azimuth) * std::cos(sun), std::sin(sun), std::cos(sun_azimuth) * std::cos(sun));
+  e.sun = true;
+  // Preetham's sky and sun in their own units are bright: this scale puts the sunlit ground (albedo 0.5) near
+  // 0.4 on the display, as the `sky` scene's scale 0.5 does its darker ground.
+  e.scale = 0.15f;
+  return e;
 }
 
 SceneDesc studio_scene(const std::string& model_path) {
+  if (is_gltf_file(model_path)) return gltf_scene(model_path);
   MeshTriangles mesh;
   try {
     mesh = load_obj_mesh(model_path, ObjectTransform{});
@@ -64,23 +93,9 @@ SceneDesc studio_scene(const std::string& model_path) {
   floor.material = 1;
   s.shapes.push_back(floor);
 
-  s.environment.type = EnvironmentType::Sky;
-  const double sun = glm::radians(40.0), sun_azimuth = glm::radians(35.0);
-  s.environment.sun_direction = DVec3(std::sin(sun_azimuth) * std::cos(sun), std::sin(sun), std::cos(sun_azimuth) * std::cos(sun));
-  s.environment.sun = true;
-  // Preetham's sky and sun in their own units are bright: this scale puts the sunlit ground (albedo 0.5) near
-  // 0.4 on the display, as the `sky` scene's scale 0.5 does its darker ground.
-  s.environment.scale = 0.15f;
+  s.environment = daylight_environment();
 
-  CameraDesc& c = s.camera;
-  c.fov_deg = 35.0;
-  c.fov_axis = FovAxis::Vertical;
-  c.up = DVec3(0, 1, 0);
-  const double elevation = glm::radians(25.0), azimuth = glm::radians(30.0);
-  const DVec3 from(std::sin(azimuth) * std::cos(elevation), std::sin(elevation), std::cos(azimuth) * std::cos(elevation));
-  const double distance = radius / std::sin(0.5 * 0.9 * glm::radians(c.fov_deg));
-  c.look_at = centre;
-  c.position = centre + distance * from;
+  s.camera = framing_camera(lo, hi);
   if (std::string err = validate_scene(s); !err.empty()) throw SceneError(model_path + ": " + err);
   return s;
 }

@@ -17,10 +17,18 @@
 
 namespace pt {
 
-// True for the file types studio_scene takes (by extension, any case).
+// True for the file types studio_scene takes (by extension, any case): .obj, and glTF's .gltf and .glb.
 bool is_model_file(const std::string& path);
 
-// Throws SceneError naming the file and the reason (unreadable, no triangles, a non-finite vertex).
+// Throws SceneError naming the file and the reason (unreadable, no triangles, a non-finite vertex). A glTF file
+// brings its own materials, camera and lighting rules (scene/gltf_import.h: gltf_scene).
 SceneDesc studio_scene(const std::string& model_path);
+
+// The light above: a Preetham sky with the sun 40° high, scaled by 0.15.
+EnvironmentDesc daylight_environment();
+
+// The camera above: 35° vertical field of view, looking at the centre of the box [lo, hi] from above and in
+// front, at the distance where its bounding sphere fills 90 % of the view's height.
+CameraDesc framing_camera(DVec3 lo, DVec3 hi);
 
 }  // namespace pt

@@ -1,0 +1,373 @@
+// glTF 2.0 import (scene/gltf_import.h): hand-built files whose answers are known (node transform order, mirror
+// winding, camera, index types, material mapping), refusals that name the glTF path, and Debian's
+// assimp-testmodels corpus: every well-formed file loads and renders, every broken one is refused.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "film/film.h"
+#include "render/renderer.h"
+#include "scene/gltf_import.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "skip.h"
+
+using namespace pt;
+
+namespace {
+
+std::string base64(const std::string& bytes) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t v = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
+    out += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], k[v & 63]};
+  }
+  if (i + 1 == bytes.size()) {
+    const uint32_t v = uint8_t(bytes[i]) << 16;
+    out += {k[v >> 18], k[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == bytes.size()) {
+    const uint32_t v = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8);
+    out += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], '='};
+  }
+  return out;
+}
+
+template <class T>
+void append(std::string& buf, const std::vector<T>& v) {
+  buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    path = std::filesystem::temp_directory_path() / ("pt_gltf_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::string p = (path / name).string();
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+};
+
+// One triangle (0,0,0), (1,0,0), (0,1,0) (counter-clockwise seen from +z) with unsigned-short indices, in a
+// buffer embedded as a data URI. `nodes`, `extra` (more top-level members) and `primitive` (more primitive
+// members) are JSON fragments; the scene's roots are `roots`.
+std::string triangle_gltf(const std::string& nodes, const std::string& roots, const std::string& extra = "",
+                          const std::string& primitive = "", const std::string& materials = "") {
+  std::string buf;
+  append(buf, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  append(buf, std::vector<uint16_t>{0, 1, 2, 0});  // padded to 4 bytes
+  return R"({"asset": {"version": "2.0"},
+  "buffers": [{"byteLength": )" + std::to_string(buf.size()) + R"(, "uri": "data:application/octet-stream;base64,)" +
+         base64(buf) + R"("}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1)" + primitive + R"(}]}],
+  "materials": [)" + materials + R"(],
+  "nodes": [)" + nodes + R"(],
+  "scenes": [{"nodes": [)" + roots + R"(]}], "scene": 0)" + extra + "}";
+}
+
+void replace_once(std::string& s, const std::string& from, const std::string& to) {
+  const size_t at = s.find(from);
+  REQUIRE(at != std::string::npos);
+  s.replace(at, from.size(), to);
+}
+
+void check_vertex(DVec3 got, DVec3 want) {
+  INFO("got " << got.x << " " << got.y << " " << got.z << ", want " << want.x << " " << want.y << " " << want.z);
+  CHECK(glm::length(got - want) < 1e-12);
+}
+
+// The error message of loading `text`, or "" when it loads.
+std::string load_error(const TempDir& dir, const std::string& text) {
+  try {
+    load_gltf(dir.write("bad.gltf", text));
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("gltf: node transforms compose parent then child and translation then rotation then scale") {
+  TempDir dir;
+  // Child: scale 2 then a quarter turn about +z then a move by (1, 2, 3); parent: a move by (10, 0, 0).
+  // (1,0,0) -> (2,0,0) -> (0,2,0) -> (1,4,3) -> (11,4,3); (0,1,0) -> (0,2,0) -> (-2,0,0) -> (-1,2,3) -> (9,2,3).
+  const std::string s = std::to_string(std::sqrt(0.5));
+  const GltfContents g = load_gltf(dir.write("trs.gltf", triangle_gltf(
+      R"({"translation": [10, 0, 0], "children": [1]},
+         {"mesh": 0, "translation": [1, 2, 3], "rotation": [0, 0, )" + s + ", " + s + R"(], "scale": [2, 2, 2]})",
+      "0")));
+  REQUIRE(g.triangles.size() == 1);
+  check_vertex(g.triangles[0][0], DVec3(11, 2, 3));
+  check_vertex(g.triangles[0][1], DVec3(11, 4, 3));
+  check_vertex(g.triangles[0][2], DVec3(9, 2, 3));
+  // The same as one column-major matrix: columns (0,2,0), (-2,0,0), (0,0,2), (11,2,3).
+  const GltfContents m = load_gltf(dir.write("matrix.gltf", triangle_gltf(
+      R"({"mesh": 0, "matrix": [0,2,0,0, -2,0,0,0, 0,0,2,0, 11,2,3,1]})", "0")));
+  REQUIRE(m.triangles.size() == 1);
+  for (int k = 0; k < 3; ++k) check_vertex(m.triangles[0][k], g.triangles[0][k]);
+  // Nodes outside the scene are not shown; a mesh used by two nodes is shown twice.
+  const GltfContents two = load_gltf(dir.write("two.gltf", triangle_gltf(
+      R"({"mesh": 0}, {"mesh": 0, "translation": [0, 0, 5]}, {"mesh": 0, "translation": [0, 0, 9]})", "0, 1")));
+  CHECK(two.triangles.size() == 2);
+}
+
+TEST_CASE("gltf: a mirroring transform keeps each face's front by listing its vertices the other way round") {
+  TempDir dir;
+  auto front_z = [](const std::array<DVec3, 3>& t) { return glm::cross(t[1] - t[0], t[2] - t[0]).z; };
+  const GltfContents plain = load_gltf(dir.write("plain.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
+  const GltfContents mirrored = load_gltf(dir.write("mirror.gltf", triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})", "0")));
+  REQUIRE(plain.triangles.size() == 1);
+  REQUIRE(mirrored.triangles.size() == 1);
+  CHECK(front_z(plain.triangles[0]) > 0.0);
+  CHECK(front_z(mirrored.triangles[0]) > 0.0);  // without the swap the mirror image faces -z
+  std::set<double> xs;
+  for (const DVec3& v : mirrored.triangles[0]) xs.insert(v.x);
+  CHECK(xs == std::set<double>{-1.0, 0.0});
+}
+
+TEST_CASE("gltf: the first perspective camera gives position, view direction, field of view and film shape") {
+  TempDir dir;
+  const std::string text = triangle_gltf(
+      R"({"mesh": 0}, {"camera": 0, "translation": [0, 0, 5], "rotation": [0, 1, 0, 0]})", "0, 1",
+      R"(, "cameras": [{"type": "perspective", "perspective": {"yfov": 0.5, "aspectRatio": 2.0, "znear": 0.1}}])");
+  const GltfContents g = load_gltf(dir.write("camera.gltf", text));
+  REQUIRE(g.camera);
+  check_vertex(g.camera->position, DVec3(0, 0, 5));
+  // A half turn about +y: the camera's -z view direction becomes +z.
+  check_vertex(g.camera->look_at, DVec3(0, 0, 6));
+  check_vertex(g.camera->up, DVec3(0, 1, 0));
+  CHECK(g.camera->fov_deg == doctest::Approx(0.5 * 180.0 / 3.14159265358979).epsilon(1e-12));
+  CHECK(g.aspect_ratio == 2.0);
+  const SceneDesc s = gltf_scene(dir.path.string() + "/camera.gltf");
+  CHECK(s.width == 640);
+  CHECK(s.height == 320);
+  // No camera: one that frames the triangle, looking at the centre of its bounds.
+  const SceneDesc framed = gltf_scene(dir.write("nocam.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
+  check_vertex(framed.camera.look_at, DVec3(0.5, 0.5, 0));
+}
+
+TEST_CASE("gltf: materials map to the nearest project material and emitters decide the background") {
+  TempDir dir;
+  const std::string materials =
+      R"({"name": "gold", "pbrMetallicRoughness": {"baseColorFactor": [1, 0.8, 0.3, 1], "metallicFactor": 1, "roughnessFactor": 0.25}},
+         {"name": "water", "pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 0},
+          "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1}, "KHR_materials_ior": {"ior": 1.33}}},
+         {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1], "metallicFactor": 0, "roughnessFactor": 0.5}},
+         {"name": "lamp", "emissiveFactor": [1, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}},
+          "pbrMetallicRoughness": {"metallicFactor": 0}})";
+  for (int which = 0; which < 4; ++which) {
+    const GltfContents g = load_gltf(dir.write("m.gltf", triangle_gltf(R"({"mesh": 0})", "0", "",
+                                                                     ", \"material\": " + std::to_string(which), materials)));
+    REQUIRE(g.materials.size() == 4);
+    REQUIRE(g.triangle_material.size() == 1);
+    const MaterialDesc& d = g.materials[g.triangle_material[0]];
+    INFO("material " << which << " " << d.name);
+    if (which == 0) {
+      CHECK(d.type == MaterialType::Conductor);
+      CHECK(d.albedo == Rgb(1.f, 0.8f, 0.3f));
+      CHECK(d.roughness == 0.25f);
+    } else if (which == 1) {
+      CHECK(d.type == MaterialType::Dielectric);
+      CHECK(d.ior == 1.33f);
+      CHECK(d.roughness == 0.f);
+    } else if (which == 2) {
+      CHECK(d.type == MaterialType::Plastic);
+      CHECK(d.ior == 1.5f);
+      CHECK(d.albedo == Rgb(0.2f, 0.4f, 0.6f));
+    } else {
+      CHECK(d.emission == Rgb(4.f, 2.f, 1.f));
+      CHECK(g.emits);
+    }
+  }
+  // A primitive without a material: the specification's default (white, metallic 1, roughness 1).
+  const GltfContents none = load_gltf(dir.write("none.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
+  REQUIRE(none.materials.size() == 1);
+  CHECK(none.materials[0].type == MaterialType::Conductor);
+  CHECK(none.materials[0].roughness == 1.f);
+  CHECK_FALSE(none.emits);
+  CHECK(gltf_scene(dir.path.string() + "/none.gltf").environment.type == EnvironmentType::Sky);  // daylight
+  const SceneDesc lamp = gltf_scene(dir.path.string() + "/m.gltf");  // its own lamp, in the dark
+  CHECK(lamp.environment.type == EnvironmentType::Constant);
+  CHECK(lamp.environment.radiance == Rgb(0.f));
+}
+
+TEST_CASE("gltf: broken files are refused with the file and the glTF path of the fault") {
+  TempDir dir;
+  struct Bad {
+    std::string text, expect;
+  };
+  const std::string ok_nodes = R"({"mesh": 0})";
+  std::vector<Bad> bad = {
+      {triangle_gltf(ok_nodes, "0", "", ", \"mode\": 1"), "meshes[0].primitives[0].mode: mode 1 is not supported"},
+      {triangle_gltf(ok_nodes, "0", "", ", \"material\": 3"), "meshes[0].primitives[0].material: material 3 does not exist"},
+      {triangle_gltf(R"({"mesh": 0, "children": [1]}, {"children": [0]})", "0"), "the node graph has a cycle"},
+      {triangle_gltf(R"({"mesh": 4})", "0"), "nodes[0].mesh: mesh 4 does not exist"},
+      {triangle_gltf(ok_nodes, "0", R"(, "extensionsRequired": ["KHR_draco_mesh_compression"], "extensionsUsed": ["KHR_draco_mesh_compression"])"),
+       "the extension KHR_draco_mesh_compression is required but not supported"},
+  };
+  // An index past the vertex count, an accessor past its view, a view past its buffer, a NaN position.
+  std::string t = triangle_gltf(ok_nodes, "0");
+  std::string idx = t;
+  replace_once(idx, R"("count": 3, "type": "SCALAR")", R"("count": 4, "type": "SCALAR")");
+  bad.push_back({idx, "meshes[0].primitives[0].indices (accessors[1]): 4 elements from byte 0 run past the end of its buffer view"});
+  std::string view = t;
+  replace_once(view, R"("byteOffset": 36, "byteLength": 6})", R"("byteOffset": 36, "byteLength": 60})");
+  bad.push_back({view, "bufferViews[1]: bytes 36 + 60 run past the end of buffers[0]"});
+  {
+    std::string buf;
+    append(buf, std::vector<float>{0, 0, 0, std::nanf(""), 0, 0, 0, 1, 0});
+    append(buf, std::vector<uint16_t>{0, 1, 2, 0});
+    std::string nan = t;
+    const size_t at = nan.find("base64,") + 7;
+    nan.replace(at, nan.find('"', at) - at, base64(buf));
+    bad.push_back({nan, "meshes[0].primitives[0].attributes.POSITION: position 1 is not finite"});
+  }
+  {
+    std::string buf;
+    append(buf, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+    append(buf, std::vector<uint16_t>{0, 1, 7, 0});
+    std::string past = t;
+    const size_t at = past.find("base64,") + 7;
+    past.replace(at, past.find('"', at) - at, base64(buf));
+    bad.push_back({past, "meshes[0].primitives[0].indices: index 2 is 7, past the 3 vertices"});
+  }
+  bad.push_back({"{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [", "not a valid glTF 2.0 file"});
+  for (const Bad& b : bad) {
+    const std::string err = load_error(dir, b.text);
+    INFO("expected: " << b.expect << "\ngot: " << err);
+    CHECK(err.find(dir.path.string() + "/bad.gltf: ") == 0);
+    CHECK(err.find(b.expect) != std::string::npos);
+  }
+}
+
+TEST_CASE("gltf: index types and a .glb file read alike") {
+  TempDir dir;
+  // Unsigned bytes and ints instead of shorts.
+  std::string bytes_buf, ints_buf;
+  append(bytes_buf, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  ints_buf = bytes_buf;
+  append(bytes_buf, std::vector<uint8_t>{0, 1, 2, 0});
+  append(ints_buf, std::vector<uint32_t>{0, 1, 2});
+  for (const auto& [buf, type, len] : {std::tuple{bytes_buf, 5121, 3}, std::tuple{ints_buf, 5125, 12}}) {
+    std::string t = triangle_gltf(R"({"mesh": 0})", "0");
+    const size_t at = t.find("base64,") + 7;
+    t.replace(at, t.find('"', at) - at, base64(buf));
+    replace_once(t, "\"byteLength\": 44", "\"byteLength\": " + std::to_string(buf.size()));
+    replace_once(t, "\"byteOffset\": 36, \"byteLength\": 6}", "\"byteOffset\": 36, \"byteLength\": " + std::to_string(len) + "}");
+    replace_once(t, "\"componentType\": 5123", "\"componentType\": " + std::to_string(type));
+    const GltfContents g = load_gltf(dir.write("idx.gltf", t));
+    REQUIRE(g.triangles.size() == 1);
+    check_vertex(g.triangles[0][2], DVec3(0, 1, 0));
+  }
+  // The same triangle as a binary .glb: a JSON chunk and a BIN chunk (glTF 2.0 §4.4).
+  std::string bin;
+  append(bin, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  append(bin, std::vector<uint16_t>{0, 1, 2, 0});
+  std::string json = R"({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 44}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                  {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+    "nodes": [{"mesh": 0, "translation": [0, 0, -2]}], "scenes": [{"nodes": [0]}]})";
+  while (json.size() % 4) json += ' ';
+  auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const std::string glb = "glTF" + u32(2) + u32(12 + 8 + json.size() + 8 + bin.size()) + u32(json.size()) +
+                          "JSON" + json + u32(bin.size()) + std::string("BIN\0", 4) + bin;
+  const GltfContents g = load_gltf(dir.write("tri.glb", glb));
+  REQUIRE(g.triangles.size() == 1);
+  check_vertex(g.triangles[0][1], DVec3(1, 0, -2));
+  // A header that claims far more bytes than the file has is refused, not trusted.
+  std::string lying = glb;
+  lying.replace(8, 4, u32(0xFFFFFFF0u));
+  CHECK(load_error(dir, lying).find("not a valid glTF 2.0 file") != std::string::npos);
+}
+
+TEST_CASE("gltf: every well-formed file of Debian's assimp-testmodels corpus renders and every broken one is refused") {
+  const std::filesystem::path corpus = "/usr/share/assimp/models/glTF2";
+  if (!std::filesystem::is_directory(corpus)) {
+    test::skip_for_missing("assimp-testmodels", "the glTF corpus test");
+    return;
+  }
+  // Refused, each for a reason named in its message: broken files, and features refused rather than guessed.
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb", "is not finite"},
+      {"IncorrectVertexArrays/Cube.gltf", "do not make whole triangles"},
+      {"IndexOutOfRange/AllIndicesOutOfRange.gltf", "past the 24 vertices"},
+      {"IndexOutOfRange/IndexOutOfRange.gltf", "past the 24 vertices"},
+      {"MissingBin/BoxTextured.gltf", "not found"},
+      {"RecursiveNodes/RecursiveNodes.gltf", "cycle"},
+      {"SchemaFailures/sceneWrongType.gltf", "not a valid glTF 2.0 file"},
+      {"TestNoRootNode/NoScene.gltf", "no triangles to show"},
+      {"TestNoRootNode/SceneWithoutNodes.gltf", "no triangles to show"},
+      {"draco/2CylinderEngine.gltf", "not a valid glTF 2.0 file"},
+      {"wrongTypes/badArray.gltf", "no triangles to show"},
+      {"wrongTypes/badNumber.gltf", "not a valid glTF 2.0 file"},
+      {"BoxTextured-glTF-techniqueWebGL/BoxTextured.gltf", "KHR_technique_webgl is required"},
+  };
+  std::set<std::string> expected_refusals;
+  for (const auto& r : refused) expected_refusals.insert(r.first);
+  int rendered = 0, refusals = 0;
+  Renderer renderer(2);
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(corpus)) {
+    const std::string ext = entry.path().extension().string();
+    if (ext != ".gltf" && ext != ".glb") continue;
+    const std::string rel = std::filesystem::relative(entry.path(), corpus).string();
+    INFO(rel);
+    // Primitive modes other than triangles (points, lines, strips, fans) are refused by name.
+    const bool other_mode = rel.find("Mesh_PrimitiveMode_") != std::string::npos;
+    std::string error;
+    SceneDesc desc;
+    try {
+      desc = gltf_scene(entry.path().string());
+    } catch (const SceneError& e) {
+      error = e.what();
+    }
+    if (!error.empty()) {
+      ++refusals;
+      CHECK(error.find(entry.path().string() + ": ") == 0);
+      const auto it = std::find_if(refused.begin(), refused.end(), [&](const auto& r) { return r.first == rel; });
+      if (it != refused.end()) CHECK(error.find(it->second) != std::string::npos);
+      else {
+        const bool refused_mode = other_mode && error.find("is not supported (only triangles, mode 4)") != std::string::npos;
+        CHECK_MESSAGE(refused_mode, "refused unexpectedly: " << error);
+      }
+      continue;
+    }
+    CHECK(expected_refusals.count(rel) == 0);
+    desc.width = 16;
+    desc.height = 12;
+    const auto scene = compile_scene(desc);
+    Film film(desc.width, desc.height);
+    renderer.render_pass(*scene, desc.render, film, 1);
+    const std::vector<float> img = film.mean_image();
+    bool finite = true;
+    for (float v : img) finite = finite && std::isfinite(v);
+    CHECK(finite);
+    CHECK(film.min_count() == 1u);
+    ++rendered;
+  }
+  MESSAGE(rendered << " files rendered, " << refusals << " refused");
+  CHECK(rendered >= 20);
+  CHECK(refusals >= static_cast<int>(refused.size()));
+}

@@ -1,0 +1,435 @@
+#include "scene/gltf_import.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <set>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "io/safe_file.h"
+#include "scene/mesh_obj.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "scene/studio.h"
+
+// The parser's implementation lives in this translation unit alone. Images are not decoded (textures are not
+// read yet) and never read from other files; files go through read_file_limited (the scene's safety rules).
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <tiny_gltf.h>
+
+namespace pt {
+
+namespace {
+
+namespace tg = tinygltf;
+
+// The extensions this reader understands; others in extensionsRequired are refused.
+const std::set<std::string> kReadExtensions = {"KHR_materials_emissive_strength", "KHR_materials_ior",
+                                               "KHR_materials_transmission"};
+
+struct Reader {
+  Reader(const std::string& file, const tg::Model& model) : path(file), m(model) {}
+  const std::string& path;
+  const tg::Model& m;
+  GltfContents out;
+  std::set<std::string> warned;
+
+  [[noreturn]] void fail(const std::string& where, const std::string& why) const {
+    throw SceneError(path + ": " + where + ": " + why);
+  }
+  void warn(const std::string& line) {
+    if (warned.insert(line).second) out.warnings.push_back(line);
+  }
+
+  // The bytes of accessor `index` as `count` elements of `element_bytes`, `stride` apart; checked against its
+  // buffer view and buffer.
+  struct View {
+    const unsigned char* data;
+    size_t count, stride;
+  };
+  View accessor_view(int index, const std::string& where, size_t element_bytes) const {
+    if (index < 0 || static_cast<size_t>(index) >= m.accessors.size())
+      fail(where, "accessor " + std::to_string(index) + " does not exist (the file has " +
+                      std::to_string(m.accessors.size()) + ")");
+    const tg::Accessor& a = m.accessors[index];
+    const std::string at = where + " (accessors[" + std::to_string(index) + "])";
+    if (a.sparse.isSparse) fail(at, "sparse accessors are not supported");
+    if (a.bufferView < 0 || static_cast<size_t>(a.bufferView) >= m.bufferViews.size())
+      fail(at, "bufferView " + std::to_string(a.bufferView) + " does not exist");
+    const tg::BufferView& v = m.bufferViews[a.bufferView];
+    const std::string vat = "bufferViews[" + std::to_string(a.bufferView) + "]";
+    if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= m.buffers.size())
+      fail(vat, "buffer " + std::to_string(v.buffer) + " does not exist");
+    const size_t buffer_size = m.buffers[v.buffer].data.size();
+    if (v.byteOffset > buffer_size || v.byteLength > buffer_size - v.byteOffset)
+      fail(vat, "bytes " + std::to_string(v.byteOffset) + " + " + std::to_string(v.byteLength) +
+                    " run past the end of buffers[" + std::to_string(v.buffer) + "] (" + std::to_string(buffer_size) +
+                    " bytes)");
+    const size_t stride = v.byteStride ? v.byteStride : element_bytes;
+    if (stride < element_bytes) fail(vat, "byteStride " + std::to_string(stride) + " is shorter than an element");
+    if (a.count > 0) {
+      const size_t span = a.byteOffset + (a.count - 1) * stride + element_bytes;  // no overflow: count < 2^32 checked
+      if (a.count > (size_t{1} << 32) || a.byteOffset > v.byteLength || span > v.byteLength || span < a.byteOffset)
+        fail(at, std::to_string(a.count) + " elements from byte " + std::to_string(a.byteOffset) +
+                     " run past the end of its buffer view (" + std::to_string(v.byteLength) + " bytes)");
+    }
+    return {m.buffers[v.buffer].data.data() + v.byteOffset + a.byteOffset, a.count, stride};
+  }
+
+  std::vector<DVec3> positions(int index, const std::string& where) const {
+    const tg::Accessor* a = index >= 0 && static_cast<size_t>(index) < m.accessors.size() ? &m.accessors[index] : nullptr;
+    if (a && (a->type != TINYGLTF_TYPE_VEC3 || a->componentType != TINYGLTF_COMPONENT_TYPE_FLOAT))
+      fail(where, "positions must be float VEC3 (KHR_mesh_quantization is not supported)");
+    const View v = accessor_view(index, where, 12);
+    std::vector<DVec3> p(v.count);
+    for (size_t i = 0; i < v.count; ++i) {
+      float xyz[3];
+      std::memcpy(xyz, v.data + i * v.stride, sizeof xyz);
+      if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
+        fail(where, "position " + std::to_string(i) + " is not finite");
+      p[i] = DVec3(xyz[0], xyz[1], xyz[2]);
+    }
+    return p;
+  }
+
+  std::vector<uint32_t> indices(int index, const std::string& where, size_t vertex_count) const {
+    const tg::Accessor* a = index >= 0 && static_cast<size_t>(index) < m.accessors.size() ? &m.accessors[index] : nullptr;
+    size_t bytes = 4;
+    if (a) {
+      if (a->type != TINYGLTF_TYPE_SCALAR) fail(where, "indices must be SCALAR");
+      switch (a->componentType) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: bytes = 1; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: bytes = 2; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: bytes = 4; break;
+        default: fail(where, "indices must be unsigned bytes, shorts or ints");
+      }
+    }
+    const View v = accessor_view(index, where, bytes);
+    std::vector<uint32_t> out(v.count);
+    for (size_t i = 0; i < v.count; ++i) {
+      const unsigned char* p = v.data + i * v.stride;
+      uint32_t x = 0;
+      if (bytes == 1) x = p[0];
+      else if (bytes == 2) { uint16_t s; std::memcpy(&s, p, 2); x = s; }
+      else std::memcpy(&x, p, 4);
+      if (x >= vertex_count)
+        fail(where, "index " + std::to_string(i) + " is " + std::to_string(x) + ", past the " +
+                        std::to_string(vertex_count) + " vertices");
+      out[i] = x;
+    }
+    return out;
+  }
+
+  static double number(const tg::Value& ext, const char* key, double fallback) {
+    if (!ext.IsObject() || !ext.Has(key) || !ext.Get(key).IsNumber()) return fallback;
+    return ext.Get(key).GetNumberAsDouble();
+  }
+  static const tg::Value* extension(const tg::ExtensionMap& e, const char* name) {
+    const auto it = e.find(name);
+    return it == e.end() ? nullptr : &it->second;
+  }
+
+  MaterialDesc material(size_t index) {
+    const tg::Material& g = m.materials[index];
+    const std::string where = "materials[" + std::to_string(index) + "]";
+    const auto& pbr = g.pbrMetallicRoughness;
+    Rgb base(1.f);
+    if (pbr.baseColorFactor.size() >= 3) base = Rgb(pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]);
+    const double metallic = pbr.metallicFactor, roughness = pbr.roughnessFactor;
+    if (!std::isfinite(base.x) || !std::isfinite(base.y) || !std::isfinite(base.z) || !std::isfinite(metallic) ||
+        !std::isfinite(roughness))
+      fail(where, "a factor is not finite");
+    MaterialDesc d;
+    d.name = g.name.empty() ? "material " + std::to_string(index) : g.name;
+    d.albedo = glm::clamp(base, Rgb(0.f), Rgb(1.f));
+    d.roughness = static_cast<float>(std::clamp(roughness, 0.0, 1.0));
+    const tg::Value* transmission = extension(g.extensions, "KHR_materials_transmission");
+    const tg::Value* ior = extension(g.extensions, "KHR_materials_ior");
+    if (transmission && number(*transmission, "transmissionFactor", 0.0) > 0.0) {
+      d.type = MaterialType::Dielectric;
+      d.ior = static_cast<float>(ior ? number(*ior, "ior", 1.5) : 1.5);
+    } else if (metallic >= 0.5) {
+      d.type = MaterialType::Conductor;
+    } else {
+      d.type = MaterialType::Plastic;
+      d.ior = 1.5f;  // F0 = 0.04, the specification's dielectric
+    }
+    if (!(d.ior >= 1.f) || !std::isfinite(d.ior)) d.ior = 1.5f;  // KHR_materials_ior allows 0 (= infinite): unsupported
+    Rgb emissive(0.f);
+    if (g.emissiveFactor.size() >= 3) emissive = Rgb(g.emissiveFactor[0], g.emissiveFactor[1], g.emissiveFactor[2]);
+    const tg::Value* strength = extension(g.extensions, "KHR_materials_emissive_strength");
+    emissive *= static_cast<float>(strength ? number(*strength, "emissiveStrength", 1.0) : 1.0);
+    if (!std::isfinite(emissive.x) || !std::isfinite(emissive.y) || !std::isfinite(emissive.z)) fail(where, "emission is not finite");
+    d.emission = glm::max(emissive, Rgb(0.f));
+    d.two_sided = g.doubleSided;
+    if (pbr.baseColorTexture.index >= 0 || pbr.metallicRoughnessTexture.index >= 0 || g.normalTexture.index >= 0 ||
+        g.emissiveTexture.index >= 0 || g.occlusionTexture.index >= 0)
+      warn("textures are not read yet: materials use their factors alone");
+    if (g.alphaMode != "OPAQUE") warn("alpha modes are not read yet: every surface is opaque");
+    if (metallic > 0.0 && metallic < 1.0) warn("metallic factors between 0 and 1 are rounded to 0 or 1 for now");
+    return d;
+  }
+
+  static glm::dmat4 local_transform(const tg::Node& n) {
+    if (n.matrix.size() == 16) {
+      glm::dmat4 mat;
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) mat[c][r] = n.matrix[4 * c + r];  // column-major, as glTF stores it
+      return mat;
+    }
+    glm::dmat4 t(1.0), r(1.0), s(1.0);
+    if (n.translation.size() == 3) t = glm::translate(glm::dmat4(1.0), DVec3(n.translation[0], n.translation[1], n.translation[2]));
+    if (n.rotation.size() == 4) {
+      const glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);  // glTF: x, y, z, w
+      r = glm::mat4_cast(glm::normalize(q));
+    }
+    if (n.scale.size() == 3) s = glm::scale(glm::dmat4(1.0), DVec3(n.scale[0], n.scale[1], n.scale[2]));
+    return t * r * s;
+  }
+
+  void add_mesh(int mesh, const glm::dmat4& world, const std::string& node_where) {
+    if (mesh < 0 || static_cast<size_t>(mesh) >= m.meshes.size())
+      fail(node_where + ".mesh", "mesh " + std::to_string(mesh) + " does not exist");
+    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+    const tg::Mesh& me = m.meshes[mesh];
+    for (size_t pi = 0; pi < me.primitives.size(); ++pi) {
+      const tg::Primitive& p = me.primitives[pi];
+      const std::string where = "meshes[" + std::to_string(mesh) + "].primitives[" + std::to_string(pi) + "]";
+      if (p.mode != TINYGLTF_MODE_TRIANGLES && p.mode != -1)
+        fail(where + ".mode", "mode " + std::to_string(p.mode) + " is not supported (only triangles, mode 4)");
+      const auto pos = p.attributes.find("POSITION");
+      if (pos == p.attributes.end()) fail(where + ".attributes", "no POSITION");
+      const std::vector<DVec3> local = positions(pos->second, where + ".attributes.POSITION");
+      if (p.attributes.count("NORMAL") || p.attributes.count("TEXCOORD_0"))
+        warn("vertex normals and texture coordinates are not read yet: meshes are flat-shaded");
+      if (!p.targets.empty()) warn("morph targets are not read: meshes keep their base shape");
+      std::vector<uint32_t> idx;
+      if (p.indices >= 0) {
+        idx = indices(p.indices, where + ".indices", local.size());
+      } else {
+        idx.resize(local.size());
+        for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<uint32_t>(i);
+      }
+      if (idx.size() % 3 != 0)
+        fail(where, std::to_string(idx.size()) + " vertex indices do not make whole triangles");
+      int material;
+      if (p.material >= 0) {
+        if (static_cast<size_t>(p.material) >= m.materials.size())
+          fail(where + ".material", "material " + std::to_string(p.material) + " does not exist");
+        material = p.material;
+      } else {
+        material = default_material();
+      }
+      std::vector<DVec3> w(local.size());
+      for (size_t i = 0; i < local.size(); ++i) w[i] = DVec3(world * glm::dvec4(local[i], 1.0));
+      for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+        std::array<DVec3, 3> tri{w[idx[t]], w[idx[t + 1]], w[idx[t + 2]]};
+        if (mirror) std::swap(tri[1], tri[2]);
+        if (degenerate_triangle(tri[0], tri[1], tri[2])) {
+          ++out.degenerate;
+          continue;
+        }
+        if (out.triangles.size() >= kMaxMeshTriangles)
+          fail(where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
+        out.triangles.push_back(tri);
+        out.triangle_material.push_back(material);
+      }
+    }
+  }
+
+  int default_index = -1;
+  int default_material() {
+    if (default_index < 0) {
+      MaterialDesc d;  // the specification's default material: white, metallic 1, roughness 1
+      d.name = "glTF default";
+      d.type = MaterialType::Conductor;
+      d.albedo = Rgb(1.f);
+      d.roughness = 1.f;
+      default_index = static_cast<int>(m.materials.size());
+      extra_materials.push_back(d);
+    }
+    return default_index;
+  }
+  std::vector<MaterialDesc> extra_materials;
+
+  void add_camera(int index, const glm::dmat4& world, const std::string& node_where) {
+    if (index < 0 || static_cast<size_t>(index) >= m.cameras.size())
+      fail(node_where + ".camera", "camera " + std::to_string(index) + " does not exist");
+    if (out.camera) return;  // the first one
+    const tg::Camera& c = m.cameras[index];
+    if (c.type != "perspective") {
+      warn("orthographic cameras are not supported: camera " + std::to_string(index) + " is passed over");
+      return;
+    }
+    const double yfov = c.perspective.yfov;
+    if (!(yfov > 0.0 && yfov < glm::pi<double>()))
+      fail("cameras[" + std::to_string(index) + "].perspective.yfov", "must lie in (0, π)");
+    CameraDesc cam;
+    cam.position = DVec3(world * glm::dvec4(0, 0, 0, 1));
+    const DVec3 forward = DVec3(world * glm::dvec4(0, 0, -1, 0)), up = DVec3(world * glm::dvec4(0, 1, 0, 0));
+    if (!(glm::length(forward) > 0.0) || !(glm::length(up) > 0.0) || !std::isfinite(cam.position.x + cam.position.y + cam.position.z))
+      fail(node_where, "the camera's transform is degenerate or not finite");
+    cam.look_at = cam.position + glm::normalize(forward);
+    cam.up = glm::normalize(up);
+    cam.fov_deg = glm::degrees(yfov);
+    cam.fov_axis = FovAxis::Vertical;
+    out.camera = cam;
+    if (c.perspective.aspectRatio > 0.0 && std::isfinite(c.perspective.aspectRatio))
+      out.aspect_ratio = c.perspective.aspectRatio;
+  }
+
+  // Depth first; `on_path` holds the nodes above, so a cycle is found where it closes.
+  void visit(int node, const glm::dmat4& parent, std::vector<bool>& on_path, int depth) {
+    const std::string where = "nodes[" + std::to_string(node) + "]";
+    if (node < 0 || static_cast<size_t>(node) >= m.nodes.size()) fail(where, "the node does not exist");
+    if (on_path[node]) fail(where, "the node graph has a cycle through this node");
+    if (depth > 1024) fail(where, "the node hierarchy is deeper than 1024");
+    const tg::Node& n = m.nodes[node];
+    if ((!n.matrix.empty() && n.matrix.size() != 16) || (!n.translation.empty() && n.translation.size() != 3) ||
+        (!n.rotation.empty() && n.rotation.size() != 4) || (!n.scale.empty() && n.scale.size() != 3))
+      fail(where, "a transform property has the wrong number of values");
+    const glm::dmat4 world = parent * local_transform(n);
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r)
+        if (!std::isfinite(world[c][r])) fail(where, "its transform is not finite");
+    if (n.skin >= 0) warn("skins are not read: skinned meshes keep their bind pose");
+    if (n.mesh >= 0) add_mesh(n.mesh, world, where);
+    if (n.camera >= 0) add_camera(n.camera, world, where);
+    if (n.extensions.count("KHR_lights_punctual"))
+      warn("KHR_lights_punctual lights are not supported yet: they are left out");
+    on_path[node] = true;
+    for (int child : n.children) visit(child, world, on_path, depth + 1);
+    on_path[node] = false;
+  }
+
+  void read() {
+    for (const std::string& e : m.extensionsRequired)
+      if (!kReadExtensions.count(e)) fail("extensionsRequired", "the extension " + e + " is required but not supported");
+    for (const std::string& e : m.extensionsUsed)
+      if (!kReadExtensions.count(e)) warn("the extension " + e + " is not read: what it adds is left out");
+    std::vector<int> roots;
+    if (!m.scenes.empty()) {
+      const int s = m.defaultScene >= 0 ? m.defaultScene : 0;
+      if (static_cast<size_t>(s) >= m.scenes.size()) fail("scene", "scene " + std::to_string(s) + " does not exist");
+      roots = m.scenes[s].nodes;
+    } else {  // no scene: every node that is no other node's child
+      std::vector<bool> child(m.nodes.size(), false);
+      for (const tg::Node& n : m.nodes)
+        for (int c : n.children)
+          if (c >= 0 && static_cast<size_t>(c) < child.size()) child[c] = true;
+      for (size_t i = 0; i < m.nodes.size(); ++i)
+        if (!child[i]) roots.push_back(static_cast<int>(i));
+    }
+    std::vector<bool> on_path(m.nodes.size(), false);
+    for (int r : roots) visit(r, glm::dmat4(1.0), on_path, 0);
+    if (out.triangles.empty()) throw SceneError(path + ": no triangles to show");
+    // The materials: the file's, names made unique, then the default if a primitive used it.
+    std::set<std::string> names;
+    for (size_t i = 0; i < m.materials.size(); ++i) out.materials.push_back(material(i));
+    for (MaterialDesc& d : extra_materials) out.materials.push_back(d);
+    for (MaterialDesc& d : out.materials) {
+      const std::string base = d.name;
+      for (int k = 2; !names.insert(d.name).second; ++k) d.name = base + " (" + std::to_string(k) + ")";
+    }
+    for (int mat : out.triangle_material)
+      if (!is_black(out.materials[mat].emission)) out.emits = true;
+  }
+};
+
+// Files through the scene's safety rules (regular files, at most kMaxSceneFileBytes); nothing is written.
+bool read_whole_file(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+  try {
+    const std::string bytes = read_file_limited(path, kMaxSceneFileBytes);
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+  } catch (const FileError& e) {
+    if (err) *err += e.what();
+    return false;
+  }
+}
+bool file_exists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec);
+}
+std::string expand_path(const std::string& path, void*) { return path; }  // no ~ or $VAR expansion
+bool write_nothing(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "writing is not allowed";
+  return false;
+}
+bool skip_image(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+  return true;  // textures are not read yet: images stay undecoded
+}
+
+}  // namespace
+
+bool is_gltf_file(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".gltf" || ext == ".glb";
+}
+
+GltfContents load_gltf(const std::string& path) {
+  std::string bytes;
+  try {
+    bytes = read_file_limited(path, kMaxSceneFileBytes);
+  } catch (const FileError& e) {
+    throw SceneError(e.what());
+  }
+  tg::TinyGLTF parser;
+  parser.SetFsCallbacks({&file_exists, &expand_path, &read_whole_file, &write_nothing, nullptr});
+  parser.SetImageLoader(&skip_image, nullptr);
+  tg::Model model;
+  std::string err, warn;
+  const std::string base_dir = std::filesystem::path(path).parent_path().string();
+  const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  const bool ok = binary ? parser.LoadBinaryFromMemory(&model, &err, &warn, data, static_cast<unsigned>(bytes.size()), base_dir)
+                         : parser.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned>(bytes.size()), base_dir);
+  if (!ok || !err.empty()) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    throw SceneError(path + ": not a valid glTF 2.0 file: " + (err.empty() ? std::string("the parser refused it") : err));
+  }
+  Reader r(path, model);
+  r.read();
+  return std::move(r.out);
+}
+
+SceneDesc gltf_scene(const std::string& path) {
+  GltfContents g = load_gltf(path);
+  for (const std::string& w : g.warnings) std::fprintf(stderr, "warning: %s: %s\n", path.c_str(), w.c_str());
+  SceneDesc s;
+  s.width = 640;
+  s.height = g.aspect_ratio > 0.0 ? std::clamp(static_cast<int>(std::lround(640.0 / g.aspect_ratio)), 1, 16384) : 480;
+  s.render.max_bounces = 16;
+  s.materials = std::move(g.materials);
+  s.shapes.reserve(g.triangles.size());
+  DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < g.triangles.size(); ++i) {
+    ShapeDesc tri;
+    tri.type = ShapeType::Triangle;
+    tri.vertices = {g.triangles[i][0], g.triangles[i][1], g.triangles[i][2], DVec3(0.0)};
+    tri.material = g.triangle_material[i];
+    s.shapes.push_back(tri);
+    for (int k = 0; k < 3; ++k) lo = glm::min(lo, g.triangles[i][k]), hi = glm::max(hi, g.triangles[i][k]);
+  }
+  s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
+  if (g.emits) {
+    s.environment.type = EnvironmentType::Constant;
+    s.environment.radiance = Rgb(0.f);
+  } else {
+    s.environment = daylight_environment();
+  }
+  if (std::string err = validate_scene(s); !err.empty()) throw SceneError(path + ": " + err);
+  return s;
+}
+
+}  // namespace pt

@@ -1,0 +1,54 @@
+// glTF 2.0 files (`.gltf` with external or embedded buffers, `.glb`), parsed by Debian's libtinygltf-dev and
+// checked here (docs/scene-format.md, "glTF 2.0"). This first step reads what the renderer can show today:
+// - the node hierarchy of the default scene (else of every root node) with its transforms (a matrix, or
+//   translation · rotation · scale), applied in double; a node graph with a cycle is refused;
+// - indexed or plain triangle primitives (POSITION; any other primitive mode is refused, never guessed), as flat
+//   triangles, listed the other way round under a mirroring transform so that faces keep their fronts;
+// - the first perspective camera met in the node graph (yfov; the aspect ratio sets the film's shape);
+// - materials mapped to the project's nearest material until the glTF metallic–roughness BSDF lands: metallic
+//   ≥ 0.5 → conductor (F0 = base colour, GGX α = roughness²), KHR_materials_transmission → smooth or rough
+//   dielectric (KHR_materials_ior, default 1.5), otherwise plastic (a Lambert base under a GGX coat of index 1.5,
+//   i.e. F0 = 0.04, the specification's dielectric); emission = emissiveFactor × KHR_materials_emissive_strength;
+//   a primitive without a material gets the specification's default (white, metallic 1, roughness 1).
+// Not read yet, each named once on the warnings list: vertex normals and texture coordinates (flat shading),
+// textures, alpha modes, KHR_lights_punctual lights, skins and morph targets, orthographic cameras. Extensions
+// named in extensionsRequired that are not read are refused by name; other unknown extensions are warned about.
+//
+// Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)
+// and the reason: missing or short buffers, accessor indices, offsets or strides out of range, indices past the
+// vertex count, non-finite positions or transforms, sparse accessors, a file or buffer over kMaxSceneFileBytes.
+#pragma once
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene/scene_desc.h"
+
+namespace pt {
+
+struct GltfContents {
+  std::vector<std::array<DVec3, 3>> triangles;  // world coordinates (node transforms applied)
+  std::vector<int> triangle_material;           // per triangle, an index into `materials`
+  std::vector<MaterialDesc> materials;          // the file's materials (unique names), then the default if used
+  std::optional<CameraDesc> camera;             // the first perspective camera in the node graph
+  double aspect_ratio = 0;                      // that camera's aspect ratio (width/height); 0 when not given
+  bool emits = false;                           // some material emits light
+  size_t degenerate = 0;                        // zero-area triangles left out (they can never be hit)
+  std::vector<std::string> warnings;            // what was not read, one line each
+};
+
+// True for .gltf and .glb (by extension, any case).
+bool is_gltf_file(const std::string& path);
+
+// Throws SceneError (scene_json.h) naming the file, the glTF path and the reason.
+GltfContents load_gltf(const std::string& path);
+
+// A scene for a glTF file given alone (`render --scene model.glb`, `view model.gltf`): the file's triangles and
+// materials; its camera, else one that frames its bounds (scene/studio.h's framing); lit by its own emitters
+// against a black background, or, when nothing in it emits, by the daylight sky an OBJ model gets (studio.h:
+// shapes show by shading and shadow; no ground is added, since a glTF file may hold a whole scene). Warnings go
+// to stderr. Throws SceneError.
+SceneDesc gltf_scene(const std::string& path);
+
+}  // namespace pt
