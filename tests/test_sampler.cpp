@@ -100,9 +100,17 @@ TEST_CASE("sampler: a value depends on its dimension only, not on what was asked
 }
 
 TEST_CASE("sampler: the dimension layout gives each decision of each bounce its own dimension") {
-  for (bool light_sampling : {false, true}) {
-    const SampleDimensions dims(light_sampling);
+  for (bool light_sampling : {false, true})
+  for (bool lens : {false, true}) {
+    const SampleDimensions dims(light_sampling, lens);
     std::set<uint32_t> two_d{SampleDimensions::kCameraJitter}, one_d;
+    if (lens) CHECK(two_d.insert(SampleDimensions::kLens).second);
+    // A thin lens moves every bounce's 2D dimensions up by exactly one; a pinhole's layout is the one before.
+    const SampleDimensions pinhole(light_sampling, false);
+    for (uint32_t b = 0; b < 50; ++b) {
+      CHECK(dims.bsdf_direction(b) == pinhole.bsdf_direction(b) + (lens ? 1u : 0u));
+      if (light_sampling) CHECK(dims.light_point(b) == pinhole.light_point(b) + (lens ? 1u : 0u));
+    }
     for (uint32_t b = 0; b < 50; ++b) {
       CHECK(two_d.insert(dims.bsdf_direction(b)).second);
       if (light_sampling) CHECK(two_d.insert(dims.light_point(b)).second);

@@ -126,7 +126,8 @@ void handle_viewer_input(const ImGuiIO& io, ViewerModel& model, double seconds, 
       model.set_pivot_at(p.x, p.y);
     } else if (io.MouseReleased[0] && io.MouseDragMaxDistanceSqr[0] < 9.f && image.contains(io.MousePos)) {
       const ImVec2 p = image.to_image(io.MousePos);
-      model.select_at(p.x, p.y);
+      if (io.KeyAlt) model.focus_at(p.x, p.y);  // Alt+click: focus the thin lens there
+      else model.select_at(p.x, p.y);
     }
   }
   // The fly keys WASD/QE act only while the right button is held, so S alone stays "save".

@@ -110,7 +110,9 @@ bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {
 }
 
 bool ViewerModel::set_render(const RenderSettings& render) {
-  if (std::string err = validate_render_settings(render); !err.empty()) {
+  std::string err = validate_render_settings(render);
+  if (err.empty()) err = validate_lens_for_estimator(scene_.camera, render);
+  if (!err.empty()) {
     set_status("not applied: " + err, true);
     return false;
   }
@@ -171,6 +173,35 @@ void ViewerModel::apply_input(const ViewInput& in, double seconds) {
 void ViewerModel::set_fov(double fov_deg) {
   camera_.set_fov(fov_deg);
   camera_changed();
+}
+
+bool ViewerModel::set_lens(double aperture_radius, double focus_distance) {
+  CameraDesc candidate = camera_.camera();
+  candidate.aperture_radius = aperture_radius;
+  candidate.focus_distance = focus_distance;
+  if (std::string err = validate_lens_for_estimator(candidate, scene_.render); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  camera_.set_lens(aperture_radius, focus_distance);
+  camera_changed();
+  return true;
+}
+
+bool ViewerModel::focus_at(double x, double y) {
+  const std::optional<PickResult> p = pick(x, y);
+  if (!p) {
+    set_status("no surface under the cursor: the focus stays", false);
+    return false;
+  }
+  const CameraDesc& c = camera_.camera();
+  const double d = glm::dot(p->point - c.position, glm::normalize(c.look_at - c.position));
+  if (!(d > 0.0)) return false;
+  if (!set_lens(c.aperture_radius, d)) return false;
+  char text[96];
+  std::snprintf(text, sizeof text, "focus at %.4g on %s", d, scene_.materials[p->material].name.c_str());
+  set_status(text, false);
+  return true;
 }
 
 void ViewerModel::set_camera_position(DVec3 position) {

@@ -94,6 +94,11 @@ class ViewerModel {
   const CameraController& camera() const { return camera_; }
   void apply_input(const ViewInput& input, double seconds);
   void set_fov(double fov_deg);
+  // Depth of field (a view, like the camera's moves): the lens radius and the focus distance along the view
+  // direction (0: the target's). Refused with a status while the estimator is bdpt (pinhole only).
+  bool set_lens(double aperture_radius, double focus_distance);
+  // Focuses on the surface under image point (x, y) (Alt+click): its distance along the view direction.
+  bool focus_at(double x, double y);
   void set_camera_position(DVec3 position);
   void set_camera_target(DVec3 target);
   void reset_camera();  // back to the loaded scene's camera

@@ -433,6 +433,15 @@ void camera_section(ViewerModel& model, PanelState& state) {
   };
   vector_field("position", c.position, [&](DVec3 d) { model.set_camera_position(d); });
   vector_field("target", c.look_at, [&](DVec3 d) { model.set_camera_target(d); });
+  // Depth of field: the thin lens (scene/camera.h); Alt+click on the image focuses where it points.
+  float aperture = static_cast<float>(c.aperture_radius), focus = static_cast<float>(c.focus_distance);
+  const float speed = static_cast<float>(std::max(1e-3, 1e-3 * glm::length(c.look_at - c.position)));
+  if (ImGui::DragFloat("aperture radius", &aperture, speed, 0.f, 1e6f, "%.4g", ImGuiSliderFlags_AlwaysClamp))
+    model.set_lens(aperture, c.focus_distance);
+  if (ImGui::DragFloat("focus distance", &focus, 10.f * speed, 0.f, 1e9f, focus > 0.f ? "%.4g" : "0 (the target)",
+                       ImGuiSliderFlags_AlwaysClamp))
+    model.set_lens(c.aperture_radius, focus);
+  ImGui::TextDisabled("aperture 0: a pinhole; Alt+click on the image: focus there");
   if (ImGui::Button("Reset to scene camera")) model.reset_camera();
   ImGui::TextDisabled("fly speed %.3g units/s (shift: 4x)", model.camera().fly_speed());
 }

@@ -78,11 +78,11 @@ struct ShadowRay {
 
 // The render settings as the path loop reads them, resolved once per tile.
 struct PathOptions {
-  explicit PathOptions(const RenderSettings& s)
+  PathOptions(const RenderSettings& s, const Camera& camera)
       : uniform(s.estimator == Estimator::Uniform),
         light_sampling(s.estimator == Estimator::Nee || s.estimator == Estimator::Mis),
         mis(s.estimator == Estimator::Mis),
-        dims(light_sampling),
+        dims(light_sampling, camera.thin_lens()),
         max_bounces(s.max_bounces),
         rr_depth(s.russian_roulette_depth) {}
   bool uniform, light_sampling, mis;
@@ -199,7 +199,7 @@ template <class Sampler, uint32_t F>
 template <class Sampler, uint32_t F>
 Rgb trace(const Scene& s, const RenderSettings& settings, const Ray& camera_ray, Sampler& rng, RayCount& count,
           PixelFeatures* features, const std::atomic<bool>* cancel) {
-  const PathOptions o(settings);
+  const PathOptions o(settings, s.camera);
   PathState p;
   p.ray = camera_ray;
   p.features.out = features;

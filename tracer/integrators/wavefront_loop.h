@@ -13,7 +13,7 @@ namespace integrator_detail {
 template <class Sampler, uint32_t F>
 bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* samplers, const Ray* camera_rays,
                  int n, Rgb* L, PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel) {
-  const PathOptions o(settings);
+  const PathOptions o(settings, s.camera);
   // The batch's state (~64 KB of stack): paths by index, the queue of live paths for this bounce and the next,
   // and the shadow rays this bounce's vertices asked for.
   PathState paths[kWavefrontBatch];

@@ -19,11 +19,13 @@ PixelRect tile_rect(int tile, int tiles_x, const PixelRect& area) {
   return PixelRect{x0, y0, x0 + Renderer::kTileSize, y0 + Renderer::kTileSize}.intersected(area);
 }
 
-// The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel.
+// The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel (and through a point
+// of the lens, with a thin lens).
 template <class Sampler>
 Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y) {
   const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
-  return scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y);
+  const Vec2 lens = scene.camera.thin_lens() ? sampler.get_2d(SampleDimensions::kLens) : Vec2(0.5f);
+  return scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y, lens);
 }
 
 // One tile: every pixel gets `spp` more samples, numbered after those it already has. Returns false when

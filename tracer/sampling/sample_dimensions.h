@@ -4,8 +4,9 @@
 // dimension would serve a light sample in one path and a BSDF direction in the next, and batches of paths of
 // different lengths would not share a layout; explicit numbers keep each dimension to one purpose.
 //
-// 2D: dimension 0 is the camera jitter; then per bounce the light point (only when the estimator samples lights)
-// and the BSDF direction. Only the first SobolSampler::kSobolPairs 2D dimensions are stratified, so the layout
+// 2D: dimension 0 is the camera jitter, 1 the lens point when the camera has a thin lens (scene/camera.h); then
+// per bounce the light point (only when the estimator samples lights) and the BSDF direction (a pinhole camera's
+// layout is unchanged by the lens, so its images are too). Only the first SobolSampler::kSobolPairs 2D dimensions are stratified, so the layout
 // spends none on light points when no light is sampled. 1D: three per bounce (light choice, BSDF lobe, roulette).
 #pragma once
 #include <cstdint>
@@ -14,20 +15,24 @@ namespace pt {
 
 class SampleDimensions {
  public:
-  explicit SampleDimensions(bool light_sampling) : pairs_per_bounce_(light_sampling ? 2u : 1u) {}
+  explicit SampleDimensions(bool light_sampling, bool thin_lens = false)
+      : pairs_per_bounce_(light_sampling ? 2u : 1u), first_bounce_pair_(thin_lens ? 2u : 1u) {}
 
   static constexpr uint32_t kCameraJitter = 0;
+  static constexpr uint32_t kLens = 1;  // only with a thin lens
   // 2D dimensions of bounce b (b = 0 at the camera ray's first hit). light_point is meaningful only with light
   // sampling. Unsigned arithmetic: paths of 10^9 bounces reuse dimensions rather than overflow.
-  uint32_t light_point(uint32_t bounce) const { return 1 + pairs_per_bounce_ * bounce; }
-  uint32_t bsdf_direction(uint32_t bounce) const { return pairs_per_bounce_ * (bounce + 1); }
+  uint32_t light_point(uint32_t bounce) const { return first_bounce_pair_ + pairs_per_bounce_ * bounce; }
+  uint32_t bsdf_direction(uint32_t bounce) const {
+    return first_bounce_pair_ + pairs_per_bounce_ * bounce + (pairs_per_bounce_ - 1);
+  }
   // 1D dimensions of bounce b.
   static uint32_t light_choice(uint32_t bounce) { return 3 * bounce; }
   static uint32_t bsdf_lobe(uint32_t bounce) { return 3 * bounce + 1; }
   static uint32_t roulette(uint32_t bounce) { return 3 * bounce + 2; }
 
  private:
-  uint32_t pairs_per_bounce_;
+  uint32_t pairs_per_bounce_, first_bounce_pair_;
 };
 
 // The bidirectional estimator's layout (integrators/bdpt.h). 2D: 0 the camera jitter, 1 and 2 the light path's

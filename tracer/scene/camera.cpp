@@ -19,4 +19,11 @@ Camera Camera::make(DVec3 forward, DVec3 up, double fov_deg, bool fov_horizontal
   return c;
 }
 
+Camera compile_camera(const CameraDesc& d, int width, int height) {
+  Camera c = Camera::make(d.look_at - d.position, d.up, d.fov_deg, d.fov_axis == FovAxis::Horizontal, width, height);
+  c.lens_radius = static_cast<float>(d.aperture_radius);
+  c.focus_distance = static_cast<float>(d.focus());
+  return c;
+}
+
 }  // namespace pt

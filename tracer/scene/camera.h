@@ -2,6 +2,8 @@
 // the mean radiance over its square (box filter one pixel wide), sampled by jittering uniformly inside it.
 #pragma once
 #include "core/ray.h"
+#include "sampling/sampling.h"
+#include "scene/scene_desc.h"
 
 namespace pt {
 
@@ -12,15 +14,26 @@ struct Camera {
   // The eye in the scene's (camera-relative) coordinates: 0 as compiled; a camera moved in place
   // (update_scene_appearance) keeps the geometry where it was and starts its rays here.
   Vec3 origin{0.f};
+  // Thin lens (pbrt-v4 §5.2.3): a lens of this radius centred on the eye, perpendicular to `forward`, focused on
+  // the plane at focus_distance along `forward`. 0: a pinhole (generate_ray ignores the lens sample).
+  float lens_radius = 0.f, focus_distance = 1.f;
+  bool thin_lens() const { return lens_radius > 0.f; }
 
   // A camera at the (camera-relative) origin; fov in degrees along the given axis.
   static Camera make(DVec3 forward, DVec3 up, double fov_deg, bool fov_horizontal, int width, int height);
 
-  // Ray through image point (x, y) in pixel units, (0,0) = top-left corner of the image.
-  Ray generate_ray(float x, float y) const {
+  // Ray through image point (x, y) in pixel units, (0,0) = top-left corner of the image. With a thin lens,
+  // `u_lens` picks the point on the lens (concentric disk mapping) and the ray passes through the point of the
+  // focus plane that the pinhole ray through (x, y) meets, so that plane stays sharp.
+  Ray generate_ray(float x, float y, Vec2 u_lens = Vec2(0.5f)) const {
     const float sx = (2.f * x / static_cast<float>(width) - 1.f) * tan_half_x;
     const float sy = (1.f - 2.f * y / static_cast<float>(height)) * tan_half_y;
-    return {origin, glm::normalize(forward + sx * right + sy * up)};
+    const Vec3 d = glm::normalize(forward + sx * right + sy * up);
+    if (!thin_lens()) return {origin, d};
+    const Vec2 lens = lens_radius * sample_uniform_disk_concentric(u_lens);
+    const Vec3 focus = origin + d * (focus_distance / glm::dot(d, forward));
+    const Vec3 o = origin + lens.x * right + lens.y * up;
+    return {o, glm::normalize(focus - o)};
   }
 
   // Importance (light tracing, integrators/bdpt.h). The image plane at distance 1 has area A = 4·tan_x·tan_y;
@@ -51,5 +64,8 @@ struct Camera {
     return c > 0.f ? 1.f / (image_plane_area() * c * c * c) : 0.f;
   }
 };
+
+// The camera of a scene description at the given film size (its eye at the origin).
+Camera compile_camera(const CameraDesc& desc, int width, int height);
 
 }  // namespace pt

@@ -122,6 +122,11 @@ void CameraController::set_pivot_distance(double d) {
 
 void CameraController::set_fov(double fov_deg) { camera_.fov_deg = std::clamp(fov_deg, 1.0, 170.0); }
 
+void CameraController::set_lens(double aperture_radius, double focus_distance) {
+  camera_.aperture_radius = std::isfinite(aperture_radius) ? std::max(0.0, aperture_radius) : 0.0;
+  camera_.focus_distance = std::isfinite(focus_distance) ? std::max(0.0, focus_distance) : 0.0;
+}
+
 void CameraController::set_position(DVec3 position) {
   set_from_offset(position - target_);
   update();

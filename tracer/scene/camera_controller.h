@@ -38,6 +38,8 @@ class CameraController {
   void fly(DVec3 axes, double seconds, double speed_multiplier = 1.0);
 
   void set_fov(double fov_deg);
+  // The thin lens (CameraDesc::aperture_radius, focus_distance; 0 focuses on the target); negatives become 0.
+  void set_lens(double aperture_radius, double focus_distance);
   void set_position(DVec3 position);  // keeps the target
   void set_target(DVec3 target);      // keeps the position
   void set_aspect(double aspect) { aspect_ = aspect; }

@@ -100,6 +100,10 @@ std::string validate_camera(const CameraDesc& c) {
   if (!(glm::length(c.up) > 0.0) || glm::length(glm::cross(f, glm::normalize(c.up))) < 1e-9)
     return "camera.up: must not be zero or parallel to the viewing direction";
   if (!(c.fov_deg > 0.0 && c.fov_deg < 180.0)) return "camera.fov_deg: must be in (0, 180) degrees";
+  if (!(c.aperture_radius >= 0.0 && std::isfinite(c.aperture_radius)))
+    return "camera.aperture_radius: must be finite and >= 0 (0: a pinhole)";
+  if (!(c.focus_distance >= 0.0 && std::isfinite(c.focus_distance)))
+    return "camera.focus_distance: must be finite and >= 0 (0: the distance to look_at)";
   return {};
 }
 
@@ -174,10 +178,17 @@ std::optional<size_t> object_containing(const SceneDesc& s, size_t shape) {
   return static_cast<size_t>(it - 1 - s.objects.begin());
 }
 
+std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSettings& r) {
+  if (c.aperture_radius > 0.0 && r.estimator == Estimator::Bdpt)
+    return "camera.aperture_radius: the bdpt estimator supports only a pinhole camera for now (use mis, or auto)";
+  return {};
+}
+
 std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
+  if (std::string err = validate_lens_for_estimator(s.camera, s.render); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
   if (s.materials.empty()) return "materials: the scene defines no material";
   for (const MaterialDesc& m : s.materials)
@@ -431,8 +442,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
   s.width = desc.width;
   s.height = desc.height;
   s.world_origin = desc.camera.position;
-  s.camera = Camera::make(desc.camera.look_at - desc.camera.position, desc.camera.up, desc.camera.fov_deg,
-                          desc.camera.fov_axis == FovAxis::Horizontal, desc.width, desc.height);
+  s.camera = compile_camera(desc.camera, desc.width, desc.height);
 
   const DVec3 o = s.world_origin;
   s.material_used.assign(desc.materials.size(), 0);
@@ -480,7 +490,7 @@ namespace {
 
 bool same_camera(const CameraDesc& a, const CameraDesc& b) {
   return a.position == b.position && a.look_at == b.look_at && a.up == b.up && a.fov_deg == b.fov_deg &&
-         a.fov_axis == b.fov_axis;
+         a.fov_axis == b.fov_axis && a.aperture_radius == b.aperture_radius && a.focus_distance == b.focus_distance;
 }
 
 // The camera moved within this many bounding radii of the origin the geometry was compiled around keeps the
@@ -528,8 +538,7 @@ namespace {
 bool move_camera(Scene& s, const CameraDesc& c) {
   const DVec3 offset = c.position - s.world_origin;
   if (glm::length(offset) > kCameraRebaseRadii * s.bounding_radius) return false;
-  s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, s.width,
-                          s.height);
+  s.camera = compile_camera(c, s.width, s.height);
   s.camera.origin = Vec3(offset);
   return true;
 }
@@ -554,7 +563,10 @@ std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit) {
     if (m->index >= desc.materials.size()) return "materials[" + std::to_string(m->index) + "]: no such material";
     return validate_material(m->material);
   }
-  if (const auto* c = std::get_if<CameraDesc>(&edit)) return validate_camera(*c);
+  if (const auto* c = std::get_if<CameraDesc>(&edit)) {
+    if (std::string err = validate_camera(*c); !err.empty()) return err;
+    return validate_lens_for_estimator(*c, desc.render);
+  }
   if (const auto* f = std::get_if<FilmSize>(&edit)) return validate_film_size(f->width, f->height);
   return validate_environment(std::get<EnvironmentDesc>(edit));
 }
@@ -570,7 +582,7 @@ void set_scene_resolution(Scene& s, int width, int height, const CameraDesc& c) 
   s.width = width;
   s.height = height;
   const Vec3 origin = s.camera.origin;  // the eye relative to where the geometry was compiled
-  s.camera = Camera::make(c.look_at - c.position, c.up, c.fov_deg, c.fov_axis == FovAxis::Horizontal, width, height);
+  s.camera = compile_camera(c, width, height);
   s.camera.origin = origin;
 }
 

@@ -178,6 +178,9 @@ std::string validate_render_settings(const RenderSettings& render);
 // "" or why a film of width × height cannot be rendered (each side 1 … kMaxFilmSide).
 std::string validate_film_size(int width, int height);
 
+// A thin-lens camera (aperture_radius > 0) with the bdpt estimator: its light-tracing strategies assume a
+// pinhole, so the pair is refused (auto picks mis for such a camera).
+std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSettings& render);
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
 // The objects' part of it: each holds ≥ 1 shape, in shape order without overlap, of one material, with a usable

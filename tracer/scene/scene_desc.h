@@ -138,6 +138,12 @@ struct CameraDesc {
   DVec3 up{0, 1, 0};
   double fov_deg = 39.3077;
   FovAxis fov_axis = FovAxis::Vertical;
+  // Thin lens (depth of field): the lens radius in scene units (0: a pinhole, everything sharp) and the distance
+  // along the view direction at which the image is sharp (0: the distance to look_at).
+  double aperture_radius = 0.0;
+  double focus_distance = 0.0;
+  // The focus distance in use: focus_distance, else look_at's distance along the view direction.
+  double focus() const { return focus_distance > 0.0 ? focus_distance : glm::length(look_at - position); }
 };
 
 // The bidirectional estimator stores both subpaths and connects every pair of their vertices (O(n²) shadow rays

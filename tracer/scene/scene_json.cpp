@@ -536,7 +536,7 @@ E read_enum(const Json& v, const std::string& path, const char* noun) {
 
 CameraDesc read_camera(const Json& j, const std::string& path) {
   expect_object(j, path);
-  check_known_keys(j, path, {"position", "look_at", "up", "fov_deg", "fov_axis"});
+  check_known_keys(j, path, {"position", "look_at", "up", "fov_deg", "fov_axis", "aperture_radius", "focus_distance"});
   CameraDesc c;
   c.position = read_dvec3(required_key(j, path, "position"), member(path, "position"));
   c.look_at = read_dvec3(required_key(j, path, "look_at"), member(path, "look_at"));
@@ -545,6 +545,8 @@ CameraDesc read_camera(const Json& j, const std::string& path) {
   c.fov_deg = read_double(required_key(j, path, "fov_deg"), member(path, "fov_deg"));
   c.fov_axis = FovAxis::Vertical;
   if (const Json* v = optional_key(j, "fov_axis")) c.fov_axis = read_enum<FovAxis>(*v, member(path, "fov_axis"), "fov_axis");
+  if (const Json* v = optional_key(j, "aperture_radius")) c.aperture_radius = read_double(*v, member(path, "aperture_radius"));
+  if (const Json* v = optional_key(j, "focus_distance")) c.focus_distance = read_double(*v, member(path, "focus_distance"));
   return c;
 }
 
@@ -947,6 +949,8 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
                     {"up", triple(c.up)},
                     {"fov_deg", number(c.fov_deg)},
                     {"fov_axis", to_string(c.fov_axis)}};
+  if (c.aperture_radius > 0.0) root["camera"]["aperture_radius"] = number(c.aperture_radius);  // pinhole: unwritten
+  if (c.focus_distance > 0.0) root["camera"]["focus_distance"] = number(c.focus_distance);
   root["film"] = {{"width", s.width}, {"height", s.height}};
   root["render"] = {{"max_bounces", s.render.max_bounces},
                     {"estimator", to_string(s.render.estimator)},
