@@ -12,6 +12,13 @@
 #include <optional>
 #include <sstream>
 #include <stb_image.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <algorithm>
+#include <array>
+#include <cmath>
 
 #include "skip.h"
 #include "cli/instruction_count.h"
@@ -283,4 +290,148 @@ TEST_CASE("cli: bench rays replays a ray file over [tnear, tfar] and records the
   CHECK(bad.status == 2);
   CHECK(bad.err.find("error: bench_rays_bad.bin: not a ray file") != std::string::npos);
   for (const char* f : {"bench_rays.tris", "bench_rays_known.bin", "bench_rays_own.bin", "bench_rays_bad.bin"}) std::filesystem::remove(f);
+}
+
+namespace {
+
+// The bytes of a file ("" when missing).
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The "path: ..." line of render's summary.
+std::string path_line(const Run& r) {
+  const size_t at = r.out.find("path: ");
+  return at == std::string::npos ? "" : r.out.substr(at, r.out.find('\n', at) - at);
+}
+
+}  // namespace
+
+// Issue 41: a flag parsed and then ignored must fail a test. The diagnostic flags (--path-loop, --generic-kernel)
+// keep the image's bits and change the compiled path, which render's summary names; the others change the
+// image in a way checked against what they promise.
+TEST_CASE("cli: --path-loop and --generic-kernel keep the image's bits and change the path taken") {
+  const std::string base = "render --width 32 --height 32 --spp 2 -q --threads 2 ";
+  const Run wave = run(base + "--path-loop wavefront --pfm loop_w.pfm");
+  const Run scalar = run(base + "--path-loop scalar --pfm loop_s.pfm");
+  const Run generic = run(base + "--generic-kernel --pfm loop_g.pfm");
+  const Run automatic = run(base + "--pfm loop_a.pfm");
+  REQUIRE(wave.status == 0);
+  REQUIRE(scalar.status == 0);
+  REQUIRE(generic.status == 0);
+  REQUIRE(automatic.status == 0);
+  CHECK(file_bytes("loop_w.pfm").size() > 32 * 32 * 12);
+  CHECK(file_bytes("loop_w.pfm") == file_bytes("loop_s.pfm"));
+  CHECK(file_bytes("loop_w.pfm") == file_bytes("loop_g.pfm"));
+  CHECK(path_line(wave) == "path: wavefront loop, kernel for polygons with Lambert materials, SIMD shading lanes");
+  CHECK(path_line(scalar) == "path: scalar loop, kernel for polygons with Lambert materials");
+  CHECK(path_line(generic) == "path: wavefront loop, generic kernel (every feature)");
+  CHECK(path_line(automatic) == path_line(wave));  // auto: the Cornell box's 17 polygons take the wavefront
+}
+
+TEST_CASE("cli: --sampler and --rr-depth change the image as they say, and the defaults are what the scene names") {
+  const std::string base = "render --width 32 --height 32 --spp 4 -q --threads 2 ";
+  const Run sobol = run(base + "--pfm s_sobol.pfm");
+  const Run independent = run(base + "--sampler independent --pfm s_indep.pfm");
+  REQUIRE(sobol.status == 0);
+  REQUIRE(independent.status == 0);
+  CHECK(sobol.out.find("/sobol:") != std::string::npos);
+  CHECK(independent.out.find("/independent:") != std::string::npos);
+  CHECK(file_bytes("s_sobol.pfm") != file_bytes("s_indep.pfm"));
+  CHECK(run(base + "--sampler sobol --pfm s_sobol2.pfm").status == 0);
+  CHECK(file_bytes("s_sobol.pfm") == file_bytes("s_sobol2.pfm"));
+  // Roulette from bounce 3 is the Cornell box's setting: --rr-depth 3 is the same image, other depths are not.
+  REQUIRE(run(base + "--rr-depth 3 --pfm rr3.pfm").status == 0);
+  REQUIRE(run(base + "--rr-depth -1 --pfm rr_off.pfm").status == 0);
+  REQUIRE(run(base + "--rr-depth 0 --pfm rr0.pfm").status == 0);
+  CHECK(file_bytes("rr3.pfm") == file_bytes("s_sobol.pfm"));
+  CHECK(file_bytes("rr_off.pfm") != file_bytes("rr3.pfm"));
+  CHECK(file_bytes("rr0.pfm") != file_bytes("rr3.pfm"));
+  CHECK(file_bytes("rr0.pfm") != file_bytes("rr_off.pfm"));
+}
+
+TEST_CASE("cli: --tonemap aces writes the Narkowicz curve's sRGB values, clamp and reinhard theirs") {
+  // A camera inside a closed emitting box: every pixel sees radiance exactly 0.8 (an emitter of albedo 0, seen
+  // directly; max_bounces 0).
+  std::ofstream("tm.json") << R"({"camera": {"position": [0,0,0], "look_at": [0,0,-1], "fov_deg": 40},
+    "film": {"width": 8, "height": 8}, "render": {"max_bounces": 0},
+    "materials": {"glow": {"type": "diffuse", "albedo": [0,0,0], "emission": [0.8, 0.2, 3.0], "two_sided": true}},
+    "shapes": [{"type": "sphere", "center": [0,0,0], "radius": 10, "material": "glow"}]})";
+  auto pixel = [](const std::string& png) {
+    int w = 0, h = 0, n = 0;
+    unsigned char* p = stbi_load(png.c_str(), &w, &h, &n, 3);
+    REQUIRE(p);
+    std::array<int, 3> v{p[0], p[1], p[2]};
+    stbi_image_free(p);
+    return v;
+  };
+  // Independent of tracer/film/tonemap.h: the curve (Narkowicz 2015), the sRGB transfer function (IEC
+  // 61966-2-1) and rounding, written out here in double.
+  auto srgb8 = [](double x) {
+    x = std::clamp(x, 0.0, 1.0);
+    const double e = x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+    return static_cast<int>(std::lround(e * 255.0));
+  };
+  auto aces = [](double x) { return std::clamp(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); };
+  const double radiance[3] = {0.8, 0.2, 3.0};
+  for (const char* tm : {"aces", "clamp", "reinhard"}) {
+    const std::string png = std::string("tm_") + tm + ".png";
+    REQUIRE(run(std::string("render --scene tm.json --spp 1 -q --tonemap ") + tm + " --png " + png).status == 0);
+    const std::array<int, 3> got = pixel(png);
+    for (int c = 0; c < 3; ++c) {
+      const double x = radiance[c];
+      const double mapped = std::string(tm) == "aces" ? aces(x) : std::string(tm) == "clamp" ? std::min(x, 1.0) : x / (1 + x);
+      INFO(tm << " channel " << c);
+      CHECK(std::abs(got[c] - srgb8(mapped)) <= 1);  // float against double rounding: at most one step
+    }
+  }
+  CHECK(pixel("tm_aces.png") != pixel("tm_clamp.png"));
+}
+
+TEST_CASE("cli: --adaptive spends samples unevenly (the EXR's spp layer), a uniform render evenly") {
+  // Passes of ~0.5 s: after the first uniform ones (every pixel below 8 spp; every 4th pass) the error decides.
+  const std::string base = "render --scene cornell-spheres --estimator mis --width 64 --height 64 --time 2 -q --threads 2 --aov spp ";
+  REQUIRE(run(base + "--exr uniform.exr").status == 0);
+  REQUIRE(run(base + "--adaptive --exr adaptive.exr").status == 0);
+  auto spp_range = [](const std::string& path) {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i win = file.header().dataWindow();
+    const int w = win.max.x - win.min.x + 1, h = win.max.y - win.min.y + 1;
+    REQUIRE(file.header().channels().findChannel("spp.Y"));
+    std::vector<float> spp(static_cast<size_t>(w) * h, -1.f);
+    Imf::FrameBuffer fb;
+    fb.insert("spp.Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(spp.data()), sizeof(float), sizeof(float) * w));
+    file.setFrameBuffer(fb);
+    file.readPixels(win.min.y, win.max.y);
+    const auto [lo, hi] = std::minmax_element(spp.begin(), spp.end());
+    return std::pair<float, float>{*lo, *hi};
+  };
+  const auto uniform = spp_range("uniform.exr"), adaptive = spp_range("adaptive.exr");
+  INFO("uniform spp from " << uniform.first << " to " << uniform.second);
+  CHECK(uniform.first >= 8.f);
+  // Every pixel alike but for the last pass, which the time limit cuts short mid-way.
+  CHECK(uniform.second <= 1.25f * uniform.first);
+  INFO("adaptive spp from " << adaptive.first << " to " << adaptive.second);
+  CHECK(adaptive.first >= 1.f);
+  CHECK(adaptive.second >= 2.f * adaptive.first);  // the error-driven passes favour some tiles (up to 8x)
+}
+
+TEST_CASE("cli: compare --blocks counts the blocks off the reference and names the worst") {
+  Image ref{32, 32, std::vector<float>(32 * 32 * 3, 0.5f)};
+  Image img = ref;
+  // One 8x8 block 10 % brighter, another 2 % (inside a 3 % tolerance).
+  for (int y = 8; y < 16; ++y)
+    for (int x = 16; x < 24; ++x)
+      for (int c = 0; c < 3; ++c) img.rgb[3 * (y * 32 + x) + c] = 0.55f;
+  for (int y = 24; y < 32; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (int c = 0; c < 3; ++c) img.rgb[3 * (y * 32 + x) + c] = 0.51f;
+  write_pfm("blk_img.pfm", img);
+  write_pfm("blk_ref.pfm", ref);
+  const Run r = run("compare blk_img.pfm blk_ref.pfm --blocks 8 --block-tolerance 0.03");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.out.find("blocks 8x8: 1 of 16 off the reference's mean luminance by more than 3 %, worst +10.0 % at pixel (16, 8)") !=
+        std::string::npos);
 }

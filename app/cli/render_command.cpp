@@ -245,7 +245,7 @@ double run_progressive(const RenderOptions& o, ProgressivePasses& passes, Film& 
 
 // Step 5's summary line: what was rendered, how fast, and how well.
 void print_summary(const RenderOptions& o, const SceneDesc& desc, const Film& film, double seconds, double samples,
-                   double rays) {
+                   double rays, const std::string& path) {
   // `auto` names its pick: "auto=bdpt".
   const std::string estimator = desc.render.estimator == Estimator::Auto
                                     ? std::string("auto=") + to_string(choose_estimator(desc).estimator)
@@ -255,6 +255,7 @@ void print_summary(const RenderOptions& o, const SceneDesc& desc, const Film& fi
               o.scene.c_str(), desc.width, desc.height, estimator.c_str(), to_string(desc.render.sampler),
               static_cast<unsigned long long>(film.min_count()), seconds, samples / seconds * 1e-6,
               rays / seconds * 1e-6, film.estimated_relmse(), static_cast<unsigned long long>(film.rejected()));
+  std::printf("path: %s\n", path.c_str());
   if (film.rejected() > 0)
     std::fprintf(stderr, "warning: %llu samples were not finite and were left out of the image\n",
                  static_cast<unsigned long long>(film.rejected()));
@@ -304,7 +305,7 @@ int run_render(const RenderOptions& o) {
     std::printf("mpi: %d ranks, %.2f s, ranks busy %.0f %% of the time (sum of the ranks' pass times over ranks x "
                 "wall time)\n", plan.ranks(), seconds, 100.0 * all_busy / (plan.ranks() * seconds));
   }
-  print_summary(o, desc, film, seconds, std::floor(samples), std::floor(rays));
+  print_summary(o, desc, film, seconds, std::floor(samples), std::floor(rays), Renderer::describe_path(*scene, desc.render));
   if (film.total_count() == 0) {
     std::fprintf(stderr, "error: no sample was rendered; nothing written\n");
     return 1;

@@ -213,6 +213,22 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
   return stats;
 }
 
+std::string Renderer::describe_path(const Scene& scene, const RenderSettings& settings) {
+  const RenderSettings s = resolved_render_settings(scene, settings);
+  if (s.estimator == Estimator::Bdpt) return "bdpt rounds";
+  // The same choices as select_batch_kernel (integrators/wavefront_loop.h) and select_kernel (path_tracer.h).
+  const bool wavefront = !(s.path_loop == PathLoop::Scalar || (s.path_loop == PathLoop::Auto && !wavefront_pays(scene)));
+  const uint32_t f = s.generic_kernel ? kAllFeatures : scene.kernel_features();
+  std::string out = wavefront ? "wavefront loop, " : "scalar loop, ";
+  if (f == kAllFeatures) return out + "generic kernel (every feature)";
+  const bool polygons = f & kFeaturePolygons, spheres = f & kFeatureSpheres;
+  out += std::string("kernel for ") + (polygons && spheres ? "polygons and spheres" : polygons ? "polygons" : "spheres") +
+         ((f & kFeatureGeneralMaterials) ? " with any material" : " with Lambert materials");
+  const bool light_sampling = s.estimator == Estimator::Nee || s.estimator == Estimator::Mis;
+  if (wavefront && f == kFeaturePolygons && light_sampling) out += ", SIMD shading lanes";
+  return out;
+}
+
 PassStats Renderer::render_pass(const Scene& scene, const RenderSettings& settings, Film& film,
                                 const std::vector<int>& tile_spp, const std::atomic<bool>* cancel,
                                 const PixelRect* region) {

@@ -43,6 +43,11 @@ class Renderer {
 
   static constexpr int kTileSize = 16;
 
+  // Which compiled path render_pass takes for these settings, in words, for `render`'s summary and the tests of
+  // --path-loop and --generic-kernel (which change the path, not the image): "bdpt rounds", or e.g.
+  // "wavefront loop, kernel for polygons with Lambert materials, SIMD shading lanes".
+  static std::string describe_path(const Scene& scene, const RenderSettings& settings);
+
  private:
   // The bidirectional estimator's passes (integrators/bdpt.h): light-traced contributions land on any pixel, so
   // a pass runs in rounds of one sample per pixel. In a round every pixel traces one camera sample and one
