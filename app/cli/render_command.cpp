@@ -76,7 +76,8 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->check(CLI::IsMember(enum_name_list<ToneMap>()))
       ->capture_default_str();
   r->add_flag("--adaptive", o.adaptive,
-              "Adaptive sampling: passes spend samples where the film's error estimate is high (every 4th pass uniform)");
+              "Adaptive sampling: passes spend samples where the film's error estimate is high (every 4th pass uniform; "
+              "bdpt's passes stay uniform, its light subpaths reaching every pixel)");
   r->add_flag("--generic-kernel", o.generic_kernel,
               "Diagnostic: run the kernel compiled for every scene feature instead of the one specialised for this "
               "scene (same image, more work; for instruction-count comparisons)");

@@ -8,6 +8,7 @@
 
 #include "film/film.h"
 #include "render/renderer.h"
+#include "scene/estimator_choice.h"
 
 namespace pt {
 
@@ -78,9 +79,13 @@ int next_pass_spp(double seconds_per_spp, double target_seconds, const StopCondi
 // cancellation. The viewer's RenderSession runs its own loop (restarts, previews) over the same rules.
 class ProgressivePasses {
  public:
+  // Adaptive passes do not apply under bdpt, whose light subpaths splat into every tile (Renderer::render_pass
+  // runs a per-tile plan's largest count everywhere, so a planned pass of mean M spp ran up to 8M and the
+  // measured cost per spp came out 8x too high): its passes stay uniform.
   ProgressivePasses(Renderer& renderer, const Scene& scene, const RenderSettings& settings, Film& film,
                     bool adaptive)
-      : renderer_(renderer), scene_(scene), settings_(settings), film_(film), adaptive_(adaptive) {}
+      : renderer_(renderer), scene_(scene), settings_(settings), film_(film),
+        adaptive_(adaptive && resolved_render_settings(scene, settings).estimator != Estimator::Bdpt) {}
 
   // next_pass_spp at this run's measured cost.
   int next_spp(double target_seconds, const StopConditions& stop, uint64_t spp_done, double seconds_done,
