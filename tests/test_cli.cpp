@@ -57,7 +57,9 @@ TEST_CASE("cli: render of the default scene writes PNG and PFM whose mean matche
   const glm::dvec3 m = mean_rgb(img), mr = mean_rgb(ref);
   for (int c = 0; c < 3; ++c) {
     INFO("channel " << c << ": ours " << m[c] << ", reference " << mr[c]);
-    CHECK(std::abs(m[c] / mr[c] - 1.0) < 0.02);
+    // Measured +0.12 to +0.24 % over seeds 0-3 (the 16-spp standard error is ~0.03 % of the mean): 0.6 % leaves
+    // room for that offset and catches a 1 % output scale error.
+    CHECK(std::abs(m[c] / mr[c] - 1.0) < 0.006);
   }
 }
 

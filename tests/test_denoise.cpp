@@ -191,7 +191,11 @@ TEST_CASE("denoiser: both filters leave a converged image as it is and bring a n
     const glm::dvec3 m = mean_rgb(Image{desc.width, desc.height, denoised});
     MESSAGE(std::string(enum_name(method)) << ": 16 spp: raw relMSE " << raw << ", denoised " << err << ", mean R "
                               << m.x << " against " << clean_mean.x);
-    CHECK(err < 0.5 * raw);
+    // Measured at this size: regression 0.21x the raw relMSE, a-trous 0.44x (docs/denoising.md's 0.018x and 0.1x
+    // are at 512x512, where the lamp's edge pixels weigh less); each method's bound leaves ~40 % room.
+    CHECK(err < (method == DenoiseMethod::Regression ? 0.3 : 0.6) * raw);
+    // The docs' promise for the image mean: within 1 % of the converged image's (measured -0.5 % and +0.5 %).
+    for (int c = 0; c < 3; ++c) CHECK(std::abs(m[c] / clean_mean[c] - 1.0) < 0.01);
   }
 }
 

@@ -581,7 +581,7 @@ TEST_CASE("bsdf: white furnace: a white conductor (Schlick, albedo 1) reflects e
       const Vec3 wo = direction(theta);
       const double e = total_albedo(m, wo, 128);
       INFO("roughness " << r << " theta " << theta << ": albedo " << e);
-      CHECK(std::abs(e - 1.0) <= 0.01);
+      CHECK(std::abs(e - 1.0) <= 0.0015);  // measured 0.99876 to 1.00077 (the MESSAGE below)
       double se = 0;
       const double mc = sampled_albedo(m, wo, 64, 7 + uint64_t(theta), se);
       CHECK(std::abs(mc - e) <= 4.5 * se + 2e-3);  // 4.5 standard errors: 7e-6 two-sided per check
