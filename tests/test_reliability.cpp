@@ -286,6 +286,35 @@ TEST_CASE("cli: a film larger than the memory budget is refused before rendering
   CHECK(dir.names().empty());
 }
 
+TEST_CASE("cli: running out of memory while loading a mesh exits with status 3 and writes nothing") {
+  // README: "3 out of memory". A 200,000-triangle OBJ under a 100 MB address-space limit: the loader's
+  // bad_alloc used to be caught as a broken file (exit 2, "error: std::bad_alloc"), and at 150 MB the BVH
+  // build's helper thread failed to start (exit 1, "Resource temporarily unavailable"); now the allocation
+  // failure is reported as such, and a thread that cannot start leaves its subtree to the caller.
+  TempDir dir("oom");
+  {
+    std::ofstream obj(dir / "many.obj");
+    for (int i = 0; i < 200000; ++i) {
+      const double x = i * 0.001;
+      obj << "v " << x << " 0 0\nv " << x << " 1 0\nv " << x + 0.0005 << " 0 1\n";
+    }
+    for (int i = 0; i < 200000; ++i) obj << "f " << 3 * i + 1 << ' ' << 3 * i + 2 << ' ' << 3 * i + 3 << '\n';
+  }
+  for (const char* limit : {"100000", "150000"}) {
+    const Run r = run_script(std::string("ulimit -v ") + limit + "; exec \"$PT\" render -q --threads 2 --width 32 "
+                             "--height 32 --spp 1 --scene " + (dir / "many.obj") + " --pfm " + (dir / "out.pfm"));
+    INFO("ulimit -v " << limit << ": " << r.err);
+    CHECK(r.status == 3);
+    CHECK(r.err.find("error: out of memory") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(dir / "out.pfm"));
+  }
+  // With room enough the same file renders.
+  const Run ok = run_script("ulimit -v 400000; exec \"$PT\" render -q --threads 2 --width 32 --height 32 --spp 1 "
+                            "--scene " + (dir / "many.obj") + " --pfm " + (dir / "out.pfm"));
+  INFO(ok.err);
+  CHECK(ok.status == 0);
+}
+
 TEST_CASE("cli: compare checks PFM headers against the file size and the memory budget before allocating") {
   // A bogus header asked for 51 GB and aborted in the allocator.
   TempDir dir("compare-header");

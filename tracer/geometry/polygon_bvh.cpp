@@ -5,6 +5,7 @@
 #include <atomic>
 #include <future>
 #include <numeric>
+#include <system_error>
 
 namespace pt {
 
@@ -62,8 +63,16 @@ class BinaryBuilder {
       return index;
     }
     uint32_t left, right;
+    std::future<uint32_t> l;
     if (count >= kParallelSubtree) {
-      auto l = std::async(std::launch::async, [&] { return build(first, split, depth + 1); });
+      try {
+        l = std::async(std::launch::async, [&] { return build(first, split, depth + 1); });
+      } catch (const std::system_error&) {
+        // No thread to be had (a process or memory limit): the subtree is built here. Found under ulimit -v,
+        // where the render failed with "Resource temporarily unavailable" instead of finishing.
+      }
+    }
+    if (l.valid()) {
       right = build(first + split, count - split, depth + 1);
       left = l.get();
     } else {

@@ -299,6 +299,8 @@ Image read_image(const std::string& path) {
     return read_exr(path);
   } catch (const ImageError&) {
     throw;
+  } catch (const std::bad_alloc&) {
+    throw;
   } catch (const std::exception& e) {
     throw ImageError(path + ": cannot read EXR (" + e.what() + ")");
   }

@@ -763,6 +763,8 @@ struct StreamedShapes {
     MeshTriangles mesh;
     try {
       mesh = load_obj_mesh(o.resolved_file, o.transform);
+    } catch (const std::bad_alloc&) {
+      throw;  // out of memory is no fault of the file: exit status 3, not 2
     } catch (const std::exception& e) {
       fail(member(path, "file"), e.what());
     }

@@ -51,6 +51,8 @@ SceneDesc studio_scene(const std::string& model_path) {
   MeshTriangles mesh;
   try {
     mesh = load_obj_mesh(model_path, ObjectTransform{});
+  } catch (const std::bad_alloc&) {
+    throw;  // out of memory is no fault of the file: exit status 3, not 2
   } catch (const std::exception& e) {
     throw SceneError(e.what());
   }
