@@ -371,3 +371,88 @@ TEST_CASE("gltf: every well-formed file of Debian's assimp-testmodels corpus ren
   CHECK(rendered >= 20);
   CHECK(refusals >= static_cast<int>(refused.size()));
 }
+
+TEST_CASE("gltf: a scene file places a glTF model with a transform, its materials named after it and overridable") {
+  TempDir dir;
+  const std::string materials =
+      R"({"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1], "metallicFactor": 0}})";
+  dir.write("model.gltf", triangle_gltf(R"({"mesh": 0, "translation": [1, 0, 0]})", "0", "", R"(, "material": 0)", materials));
+  auto scene_json = [](const std::string& extra_materials, const std::string& shape_extra) {
+    return R"({"camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "fov_deg": 40},
+      "materials": {"white": {"type": "diffuse", "albedo": [0.7, 0.7, 0.7]})" + extra_materials + R"(},
+      "shapes": [{"type": "quad", "vertices": [[-5,-5,-1],[5,-5,-1],[5,5,-1],[-5,5,-1]], "material": "white"},
+                 {"type": "gltf", "name": "toy", "file": "model.gltf",
+                  "transform": {"scale": 2, "translate": [0, 0, 3]})" + shape_extra + R"(}]})";
+  };
+  const SceneDesc s = parse_scene(scene_json("", ""), "placed.json", dir.path.string());
+  REQUIRE(s.objects.size() == 1);
+  const ObjectDesc& o = s.objects[0];
+  CHECK(o.kind == ObjectKind::Gltf);
+  CHECK(o.name == "toy");
+  REQUIRE(o.shape_count == 1);
+  const ShapeDesc& t = s.shapes[o.first_shape];
+  // File (0,0,0),(1,0,0),(0,1,0), moved by its node to x + 1, then scaled by 2 and lifted by 3 in z.
+  check_vertex(t.vertices[0], DVec3(2, 0, 3));
+  check_vertex(t.vertices[1], DVec3(4, 0, 3));
+  check_vertex(t.vertices[2], DVec3(2, 2, 3));
+  REQUIRE(s.materials.size() == 2);
+  CHECK(s.materials[t.material].name == "toy/paint");
+  CHECK(s.materials[t.material].albedo == Rgb(0.2f, 0.4f, 0.6f));
+  // Saved and read back: the same triangles and materials (the model stays a reference to its file).
+  const std::string saved = scene_to_json(s, dir.path.string());
+  CHECK(saved.find("\"type\": \"gltf\"") != std::string::npos);
+  const SceneDesc back = parse_scene(saved, "saved.json", dir.path.string());
+  CHECK(back.shapes[back.objects[0].first_shape].vertices == t.vertices);
+  CHECK(back.materials.size() == 2);
+  // An edited model material is written among the materials and overrides the file's on reading.
+  SceneDesc edited = s;
+  edited.materials[t.material].albedo = Rgb(0.9f, 0.1f, 0.1f);
+  const SceneDesc edited_back = parse_scene(scene_to_json(edited, dir.path.string()), "e.json", dir.path.string());
+  REQUIRE(edited_back.materials.size() == 2);
+  CHECK(edited_back.materials[edited_back.shapes[1].material].albedo == Rgb(0.9f, 0.1f, 0.1f));
+  // "material" gives the whole model one of the scene's materials; so does saving a model recoloured so.
+  const SceneDesc one = parse_scene(scene_json("", R"(, "material": "white")"), "one.json", dir.path.string());
+  CHECK(one.materials.size() == 1);
+  CHECK(one.shapes[1].material == 0);
+  SceneDesc recoloured = s;
+  recoloured.shapes[1].material = 0;
+  const std::string recoloured_text = scene_to_json(recoloured, dir.path.string());
+  const SceneDesc recoloured_back = parse_scene(recoloured_text, "r.json", dir.path.string());
+  CHECK(recoloured_back.shapes[1].material == recoloured_back.shapes[0].material);
+  // It renders (the model in front of the wall).
+  SceneDesc small = s;
+  small.width = small.height = 16;
+  CHECK(compile_scene(small)->polygons.size() == 2);
+  // Errors name the shape: a missing file, a name with '/'.
+  try {
+    parse_scene(scene_json("", "").replace(scene_json("", "").find("model.gltf"), 10, "none.gltf"), "bad.json",
+                dir.path.string());
+    FAIL("a missing glTF file was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).find("bad.json: shapes[1].file: ") != std::string::npos);
+  }
+  std::string slash = scene_json("", "");
+  replace_once(slash, "\"name\": \"toy\"", "\"name\": \"a/b\"");
+  CHECK_THROWS_WITH_AS(parse_scene(slash, "slash.json", dir.path.string()), doctest::Contains("shapes[1].name"), SceneError);
+}
+
+TEST_CASE("gltf: the shipped cornell-gltf scene loads its model, keeps its two materials and agrees with the box") {
+  const SceneDesc s = load_scene(std::string(PT_SCENES_DIR) + "/cornell-gltf.json");
+  const SceneDesc box = load_scene("cornell");
+  REQUIRE(s.objects.size() == box.objects.size() + 1);
+  const ObjectDesc& toys = s.objects.back();
+  CHECK(toys.kind == ObjectKind::Gltf);
+  CHECK(toys.shape_count == 48 * 24 * 2 + 8);  // the torus's quads as triangle pairs, the gem's eight faces
+  std::set<std::string> names;
+  for (size_t k = toys.first_shape; k < toys.first_shape + toys.shape_count; ++k) names.insert(s.materials[s.shapes[k].material].name);
+  CHECK(names == std::set<std::string>{"toys/gold", "toys/crystal"});
+  // Everything of the Cornell box is there unchanged, and the lens is on (so auto picks mis).
+  CHECK(s.materials.size() == box.materials.size() + 2);
+  for (size_t k = 0; k < toys.first_shape; ++k) CHECK(s.shapes[k].vertices == box.shapes[k].vertices);
+  CHECK(s.camera.aperture_radius == 6.0);
+  // The torus rests on the short block (top at y = 165): its lowest point lies on it, within rounding.
+  double lowest = 1e30;
+  for (size_t k = toys.first_shape; k < toys.first_shape + 48 * 24 * 2; ++k)
+    for (int v = 0; v < 3; ++v) lowest = std::min(lowest, s.shapes[k].vertices[v].y);
+  CHECK(lowest == doctest::Approx(165.0).epsilon(0.002));
+}

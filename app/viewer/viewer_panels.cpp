@@ -595,8 +595,16 @@ void object_emission(ViewerModel& model, PanelState& state, size_t material) {
 void object_fields(ViewerModel& model, PanelState& state, size_t index) {
   const ObjectDesc& o = model.scene().objects[index];
   ImGui::Text("%s: %s, %zu %s", o.name.c_str(), enum_label(o.kind), o.shape_count, o.shape_count == 1 ? "shape" : "shapes");
-  if (o.kind == ObjectKind::Mesh && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", o.file.c_str());
+  if (o.kind != ObjectKind::Group && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", o.file.c_str());
   const int current = std::clamp(model.scene().shapes[o.first_shape].material, 0, static_cast<int>(model.scene().materials.size()) - 1);
+  // A glTF model keeps its file's materials (each in Materials as NAME/MATERIAL); choosing one here gives that
+  // one to all of its triangles.
+  if (o.kind == ObjectKind::Gltf) {
+    size_t differing = 0;
+    for (size_t k = o.first_shape + 1; k < o.first_shape + o.shape_count; ++k)
+      differing += model.scene().shapes[k].material != current;
+    if (differing) ImGui::TextDisabled("its file's materials (%s/...); a choice below gives one to all", o.name.c_str());
+  }
   material_combo(model, current, [&](size_t m) { return model.set_object_material(index, m); });
   const ObjectTransform t = o.transform;
   const auto field = [&](const char* label, DVec3 value, const char* tip, auto&& with) {

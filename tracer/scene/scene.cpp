@@ -157,11 +157,13 @@ std::string validate_objects(const SceneDesc& s) {
     if (o.first_shape > s.shapes.size() || o.shape_count > s.shapes.size() - o.first_shape)
       return path + ": its shapes run past the scene's " + std::to_string(s.shapes.size());
     if (std::string err = transform_error(o.transform); !err.empty()) return path + ".transform: " + err;
-    if (o.kind == ObjectKind::Mesh && o.file.empty()) return path + ".file: a mesh names its OBJ file";
+    if (o.kind != ObjectKind::Group && o.file.empty()) return path + ".file: a model names its file";
     const int material = s.shapes[o.first_shape].material;
     for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) {
-      if (s.shapes[k].material != material) return path + ": its shapes have one material (shape " + std::to_string(k) + " differs)";
-      if (o.kind == ObjectKind::Mesh && s.shapes[k].type != ShapeType::Triangle) return path + ": a mesh is made of triangles";
+      // A glTF model's triangles keep the file's materials; other objects have one.
+      if (o.kind != ObjectKind::Gltf && s.shapes[k].material != material)
+        return path + ": its shapes have one material (shape " + std::to_string(k) + " differs)";
+      if (o.kind != ObjectKind::Group && s.shapes[k].type != ShapeType::Triangle) return path + ": a model is made of triangles";
     }
     next_free = o.first_shape + o.shape_count;
   }

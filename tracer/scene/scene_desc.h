@@ -31,7 +31,7 @@ enum class EnvironmentType { Constant, Sky, Map };
 // the packet kernels serve the scene (polygons few enough for brute force).
 enum class PathLoop { Auto, Scalar, Wavefront };
 // What an object is made of (ObjectDesc): the shapes a scene file lists in a group, or an OBJ file's triangles.
-enum class ObjectKind { Group, Mesh };
+enum class ObjectKind { Group, Mesh, Gltf };
 
 template <>
 struct EnumTable<ShapeType> {
@@ -76,9 +76,10 @@ struct EnumTable<PathLoop> {
 };
 template <>
 struct EnumTable<ObjectKind> {
-  static constexpr std::array<EnumEntry<ObjectKind>, 2> kEntries{{
+  static constexpr std::array<EnumEntry<ObjectKind>, 3> kEntries{{
       {ObjectKind::Group, "group", "Group of shapes"},
       {ObjectKind::Mesh, "mesh", "Mesh (OBJ file)"},
+      {ObjectKind::Gltf, "gltf", "glTF 2.0 model"},
   }};
 };
 template <>

@@ -21,6 +21,7 @@
 #include <unordered_set>
 #include <utility>
 
+#include "scene/gltf_import.h"
 #include "scene/mesh_obj.h"
 #include "scene/studio.h"
 #include "scene/scene.h"
@@ -739,6 +740,8 @@ struct StreamedShapes {
         return add_mesh(j, index);
       if (type != j.end() && type->is_string() && type->get_ref<const std::string&>() == "group")
         return add_group(j, index);
+      if (type != j.end() && type->is_string() && type->get_ref<const std::string&>() == "gltf")
+        return add_gltf(j, index);
     }
     const std::string* name = nullptr;
     const ShapeDesc s = read_shape(j, index, name);
@@ -774,6 +777,55 @@ struct StreamedShapes {
       s.type = ShapeType::Triangle;
       for (int k = 0; k < 3; ++k) s.vertices[k] = tri[k];
       add(s, material, index);
+    }
+    o.shape_count = shapes.size() - o.first_shape;
+    objects.push_back(std::move(o));
+  }
+
+  // {"type": "gltf", "name": ..., "file": "x.glb", "transform": {...}, "material": ...}: one object, the glTF
+  // file's triangles (scene/gltf_import.h) placed by the transform, each keeping the file's material under the
+  // name "NAME/MATERIAL" (NAME the object's); a material of that name in the scene's materials overrides the
+  // file's (so edits saved from the viewer come back), and "material", when given, replaces them all.
+  void add_gltf(const Json& j, size_t index) {
+    const std::string path = element("shapes", index);
+    check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
+    const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
+    if (file.empty()) fail(member(path, "file"), "must not be empty");
+    const Json* material = optional_key(j, "material");
+    const std::string* override_name = material ? &read_string(*material, member(path, "material")) : nullptr;
+    ObjectDesc o;
+    o.kind = ObjectKind::Gltf;
+    o.name = object_name(j, path, std::filesystem::path(file).stem().string());
+    if (o.name.find('/') != std::string::npos) fail(member(path, "name"), "must not contain '/' (it names the materials)");
+    o.transform = read_transform(j, path);
+    o.file = file;
+    const std::filesystem::path f(file);
+    o.resolved_file = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
+    GltfContents model;
+    try {
+      model = load_gltf(o.resolved_file);
+    } catch (const std::bad_alloc&) {
+      throw;
+    } catch (const std::exception& e) {
+      fail(member(path, "file"), e.what());
+    }
+    for (const std::string& w : model.warnings) warnings.push_back(o.resolved_file + ": " + w);
+    std::vector<std::string> names(model.materials.size());
+    for (size_t m = 0; m < model.materials.size(); ++m) {
+      names[m] = o.name + "/" + model.materials[m].name;
+      if (!override_name) {
+        MaterialDesc d = model.materials[m];
+        d.name = names[m];
+        imported.push_back(std::move(d));
+      }
+    }
+    o.first_shape = shapes.size();
+    for (size_t t = 0; t < model.triangles.size(); ++t) {
+      ShapeDesc s;
+      s.type = ShapeType::Triangle;
+      for (int k = 0; k < 3; ++k) s.vertices[k] = model.triangles[t][k];
+      if (!transform_shape(s, o.transform, true)) fail(member(path, "transform"), "cannot place the model");
+      add(s, override_name ? std::string_view(*override_name) : std::string_view(names[model.triangle_material[t]]), index);
     }
     o.shape_count = shapes.size() - o.first_shape;
     objects.push_back(std::move(o));
@@ -817,6 +869,8 @@ struct StreamedShapes {
 
   std::vector<ObjectDesc> objects;  // in shape order
   std::string base_dir;  // where relative mesh paths start (the scene file's directory)
+  std::vector<MaterialDesc> imported;  // glTF models' materials, named "OBJECT/MATERIAL"
+  std::vector<std::string> warnings;   // what the glTF files hold that is not read (printed by load_scene_file)
 
   void resolve(const std::unordered_map<std::string, int>& material_index) {
     std::vector<int> index_of(names.size());
@@ -843,13 +897,16 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   if (const Json* v = optional_key(root, "environment")) s.environment = read_environment(*v, "environment", base_dir);
 
   const Json& materials = expect_object(required_key(root, "", "materials"), "materials");
-  if (materials.empty()) fail("materials", "must define at least one material");
+  if (materials.empty() && streamed.imported.empty()) fail("materials", "must define at least one material");
   std::unordered_map<std::string, int> material_index;
   for (const auto& item : materials.items()) {
     if (item.key().empty()) fail("materials", "a material name must not be empty");
     material_index.emplace(item.key(), static_cast<int>(s.materials.size()));
     s.materials.push_back(read_material(item.key(), item.value(), "materials." + item.key()));
   }
+  // glTF models' materials, unless the file's materials already name them (an override, e.g. saved edits).
+  for (MaterialDesc& m : streamed.imported)
+    if (material_index.emplace(m.name, static_cast<int>(s.materials.size())).second) s.materials.push_back(std::move(m));
 
   const Json& shapes = required_key(root, "", "shapes");  // its elements were streamed (SceneSax)
   if (!shapes.is_array()) fail("shapes", "expected an array, " + got(shapes));
@@ -928,8 +985,10 @@ Json transform_json(const ObjectTransform& t) {
 Json object_json(const ObjectDesc& o, const std::vector<ShapeDesc>& shapes, const std::string& material,
                  const std::optional<std::string>& destination_dir) {
   Json j = {{"type", to_string(o.kind)}, {"name", o.name}};
-  if (o.kind == ObjectKind::Mesh) j["file"] = file_reference(o.file, o.resolved_file, destination_dir);
-  j["material"] = material;
+  if (o.kind != ObjectKind::Group) j["file"] = file_reference(o.file, o.resolved_file, destination_dir);
+  // A glTF model's triangles name the file's materials ("NAME/MATERIAL", written among the materials, where
+  // the reader finds them as overrides); one material of the scene's own given to all of them is written here.
+  if (o.kind != ObjectKind::Gltf || (!material.empty() && material.rfind(o.name + "/", 0) != 0)) j["material"] = material;
   if (Json t = transform_json(o.transform); !t.empty()) j["transform"] = std::move(t);
   if (o.kind == ObjectKind::Group) {
     Json list = Json::array();
@@ -1007,7 +1066,10 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
   for (size_t i = 0; i < s.shapes.size(); ++i) {
     if (next_object < s.objects.size() && s.objects[next_object].first_shape == i) {
       const ObjectDesc& o = s.objects[next_object++];
-      shapes.push_back(object_json(o, s.shapes, material_name(i), destination_dir));
+      // A glTF model whose triangles do not share one material passes none (they keep the file's).
+      bool one_material = true;
+      for (size_t k = i + 1; k < i + o.shape_count && one_material; ++k) one_material = s.shapes[k].material == s.shapes[i].material;
+      shapes.push_back(object_json(o, s.shapes, one_material ? material_name(i) : std::string(), destination_dir));
       i += o.shape_count - 1;
       continue;
     }
@@ -1134,6 +1196,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& source_na
   }
   if (const std::string err = validate_scene(desc); !err.empty())
     throw SceneError(source_name + ": " + in_file_terms(desc, err));
+  for (const std::string& w : streamed.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   return desc;
 }
 
