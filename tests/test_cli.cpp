@@ -197,20 +197,23 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
   // restarted at each budget, or a budget ignored, would keep it level. Not checked on `sky` and `materials`:
   // there the sun's and the mirrors' rare caustic paths make relMSE at these budgets heavy-tailed (sky under
   // mis with sobol measured 0.014, 0.025, 17, 4.6 at the four budgets). This check found adaptive bdpt passes
-  // running 8x their planned size (two budgets ending at the same 0.58 s): they are uniform now.
+  // running 8x their planned size (two budgets ending at the same 0.58 s, relMSE 0.0054 -> 0.00075): they are
+  // uniform now.
   double worst_ratio = 0;
   std::string worst;
   for (const auto& [name, pts] : series) {
     INFO(name);
     REQUIRE(pts.size() == 4);
+    // Non-decreasing: on a loaded machine one pass may run past two budgets (they then share a point).
     for (size_t i = 1; i < pts.size(); ++i) {
-      CHECK(pts[i].seconds > pts[i - 1].seconds);
-      CHECK(pts[i].spp > pts[i - 1].spp);
+      CHECK(pts[i].seconds >= pts[i - 1].seconds);
+      CHECK(pts[i].spp >= pts[i - 1].spp);
     }
+    CHECK(pts.back().spp >= 2 * pts.front().spp);
     if (name.starts_with("sky/") || name.starts_with("materials/")) continue;
     const double ratio = pts.back().relmse / pts.front().relmse;
     if (ratio > worst_ratio) worst_ratio = ratio, worst = name;
-    CHECK(ratio < 0.5);
+    CHECK(ratio < 0.75);  // ~1/8 expected, 0.26 the worst measured: room for a loaded machine, not for a restart
   }
   MESSAGE("relMSE at 1/2 s over relMSE at 1/16 s: at most " << worst_ratio << " (" << worst << ")");
   const std::string summary = slurp("bench_quick/summary.md");
