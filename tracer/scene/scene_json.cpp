@@ -753,16 +753,8 @@ struct StreamedShapes {
   void add_mesh(const Json& j, size_t index) {
     const std::string path = element("shapes", index);
     check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
-    const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
-    if (file.empty()) fail(member(path, "file"), "must not be empty");
+    ObjectDesc o = model_object(j, path, ObjectKind::Mesh);
     const std::string& material = read_string(required_key(j, path, "material"), member(path, "material"));
-    ObjectDesc o;
-    o.kind = ObjectKind::Mesh;
-    o.name = object_name(j, path, std::filesystem::path(file).stem().string());
-    o.transform = read_transform(j, path);
-    o.file = file;
-    const std::filesystem::path f(file);
-    o.resolved_file = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
     MeshTriangles mesh;
     try {
       mesh = load_obj_mesh(o.resolved_file, o.transform);
@@ -789,18 +781,10 @@ struct StreamedShapes {
   void add_gltf(const Json& j, size_t index) {
     const std::string path = element("shapes", index);
     check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
-    const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
-    if (file.empty()) fail(member(path, "file"), "must not be empty");
+    ObjectDesc o = model_object(j, path, ObjectKind::Gltf);
+    if (o.name.find('/') != std::string::npos) fail(member(path, "name"), "must not contain '/' (it names the materials)");
     const Json* material = optional_key(j, "material");
     const std::string* override_name = material ? &read_string(*material, member(path, "material")) : nullptr;
-    ObjectDesc o;
-    o.kind = ObjectKind::Gltf;
-    o.name = object_name(j, path, std::filesystem::path(file).stem().string());
-    if (o.name.find('/') != std::string::npos) fail(member(path, "name"), "must not contain '/' (it names the materials)");
-    o.transform = read_transform(j, path);
-    o.file = file;
-    const std::filesystem::path f(file);
-    o.resolved_file = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
     GltfContents model;
     try {
       model = load_gltf(o.resolved_file);
@@ -857,6 +841,21 @@ struct StreamedShapes {
     }
     o.shape_count = shapes.size() - o.first_shape;
     objects.push_back(std::move(o));
+  }
+
+  // What a model read from a file (mesh, gltf) takes from its element: the file (relative paths lead from the
+  // scene file's folder), the name (default the file's stem) and the transform.
+  ObjectDesc model_object(const Json& j, const std::string& path, ObjectKind kind) const {
+    const std::string& file = read_string(required_key(j, path, "file"), member(path, "file"));
+    if (file.empty()) fail(member(path, "file"), "must not be empty");
+    ObjectDesc o;
+    o.kind = kind;
+    o.name = object_name(j, path, std::filesystem::path(file).stem().string());
+    o.transform = read_transform(j, path);
+    o.file = file;
+    const std::filesystem::path f(file);
+    o.resolved_file = f.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / f).string();
+    return o;
   }
 
   static std::string object_name(const Json& j, const std::string& path, std::string fallback) {
