@@ -603,7 +603,7 @@ void object_fields(ViewerModel& model, PanelState& state, size_t index) {
     size_t differing = 0;
     for (size_t k = o.first_shape + 1; k < o.first_shape + o.shape_count; ++k)
       differing += model.scene().shapes[k].material != current;
-    if (differing) ImGui::TextDisabled("its file's materials (%s/...); a choice below gives one to all", o.name.c_str());
+    if (differing) ImGui::TextDisabled("the file's materials (%s/...); one below for all", o.name.c_str());
   }
   material_combo(model, current, [&](size_t m) { return model.set_object_material(index, m); });
   const ObjectTransform t = o.transform;
