@@ -129,6 +129,28 @@ TEST_CASE("view cli: Ctrl-C saves the image so far (PNG and PFM, as the S key do
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("view cli: Ctrl-C when the image cannot be written says why and exits 1") {
+  if (!have_xvfb_run()) {
+    pt::test::skip_for_missing("xvfb-run", "the windowed interrupt test");
+    return;
+  }
+  // docs/reliability.md: the viewer saves on the first signal and quits; a save that fails is an error (exit 1),
+  // not a silent loss. The output folder lies below a regular file, so it cannot be created.
+  const std::filesystem::path dir = "view_sigint_fail_" + std::to_string(getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directory(dir);
+  std::ofstream(dir / "a-file") << "not a folder";
+  const std::string script = "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 6; kill -INT $pid; wait $pid";
+  const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" + script + "'",
+                    "view --spp 4 --threads 2 --size scene --output-dir " + (dir / "a-file" / "out").string());
+  INFO(r.out << r.err);
+  CHECK(r.status == 1);
+  CHECK(r.err.find("interrupted by SIGINT: saving the image so far, then quitting") != std::string::npos);
+  CHECK(r.err.find("error: image not saved: cannot create folder") != std::string::npos);
+  CHECK(r.out.find("wrote ") == std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 namespace {
 
 // Red-dominant pixels (the Cornell box's left wall) in the left `width` columns of an X window dump (xwd,
