@@ -39,5 +39,9 @@ inline constexpr int kCancelPollBounces = 256;
 // (same image, more work: for instruction-count comparisons). Resolve once per tile, call per sample.
 template <class Sampler>
 RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic);
+// The feature set (KernelFeature) of the kernel select_kernel and select_batch_kernel pick.
+inline uint32_t selected_kernel_features(const Scene& scene, bool generic) {
+  return generic ? kAllFeatures : scene.kernel_features();
+}
 
 }  // namespace pt

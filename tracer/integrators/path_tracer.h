@@ -253,8 +253,7 @@ constexpr std::array<RadianceKernel<Sampler>, kAllFeatures + 1> kKernels = make_
 
 template <class Sampler>
 RadianceKernel<Sampler> select_kernel(const Scene& scene, bool generic) {
-  const uint32_t features = generic ? kAllFeatures : scene.kernel_features();
-  return integrator_detail::kKernels<Sampler>[features];
+  return integrator_detail::kKernels<Sampler>[selected_kernel_features(scene, generic)];
 }
 
 template <class Sampler>

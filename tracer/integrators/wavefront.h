@@ -37,4 +37,9 @@ inline bool wavefront_pays(const Scene& scene) {
   return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty();
 }
 
+// Whether settings.path_loop, resolved for this scene, runs the wavefront loop (select_batch_kernel's choice).
+inline bool runs_wavefront(const Scene& scene, const RenderSettings& settings) {
+  return settings.path_loop == PathLoop::Wavefront || (settings.path_loop == PathLoop::Auto && wavefront_pays(scene));
+}
+
 }  // namespace pt

@@ -152,10 +152,8 @@ constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> kBatchKernels = mak
 
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings) {
-  if (settings.path_loop == PathLoop::Scalar || (settings.path_loop == PathLoop::Auto && !wavefront_pays(scene)))
-    return nullptr;
-  const uint32_t features = settings.generic_kernel ? kAllFeatures : scene.kernel_features();
-  return integrator_detail::kBatchKernels<Sampler>[features];
+  if (!runs_wavefront(scene, settings)) return nullptr;
+  return integrator_detail::kBatchKernels<Sampler>[selected_kernel_features(scene, settings.generic_kernel)];
 }
 
 }  // namespace pt

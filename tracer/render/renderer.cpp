@@ -216,9 +216,8 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
 std::string Renderer::describe_path(const Scene& scene, const RenderSettings& settings) {
   const RenderSettings s = resolved_render_settings(scene, settings);
   if (s.estimator == Estimator::Bdpt) return "bdpt rounds";
-  // The same choices as select_batch_kernel (integrators/wavefront_loop.h) and select_kernel (path_tracer.h).
-  const bool wavefront = !(s.path_loop == PathLoop::Scalar || (s.path_loop == PathLoop::Auto && !wavefront_pays(scene)));
-  const uint32_t f = s.generic_kernel ? kAllFeatures : scene.kernel_features();
+  const bool wavefront = runs_wavefront(scene, s);
+  const uint32_t f = selected_kernel_features(scene, s.generic_kernel);
   std::string out = wavefront ? "wavefront loop, " : "scalar loop, ";
   if (f == kAllFeatures) return out + "generic kernel (every feature)";
   const bool polygons = f & kFeaturePolygons, spheres = f & kFeatureSpheres;

@@ -30,7 +30,8 @@ enum class EnvironmentType { Constant, Sky, Map };
 // their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront where
 // the packet kernels serve the scene (polygons few enough for brute force).
 enum class PathLoop { Auto, Scalar, Wavefront };
-// What an object is made of (ObjectDesc): the shapes a scene file lists in a group, or an OBJ file's triangles.
+// What an object is made of (ObjectDesc): the shapes a scene file lists in a group, an OBJ file's triangles, or
+// a glTF file's.
 enum class ObjectKind { Group, Mesh, Gltf };
 
 template <>
@@ -119,8 +120,9 @@ struct ShapeDesc {
   int material = 0;                 // index into SceneDesc::materials
 };
 
-// Shapes handled as one thing: an OBJ file's triangles, or a group's shapes (a box's five quads). Clicking one
-// picks the object; its transform and its one material apply to all of its shapes. Its shapes are a contiguous
+// Shapes handled as one thing: an OBJ or glTF file's triangles, or a group's shapes (a box's five quads). Clicking
+// one picks the object; its transform applies to all of its shapes, and so does its one material (a glTF model's
+// triangles keep the file's materials until one is chosen for all). Its shapes are a contiguous
 // run of SceneDesc::shapes, in world coordinates like every shape (the renderer never sees objects); `transform`
 // places the object's own coordinates (the OBJ file's, or the group's shapes as the scene file writes them) in the
 // world. A shape outside every object stands alone (object_containing(), scene.h).
