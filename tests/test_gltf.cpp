@@ -456,3 +456,64 @@ TEST_CASE("gltf: the shipped cornell-gltf scene loads its model, keeps its two m
     for (int v = 0; v < 3; ++v) lowest = std::min(lowest, s.shapes[k].vertices[v].y);
   CHECK(lowest == doctest::Approx(165.0).epsilon(0.002));
 }
+
+namespace {
+
+// The triangle of triangle_gltf with NORMAL (0,0,1), (0.6,0,0.8), (0,0.6,0.8) and TEXCOORD_0 (0,0), (1,0), (0,1).
+std::string smooth_triangle_gltf(const std::string& nodes) {
+  std::string buf;
+  append(buf, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  append(buf, std::vector<float>{0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f});
+  append(buf, std::vector<float>{0, 0, 1, 0, 0, 1});
+  return R"({"asset": {"version": "2.0"},
+  "buffers": [{"byteLength": )" + std::to_string(buf.size()) + R"(, "uri": "data:application/octet-stream;base64,)" +
+         base64(buf) + R"("}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                  {"buffer": 0, "byteOffset": 72, "byteLength": 24}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+                {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}]}],
+  "nodes": [)" + nodes + R"(], "scenes": [{"nodes": [0]}], "scene": 0})";
+}
+
+void check_unit(Vec3 got, Vec3 want) {
+  want = glm::normalize(want);
+  INFO("got " << got.x << " " << got.y << " " << got.z << ", want " << want.x << " " << want.y << " " << want.z);
+  CHECK(glm::length(got - want) < 1e-6f);
+}
+
+}  // namespace
+
+TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and TEXCOORD_0 the vertices") {
+  TempDir dir;
+  // Scale x by 2, then a quarter turn about +z: (0.6,0,0.8) → S⁻¹ (0.3,0,0.8) → R (0,0.3,0.8).
+  const std::string r = std::to_string(std::sqrt(0.5));
+  const GltfContents g = load_gltf(dir.write("n.gltf", smooth_triangle_gltf(
+      R"({"mesh": 0, "rotation": [0, 0, )" + r + ", " + r + R"(], "scale": [2, 1, 1]})")));
+  REQUIRE(g.shading.size() == 1);
+  check_unit(g.shading[0].normal[0], Vec3(0, 0, 1));
+  check_unit(g.shading[0].normal[1], Vec3(0, 0.3f, 0.8f));
+  check_unit(g.shading[0].normal[2], Vec3(-0.6f, 0, 0.8f));
+  CHECK(g.shading[0].uv[1] == Vec2(1, 0));
+  CHECK(g.shading[0].uv[2] == Vec2(0, 1));
+  // Mirrored: the vertices' order flips to keep the front, and the normals and uv go with their vertices.
+  const GltfContents m = load_gltf(dir.write("m.gltf", smooth_triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})")));
+  REQUIRE(m.shading.size() == 1);
+  check_unit(m.shading[0].normal[1], Vec3(0, 0.6f, 0.8f));
+  check_unit(m.shading[0].normal[2], Vec3(-0.6f, 0, 0.8f));
+  CHECK(m.shading[0].uv[2] == Vec2(1, 0));
+  CHECK(m.triangles[0][2].x == -1.0);
+  // A standalone file and a scene file's gltf shape both hand the normals on (and auto then picks mis).
+  const SceneDesc alone = gltf_scene(dir.path / "n.gltf");
+  REQUIRE(alone.smooth_shading());
+  CHECK(alone.shapes[0].shading == 0);
+  // A NORMAL accessor that is not float VEC3, or of another length than POSITION, is refused by its path.
+  std::string bad = smooth_triangle_gltf(R"({"mesh": 0})");
+  replace_once(bad, R"({"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"})",
+               R"({"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC3"})");
+  CHECK(load_error(dir, bad).find("meshes[0].primitives[0].attributes.NORMAL") != std::string::npos);
+  std::string nan = smooth_triangle_gltf(R"({"mesh": 0})");
+  replace_once(nan, R"("componentType": 5126, "count": 3, "type": "VEC2")", R"("componentType": 5126, "count": 3, "type": "VEC3")");
+  CHECK(load_error(dir, nan).find("TEXCOORD_0") != std::string::npos);
+}

@@ -1,6 +1,9 @@
 // Surface interaction: the hit point with a bound on its rounding error, the geometric normal, and robust
 // spawning of new rays from it (after pbrt-v4 §6.8: offset along the normal by the error bound, then round away).
 #pragma once
+#include <algorithm>
+#include <cmath>
+
 #include "geometry/primitives.h"
 
 namespace pt {
@@ -18,7 +21,41 @@ struct Interaction {
   uint32_t prim;   // global primitive id
   uint32_t material;
   bool planar;     // polygons cannot be hit again by a ray leaving them
+  // Smooth shading (make_interaction fills these for the general-material kernels; vertex_shading below):
+  Vec3 ns;              // unit shading normal, on ng's side; ng where the surface is flat-shaded
+  Vec2 uv{0.f};         // texture coordinates
+  Vec3 lift{0.f};       // shadow-terminator offset: rays leaving on ng's side start from p + lift
+  bool lifted = false;  // lift is not zero
 };
+
+// The shading normal, texture coordinates and terminator offset of a hit at barycentrics (b0, b1, b2) of a
+// triangle with (camera-relative) vertices v and per-vertex normals n, uv:
+// - ns interpolates the vertex normals (Phong), turned to ng's side, so that the winding of the triangle keeps
+//   deciding which side is the front (one-sided emitters, a glass mesh's inside) even in a file whose normals
+//   point the other way; a zero interpolated normal leaves ns = ng.
+// - lift moves ray origins off a coarse smooth mesh the way its normals say the surface curves (Hanika 2021,
+//   "Hacking the Shadow Terminator", Ray Tracing Gems II ch. 4): p is lifted onto each vertex's tangent plane
+//   where it lies below it, and the lifts are blended with the barycentrics, p' = p − Σ bₖ·min(0, (p − vₖ)·nₖ)·nₖ.
+//   Shadow rays from it no longer hit the neighbouring faces of the flat triangle, which drew the terminator as
+//   a jagged dark band. Kept only when it leaves towards ng's side (never into the surface).
+inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 3>& uv, const Vec3 v[3], float b0,
+                           float b1, float b2, Interaction& it) {
+  const Vec3 sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
+  const float len2 = glm::dot(sum, sum);
+  const float side = glm::dot(sum, it.ng) < 0.f ? -1.f : 1.f;
+  if (len2 > 1e-12f) it.ns = sum * (side / std::sqrt(len2));
+  it.uv = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
+  const float b[3] = {b0, b1, b2};
+  Vec3 lift(0.f);
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 nk = side * n[k];
+    lift -= (b[k] * std::min(0.f, glm::dot(it.p - v[k], nk))) * nk;
+  }
+  if (glm::dot(lift, it.ng) > 0.f) {
+    it.lift = lift;
+    it.lifted = true;
+  }
+}
 
 // F: the kernel's feature set (KernelFeature); a kind of primitive outside it is never hit, so its code is left out.
 template <uint32_t F = kAllFeatures>
@@ -58,6 +95,15 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
     it.p = b0 * a + b1 * b + b2 * c;
     it.p_error = gamma_bound(7) * (glm::abs(b0 * a) + glm::abs(b1 * b) + glm::abs(b2 * c));
     it.planar = true;
+    it.ns = it.ng;
+    // Vertex normals are read by the general-material kernels alone: a scene that has them runs those
+    // (Scene::kernel_features), so the Lambert kernels stay as they were.
+    if constexpr ((F & kFeatureGeneralMaterials) != 0) {
+      if (!s.shading.empty()) [[unlikely]] {
+        const Vec3 v[3] = {a, b, c};
+        vertex_shading(s.shading.normal[i], s.shading.uv[i], v, b0, b1, b2, it);
+      }
+    }
   } else {
     // Sphere: recompute in double and project back onto the surface, so the only float error left is the final
     // rounding of p (bounded by γ3·|p| with margin).
@@ -69,24 +115,58 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
     it.p = Vec3(p);
     it.p_error = gamma_bound(3) * glm::abs(it.p);
     it.ng = Vec3(n);
+    it.ns = it.ng;
     it.planar = false;
   }
   return it;
 }
 
-// Origin for a ray leaving `it` towards direction w: pushed off the surface along the normal by the error bound
-// (to the side w points to), then rounded one ulp further away so the offset survives rounding.
-inline Vec3 offset_ray_origin(const Interaction& it, Vec3 w) {
+// The shading normal to shade `it` with, seen from direction wo: it.ns, bent where needed so that the mirror
+// reflection of wo about it stays above the geometric surface on wo's side (after Cycles'
+// ensure_valid_reflection): an interpolated normal seen at a grazing angle otherwise reflects into the surface,
+// and such faces render black. The reflection may dip to an elevation t = min(0.9·|wo·ng|, 0.01) over the
+// surface; below that, ns is turned towards ng in their common plane until it reaches t exactly. With
+// x = ns's part across ng, ns = sin θ·x + cos θ·ng and the reflection's elevation is
+// (2(ns·wo)ns − wo)·ng = wx·sin 2θ + wz·cos 2θ = ρ·cos(2θ − ψ), ρ = |(wx, wz)|, ψ = atan2(wx, wz), so the
+// smallest turn is θ = (ψ + acos(t/ρ))/2; then wo·ns > 0 as well, so shading and geometry agree on which side wo
+// is. Returned on ng's side, as it.ns is.
+inline Vec3 shading_normal(const Interaction& it, Vec3 wo) {
+  const float side = glm::dot(wo, it.ng) < 0.f ? -1.f : 1.f;
+  const Vec3 ng = side * it.ng, ns = side * it.ns;  // both on wo's side
+  const float wz = glm::dot(wo, ng);
+  const float t = std::min(0.9f * wz, 0.01f);
+  const Vec3 r = (2.f * glm::dot(ns, wo)) * ns - wo;
+  if (glm::dot(r, ng) >= t) return it.ns;
+  const Vec3 across = ns - glm::dot(ns, ng) * ng;
+  const float len = glm::length(across);
+  if (!(len > 1e-7f)) return it.ng;
+  const Vec3 x = across / len;
+  const float wx = glm::dot(wo, x);
+  const float rho = std::sqrt(wx * wx + wz * wz);
+  const float theta = 0.5f * (std::atan2(wx, wz) + std::acos(std::clamp(t / rho, -1.f, 1.f)));
+  return side * (std::sin(theta) * x + std::cos(theta) * ng);
+}
+
+// Origin for a ray leaving `it` on its back (ng's far side) or front: pushed off the surface along the normal by
+// the error bound, then rounded one ulp further away so the offset survives rounding. On the front a
+// smooth-shaded hit starts from its lifted point (vertex_shading). The side is the one the ray's direction
+// points to (the overload below), except on smooth-shaded surfaces, where the shading frame says it: a
+// reflection that dips below the flat triangle near the terminator still leaves from the front (from the lifted
+// point, skipping its own triangle), as the smooth surface it stands for would let it.
+inline Vec3 offset_ray_origin(const Interaction& it, bool back) {
   const float dist = glm::dot(glm::abs(it.ng), it.p_error);
   Vec3 offset = dist * it.ng;
-  if (glm::dot(w, it.ng) < 0.f) offset = -offset;
-  Vec3 po = it.p + offset;
+  if (back) offset = -offset;
+  Vec3 po = (it.lifted && !back ? it.p + it.lift : it.p) + offset;
   for (int k = 0; k < 3; ++k) {
     if (offset[k] > 0.f) po[k] = next_float_up(po[k]);
     else if (offset[k] < 0.f) po[k] = next_float_down(po[k]);
   }
   return po;
 }
+
+// The ray leaving towards direction w: on the side w points to.
+inline Vec3 offset_ray_origin(const Interaction& it, Vec3 w) { return offset_ray_origin(it, glm::dot(w, it.ng) < 0.f); }
 
 inline uint32_t skip_on_leave(const Interaction& it) { return it.planar ? it.prim : ~0u; }
 

@@ -48,6 +48,15 @@ struct SphereSoA {
   size_t size() const { return center.size(); }
 };
 
+// Smooth shading: per polygon, its vertices' normals and texture coordinates, in the order of its vertices
+// (v[0], v[1], v[2]). Empty when no shape of the scene has any (make_interaction then reads neither); when some
+// have, every other polygon repeats its face normal (and takes uv 0), so one array serves all.
+struct PolygonShading {
+  std::vector<std::array<Vec3, 3>> normal;
+  std::vector<std::array<Vec2, 3>> uv;
+  bool empty() const { return normal.empty(); }
+};
+
 // What a rendering kernel is compiled for (a bit mask, a template argument): the geometry, whose intersection
 // code for a primitive kind outside the set is not in the kernel at all, and whether any material is more than
 // Lambertian (without it the BSDF dispatch is compiled out: materials/bsdf.h, MaterialSet). Lights and the
@@ -56,7 +65,7 @@ struct SphereSoA {
 enum KernelFeature : uint32_t {
   kFeaturePolygons = 1,          // triangles or quads
   kFeatureSpheres = 2,           // spheres (emitting ones included)
-  kFeatureGeneralMaterials = 4,  // a material other than Lambert
+  kFeatureGeneralMaterials = 4,  // a material other than Lambert, or smooth shading (vertex normals)
 };
 inline constexpr uint32_t kAllFeatures = kFeaturePolygons | kFeatureSpheres | kFeatureGeneralMaterials;
 
@@ -78,6 +87,7 @@ inline bool intersect_polygon(const PolygonSoA& p, uint32_t i, Vec3 o, const Ray
 // kBvhMinPolygons, else in the hierarchy's leaves (polygon_lanes then stays empty).
 struct SceneGeometry {
   PolygonSoA polygons;
+  PolygonShading shading;  // parallel to `polygons`, or empty
   SphereSoA spheres;
   PolygonLanes polygon_lanes;
   PolygonBvh polygon_bvh;

@@ -23,14 +23,19 @@ struct ShadowSegment {
   Ray ray{Vec3(0.f), Vec3(0.f)};
   float t_max = 0.f;
 };
-inline ShadowSegment shadow_segment(const Interaction& it, Vec3 wi, Vec3 p_light, bool infinite) {
-  ShadowSegment seg{{offset_ray_origin(it, wi), wi}, kInfinity};
+// `back`: the side of the receiver it leaves on (offset_ray_origin), by default the one wi points to.
+inline ShadowSegment shadow_segment(const Interaction& it, Vec3 wi, Vec3 p_light, bool infinite, bool back) {
+  ShadowSegment seg{{offset_ray_origin(it, back), wi}, kInfinity};
   if (infinite) return seg;
   const Vec3 to_light = p_light - seg.ray.o;
   const float dist = glm::length(to_light);
   seg.ray.d = to_light / dist;
   seg.t_max = dist * kShadowRayShorten;
   return seg;
+}
+
+inline ShadowSegment shadow_segment(const Interaction& it, Vec3 wi, Vec3 p_light, bool infinite) {
+  return shadow_segment(it, wi, p_light, infinite, glm::dot(wi, it.ng) < 0.f);
 }
 
 struct DirectLightSample {
@@ -52,7 +57,8 @@ template <MaterialSet kM, uint32_t F>
   d.wi_local = frame.to_local(d.ls.wi);
   d.f = bsdf_eval<kM>(m, wo_local, d.wi_local);
   if (is_black(d.f)) return false;  // no shadow ray where the BSDF is zero
-  d.shadow = shadow_segment(it, d.ls.wi, d.ls.p, d.ls.dist == kInfinity);
+  // The side it leaves on is the shading frame's (offset_ray_origin); on a flat surface wi_local.z is wi·ng.
+  d.shadow = shadow_segment(it, d.ls.wi, d.ls.p, d.ls.dist == kInfinity, d.wi_local.z < 0.f);
   return true;
 }
 

@@ -35,7 +35,7 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
     trace.at_vertex<kM>(depth, ray.o, it, wo, m, depth >= settings.max_bounces, L);
     if (!trace.out) return out;
     // A specular vertex: continue along the lobe a path would draw here.
-    const Frame frame = Frame::from_normal(it.ng);
+    const Frame frame = Frame::from_normal(it.ns != it.ng ? shading_normal(it, wo) : it.ng);
     BsdfSample bs;
     if (!bsdf_sample<kM>(m, frame.to_local(wo), 0.5f, Vec2(0.5f), bs) ||
         !(bs.pdf > 0.f) || bs.wi.z == 0.f)

@@ -6,7 +6,8 @@
 // path is the radiance path), and their tint multiplies the albedo found behind them. Refraction's radiance
 // scale 1/η² is undone: clear glass has tint 1.
 // - albedo: tint × the material's denoising albedo (bsdf_albedo in materials/bsdf.h);
-// - normal: the geometric normal at that vertex in world space, turned towards the side the path arrived from;
+// - normal: the shading normal at that vertex in world space (the geometric one where the surface is
+//   flat-shaded), turned towards the side the path arrived from;
 // - depth:  distance from the camera to the first hit (mirrors included), kNoHitDepth where the camera ray
 //   escapes;
 // - emission: the radiance of emitters and of the environment seen directly or through the specular chain
@@ -39,7 +40,7 @@ struct FeatureTrace {
     if (scatter_depth == 0) out->depth = glm::length(it.p - ray_origin);
     out->emission = L;
     out->albedo = tint * bsdf_albedo<kM>(m);
-    out->normal = glm::dot(it.ng, wo) >= 0.f ? it.ng : -it.ng;
+    out->normal = glm::dot(it.ng, wo) >= 0.f ? it.ns : -it.ns;
     if (last || has_non_specular(bsdf_flags<kM>(m))) out = nullptr;
   }
 

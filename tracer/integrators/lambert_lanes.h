@@ -350,6 +350,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
       Interaction it;
       it.p = Vec3(px[l], py[l], pz[l]);
       it.ng = Vec3(ngx[l], ngy[l], ngz[l]);
+      it.ns = it.ng;
       p.features.at_vertex<MaterialSet::Lambert>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
                                                  s.materials[material[l]], false, p.L);
     }

@@ -135,11 +135,13 @@ template <class Sampler, uint32_t F>
     p.features.at_vertex<kM>(depth, p.ray.o, it, wo, m, depth >= o.max_bounces, p.L);
   if (depth >= o.max_bounces) return result;
 
-  // The shading frame: z is the front geometric normal; `n` faces the viewer (the side lights are sampled on,
-  // for BSDFs that only reflect: they are two-sided).
-  const Frame frame = Frame::from_normal(it.ng);
+  // The shading frame: z is the front geometric normal, or on a smooth-shaded mesh the shading normal
+  // (interaction.h: shading_normal); `n` is the geometric normal facing the viewer (the side lights are sampled
+  // on, for BSDFs that only reflect: they are two-sided).
+  const bool smooth = kM == MaterialSet::Any && it.ns != it.ng;
+  const Frame frame = Frame::from_normal(smooth ? shading_normal(it, wo) : it.ng);
   const Vec3 wo_local = frame.to_local(wo);
-  const Vec3 n = wo_local.z >= 0.f ? it.ng : -it.ng;
+  const Vec3 n = glm::dot(wo, it.ng) >= 0.f ? it.ng : -it.ng;
   const BsdfFlags flags = bsdf_flags<kM>(m);
 
   if (o.light_sampling && has_non_specular(flags)) {  // next-event estimation (direct_light.h)
@@ -188,7 +190,7 @@ template <class Sampler, uint32_t F>
       !survives_roulette(p.beta, max_component(p.beta) * p.eta_scale, rng.get_1d(o.dims.roulette(depth))))
     return result;
   if (is_black(p.beta) || !is_finite(p.beta)) return result;
-  p.ray = {offset_ray_origin(it, wi), wi};
+  p.ray = {smooth ? offset_ray_origin(it, bs.wi.z < 0.f) : offset_ray_origin(it, wi), wi};
   p.skip = skip_on_leave(it);
   p.depth = depth + 1;
   result.continues = true;

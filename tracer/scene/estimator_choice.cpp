@@ -56,6 +56,8 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
   if (scene.camera.aperture_radius > 0.0)
     return {Estimator::Mis, "mis: a thin-lens camera, which bdpt does not support yet"};
+  if (scene.smooth_shading())
+    return {Estimator::Mis, "mis: smooth shading (vertex normals), which bdpt does not support yet"};
   const Estimator e = pick(scan, scene.render.max_bounces);
   if (e == Estimator::Bdpt) {
     const MaterialDesc& m = scene.materials[static_cast<size_t>(scan.focusing)];
@@ -69,7 +71,7 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
 }
 
 Estimator choose_estimator(const Scene& scene, int max_bounces) {
-  if (scene.camera.thin_lens()) return Estimator::Mis;
+  if (scene.camera.thin_lens() || scene.features.smooth_shading) return Estimator::Mis;
   return pick(scan_materials(scene.materials,
                              [&](size_t i) { return i < scene.material_used.size() && scene.material_used[i] != 0; }),
               max_bounces);

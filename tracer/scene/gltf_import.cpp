@@ -42,6 +42,7 @@ struct Reader {
   const std::string& path;
   const tg::Model& m;
   GltfContents out;
+  bool any_normals = false;  // out.shading holds an entry per triangle from the first smooth one on
   std::set<std::string> warned;
 
   [[noreturn]] void fail(const std::string& where, const std::string& why) const {
@@ -100,6 +101,39 @@ struct Reader {
       p[i] = DVec3(xyz[0], xyz[1], xyz[2]);
     }
     return p;
+  }
+
+  // A per-vertex attribute of N components (NORMAL: float VEC3; TEXCOORD_0: VEC2 of floats, or of normalized
+  // unsigned bytes or shorts), one element per vertex.
+  template <int N>
+  std::vector<glm::vec<N, float>> attribute(int index, const std::string& where, size_t vertex_count) const {
+    const tg::Accessor* a = index >= 0 && static_cast<size_t>(index) < m.accessors.size() ? &m.accessors[index] : nullptr;
+    size_t bytes = 4;
+    if (a) {
+      const int type = N == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC2;
+      const bool normalized_int = N == 2 && a->normalized && (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                                              a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+      if (a->type != type || (a->componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !normalized_int))
+        fail(where, N == 3 ? "must be float VEC3" : "must be VEC2 of floats or of normalized unsigned bytes or shorts");
+      if (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) bytes = 1;
+      if (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) bytes = 2;
+    }
+    const View v = accessor_view(index, where, N * bytes);
+    if (v.count != vertex_count)
+      fail(where, std::to_string(v.count) + " elements for " + std::to_string(vertex_count) + " positions");
+    std::vector<glm::vec<N, float>> out(v.count);
+    for (size_t i = 0; i < v.count; ++i) {
+      const unsigned char* p = v.data + i * v.stride;
+      for (int c = 0; c < N; ++c) {
+        float x;
+        if (bytes == 4) std::memcpy(&x, p + 4 * c, 4);
+        else if (bytes == 1) x = p[c] / 255.f;
+        else { uint16_t u; std::memcpy(&u, p + 2 * c, 2); x = u / 65535.f; }
+        if (!std::isfinite(x)) fail(where, "element " + std::to_string(i) + " is not finite");
+        out[i][c] = x;
+      }
+    }
+    return out;
   }
 
   std::vector<uint32_t> indices(int index, const std::string& where, size_t vertex_count) const {
@@ -210,8 +244,20 @@ struct Reader {
       const auto pos = p.attributes.find("POSITION");
       if (pos == p.attributes.end()) fail(where + ".attributes", "no POSITION");
       const std::vector<DVec3> local = positions(pos->second, where + ".attributes.POSITION");
-      if (p.attributes.count("NORMAL") || p.attributes.count("TEXCOORD_0"))
-        warn("vertex normals and texture coordinates are not read yet: meshes are flat-shaded");
+      // Vertex normals into the file's world by the inverse transpose of the node's linear part; a primitive
+      // without them is flat-shaded, as the specification asks.
+      std::vector<Vec3> normals;
+      if (const auto it = p.attributes.find("NORMAL"); it != p.attributes.end()) {
+        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+        for (const Vec3& n : attribute<3>(it->second, where + ".attributes.NORMAL", local.size())) {
+          const DVec3 wn = normal_matrix * DVec3(n);
+          const double len = glm::length(wn);
+          normals.push_back(len > 0.0 && std::isfinite(len) ? Vec3(wn / len) : Vec3(0.f));
+        }
+      }
+      std::vector<Vec2> uv;
+      if (const auto it = p.attributes.find("TEXCOORD_0"); it != p.attributes.end())
+        uv = attribute<2>(it->second, where + ".attributes.TEXCOORD_0", local.size());
       if (!p.targets.empty()) warn("morph targets are not read: meshes keep their base shape");
       std::vector<uint32_t> idx;
       if (p.indices >= 0) {
@@ -234,7 +280,16 @@ struct Reader {
       for (size_t i = 0; i < local.size(); ++i) w[i] = DVec3(world * glm::dvec4(local[i], 1.0));
       for (size_t t = 0; t + 2 < idx.size(); t += 3) {
         std::array<DVec3, 3> tri{w[idx[t]], w[idx[t + 1]], w[idx[t + 2]]};
-        if (mirror) std::swap(tri[1], tri[2]);
+        TriangleShading shading;
+        for (int k = 0; k < 3; ++k) {
+          if (!normals.empty()) shading.normal[k] = normals[idx[t + k]];
+          if (!uv.empty()) shading.uv[k] = uv[idx[t + k]];
+        }
+        if (mirror) {
+          std::swap(tri[1], tri[2]);
+          std::swap(shading.normal[1], shading.normal[2]);
+          std::swap(shading.uv[1], shading.uv[2]);
+        }
         if (degenerate_triangle(tri[0], tri[1], tri[2])) {
           ++out.degenerate;
           continue;
@@ -243,6 +298,13 @@ struct Reader {
           fail(where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
         out.triangles.push_back(tri);
         out.triangle_material.push_back(material);
+        if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
+          shading.normal = {};  // a zero normal: the face stays flat
+        if (shading.has_normals() && !any_normals) {  // the first smooth triangle: the flat ones before it too
+          any_normals = true;
+          out.shading.resize(out.triangles.size() - 1);
+        }
+        if (any_normals) out.shading.push_back(shading);
       }
     }
   }
@@ -414,14 +476,20 @@ SceneDesc gltf_scene(const std::string& path) {
   s.materials = std::move(g.materials);
   s.shapes.reserve(g.triangles.size());
   DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  std::vector<TriangleShading> shading;
   for (size_t i = 0; i < g.triangles.size(); ++i) {
     ShapeDesc tri;
     tri.type = ShapeType::Triangle;
     tri.vertices = {g.triangles[i][0], g.triangles[i][1], g.triangles[i][2], DVec3(0.0)};
     tri.material = g.triangle_material[i];
+    if (!g.shading.empty() && g.shading[i].has_normals()) {
+      tri.shading = static_cast<uint32_t>(shading.size());
+      shading.push_back(g.shading[i]);
+    }
     s.shapes.push_back(tri);
     for (int k = 0; k < 3; ++k) lo = glm::min(lo, g.triangles[i][k]), hi = glm::max(hi, g.triangles[i][k]);
   }
+  if (!shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(shading));
   s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
   if (g.emits) {
     s.environment.type = EnvironmentType::Constant;

@@ -2,17 +2,20 @@
 // checked here (docs/scene-format.md, "glTF 2.0"). This first step reads what the renderer can show today:
 // - the node hierarchy of the default scene (else of every root node) with its transforms (a matrix, or
 //   translation · rotation · scale), applied in double; a node graph with a cycle is refused;
-// - indexed or plain triangle primitives (POSITION; any other primitive mode is refused, never guessed), as flat
-//   triangles, listed the other way round under a mirroring transform so that faces keep their fronts;
+// - indexed or plain triangle primitives (POSITION; any other primitive mode is refused, never guessed), listed
+//   the other way round under a mirroring transform so that faces keep their fronts; smooth-shaded by their
+//   NORMAL attribute (mapped by the inverse transpose of the node's transform), flat without one; TEXCOORD_0
+//   kept with the normals (for the textures to come);
 // - the first perspective camera met in the node graph (yfov; the aspect ratio sets the film's shape);
 // - materials mapped to the project's nearest material until the glTF metallic–roughness BSDF lands: metallic
 //   ≥ 0.5 → conductor (F0 = base colour, GGX α = roughness²), KHR_materials_transmission → smooth or rough
 //   dielectric (KHR_materials_ior, default 1.5), otherwise plastic (a Lambert base under a GGX coat of index 1.5,
 //   i.e. F0 = 0.04, the specification's dielectric); emission = emissiveFactor × KHR_materials_emissive_strength;
 //   a primitive without a material gets the specification's default (white, metallic 1, roughness 1).
-// Not read yet, each named once on the warnings list: vertex normals and texture coordinates (flat shading),
-// textures, alpha modes, KHR_lights_punctual lights, skins and morph targets, orthographic cameras. Extensions
-// named in extensionsRequired that are not read are refused by name; other unknown extensions are warned about.
+// Not read yet, each named once on the warnings list: textures, alpha modes, KHR_lights_punctual lights, skins
+// and morph targets, orthographic cameras (TANGENT is passed over: it serves normal maps, which come with
+// textures). Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)
 // and the reason: missing or short buffers, accessor indices, offsets or strides out of range, indices past the
@@ -30,6 +33,9 @@ namespace pt {
 struct GltfContents {
   std::vector<std::array<DVec3, 3>> triangles;  // world coordinates (node transforms applied)
   std::vector<int> triangle_material;           // per triangle, an index into `materials`
+  // Per triangle, its vertex normals (NORMAL, in the file's world, unit) and texture coordinates (TEXCOORD_0),
+  // in the triangles' vertex order; empty when no primitive has normals (TriangleShading).
+  std::vector<TriangleShading> shading;
   std::vector<MaterialDesc> materials;          // the file's materials (unique names), then the default if used
   std::optional<CameraDesc> camera;             // the first perspective camera in the node graph
   double aspect_ratio = 0;                      // that camera's aspect ratio (width/height); 0 when not given

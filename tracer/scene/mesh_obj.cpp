@@ -59,15 +59,34 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
     throw std::runtime_error(path + ": not a readable OBJ file" + (why.empty() ? "" : " (" + why + ")"));
   }
   const std::vector<tinyobj::real_t>& v = reader.GetAttrib().vertices;
+  const std::vector<tinyobj::real_t>& vn = reader.GetAttrib().normals;
+  const std::vector<tinyobj::real_t>& vt = reader.GetAttrib().texcoords;
   const size_t vertex_count = v.size() / 3;
+  // A corner's normal (unit, zero when it names none or one of zero length) and texture coordinates.
+  const auto corner_normal = [&](int ni) {
+    if (ni < 0 || static_cast<size_t>(ni) >= vn.size() / 3) return Vec3(0.f);
+    const Vec3 n(vn[3 * ni], vn[3 * ni + 1], vn[3 * ni + 2]);
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z))
+      throw std::runtime_error(path + ": vertex normal " + std::to_string(ni + 1) + " is not finite");
+    const float len = glm::length(n);
+    return len > 0.f ? n / len : Vec3(0.f);
+  };
+  const auto corner_uv = [&](int ti) {
+    if (ti < 0 || static_cast<size_t>(ti) >= vt.size() / 2) return Vec2(0.f);
+    return Vec2(vt[2 * ti], vt[2 * ti + 1]);
+  };
 
   MeshTriangles out;
+  bool has_normals = false;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& idx = shape.mesh.indices;
     if (idx.size() % 3 != 0) throw std::runtime_error(path + ": a face was not triangulated");
     for (size_t f = 0; f + 2 < idx.size(); f += 3) {
       std::array<DVec3, 3> tri;
+      TriangleShading shading;
       for (int j = 0; j < 3; ++j) {
+        shading.normal[j] = corner_normal(idx[f + j].normal_index);
+        shading.uv[j] = corner_uv(idx[f + j].texcoord_index);
         const int vi = idx[f + j].vertex_index;
         if (vi < 0 || static_cast<size_t>(vi) >= vertex_count)
           throw std::runtime_error(path + ": a face refers to a vertex the file does not have (it has " +
@@ -85,8 +104,13 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       if (out.triangles.size() >= kMaxMeshTriangles)
         throw std::runtime_error(path + ": more than " + std::to_string(kMaxMeshTriangles) + " triangles");
       out.triangles.push_back(tri);
+      if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
+        shading.normal = {};  // a corner without a normal: the face stays flat
+      out.shading.push_back(shading);
+      has_normals = has_normals || shading.has_normals();
     }
   }
+  if (!has_normals) out.shading.clear();
   if (out.triangles.empty()) throw std::runtime_error(path + ": the mesh has no triangle of non-zero area");
   return out;
 }

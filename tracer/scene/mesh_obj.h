@@ -1,8 +1,9 @@
 // Triangle meshes from Wavefront OBJ files, for the scene file's "mesh" shape (docs/scene-format.md). The file
 // is read with the scene's safety rules (a regular file, at most kMaxSceneFileBytes) and parsed by tinyobjloader
-// (Debian's libtinyobjloader-dev); polygons are triangulated as fans (listed the other way round under a mirroring transform, so faces keep
-// their front), normals, texture coordinates and .mtl
-// materials are ignored (the scene gives the material).
+// (Debian's libtinyobjloader-dev); polygons are triangulated as fans (listed the other way round under a
+// mirroring transform, so faces keep their front). Vertex normals (vn) make a face smooth-shaded where all three
+// of its corners name one (a normal of zero length leaves that face flat); texture coordinates (vt) are kept
+// with them. .mtl materials are ignored (the scene gives the material).
 #pragma once
 #include <array>
 #include <cstddef>
@@ -11,6 +12,7 @@
 
 #include "core/math.h"
 #include "scene/object_transform.h"
+#include "scene/scene_desc.h"
 
 namespace pt {
 
@@ -20,6 +22,9 @@ inline constexpr size_t kMaxMeshTriangles = size_t{1} << 24;  // per mesh: ~2.5 
 struct MeshTriangles {
   std::vector<std::array<DVec3, 3>> triangles;  // transformed, zero-area triangles left out
   size_t degenerate = 0;                        // zero-area triangles left out (they can never be hit)
+  // Per triangle, its vertex normals (in the file's coordinates, unit) and texture coordinates, in the file's
+  // vertex order; empty when no face has normals; a face without them has zero normals (TriangleShading).
+  std::vector<TriangleShading> shading;
 };
 
 // Throws std::runtime_error with the reason (the file's name, a line where the parser gives one).

@@ -35,6 +35,10 @@ DVec3 to_object(const ObjectTransform& t, DVec3 p) {
   return rotate(p - t.translate, glm::normalize(t.axis), -glm::radians(t.degrees)) / t.scale;
 }
 
+DVec3 normal_to_world(const ObjectTransform& t, DVec3 n) {
+  return rotate(n / t.scale, glm::normalize(t.axis), glm::radians(t.degrees));
+}
+
 bool mirrors(const ObjectTransform& t) { return (t.scale.x < 0.0) != ((t.scale.y < 0.0) != (t.scale.z < 0.0)); }
 
 bool transform_shape(ShapeDesc& shape, const ObjectTransform& t, bool world) {

@@ -25,6 +25,9 @@ std::string transform_error(const ObjectTransform& t);
 // The object's point p in the world, and back.
 DVec3 to_world(const ObjectTransform& t, DVec3 p);
 DVec3 to_object(const ObjectTransform& t, DVec3 p);
+// A normal of the object's surface, mapped into the world: by the inverse transpose of the linear part
+// (rotation · scale⁻¹), so that it stays perpendicular to the mapped surface. Not normalised.
+DVec3 normal_to_world(const ObjectTransform& t, DVec3 n);
 // True when the transform reverses orientation (an odd number of negative scale factors): polygons then list their
 // vertices in the other order, so that a face keeps its front (one-sided emitters, a glass mesh's inside).
 bool mirrors(const ObjectTransform& t);

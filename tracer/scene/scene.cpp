@@ -186,11 +186,19 @@ std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSetting
   return {};
 }
 
+std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSettings& r) {
+  if (s.smooth_shading() && r.estimator == Estimator::Bdpt)
+    return "render.estimator: the bdpt estimator does not support smooth shading (the models' vertex normals) for "
+           "now (use mis, or auto)";
+  return {};
+}
+
 std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
   if (std::string err = validate_lens_for_estimator(s.camera, s.render); !err.empty()) return err;
+  if (std::string err = validate_shading_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
   if (s.materials.empty()) return "materials: the scene defines no material";
   for (const MaterialDesc& m : s.materials)
@@ -208,6 +216,12 @@ std::string validate_scene(const SceneDesc& s) {
     const auto path = [i] { return "shapes[" + std::to_string(i) + "]"; };
     if (sh.material < 0 || sh.material >= static_cast<int>(s.materials.size()))
       return path() + ".material: no such material";
+    if (sh.shading != kNoShading) {
+      if (sh.type != ShapeType::Triangle || !s.shading || sh.shading >= s.shading->size())
+        return path() + ": vertex normals that the scene does not hold (or on a shape that is not a triangle)";
+      for (const Vec3& n : (*s.shading)[sh.shading].normal)
+        if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) return path() + ": a vertex normal is not finite";
+    }
     if (sh.type == ShapeType::Sphere) {
       if (!finite3(sh.center)) return path() + ".center: must be finite";
       if (!(std::isfinite(sh.radius) && sh.radius > 0.0)) return path() + ".radius: must be finite and > 0";
@@ -282,6 +296,49 @@ void add_polygon(PolygonSoA& soa, const std::array<DVec3, N>& world, DVec3 origi
   soa.parallelogram.push_back(parallelogram);
   soa.first_half_fraction.push_back(static_cast<float>(std::min(1.0, 0.5 * glm::length(n) / area)));
 }
+
+// Fills SceneGeometry::shading (primitives.h) when some shape has vertex normals: each shape's normals mapped
+// by its object's transform (the inverse transpose of its linear part, R·S⁻¹) and put in the order the shape
+// lists its vertices (swapped under a mirroring transform, as transform_shape swaps the vertices); every other
+// polygon repeats its face normal.
+class ShadingCompiler {
+ public:
+  explicit ShadingCompiler(const SceneDesc& desc) {
+    if (!desc.smooth_shading()) return;
+    for (const ShapeDesc& sh : desc.shapes)
+      if (sh.shading != kNoShading && (*desc.shading)[sh.shading].has_normals()) active_ = true;
+    if (!active_) return;
+    object_of_.assign(desc.shapes.size(), -1);
+    for (size_t i = 0; i < desc.objects.size(); ++i)
+      for (size_t k = 0; k < desc.objects[i].shape_count; ++k) object_of_[desc.objects[i].first_shape + k] = static_cast<int>(i);
+  }
+  bool active() const { return active_; }
+
+  void add(const SceneDesc& desc, size_t shape, const PolygonSoA& polygons, size_t first, PolygonShading& out) const {
+    const ShapeDesc& sh = desc.shapes[shape];
+    for (size_t i = first; i < polygons.size(); ++i) {
+      const Vec3 ng = polygons.normal[i];
+      out.normal.push_back({ng, ng, ng});
+      out.uv.push_back({Vec2(0.f), Vec2(0.f), Vec2(0.f)});
+    }
+    if (sh.shading == kNoShading || polygons.size() != first + 1) return;
+    const TriangleShading& t = (*desc.shading)[sh.shading];
+    if (!t.has_normals()) return;
+    std::array<Vec3, 3> n = t.normal;
+    std::array<Vec2, 3> uv = t.uv;
+    if (const int obj = object_of_[shape]; obj >= 0) {
+      const ObjectTransform& tr = desc.objects[static_cast<size_t>(obj)].transform;
+      for (Vec3& v : n) v = Vec3(glm::normalize(normal_to_world(tr, DVec3(v))));
+      if (mirrors(tr)) std::swap(n[1], n[2]), std::swap(uv[1], uv[2]);
+    }
+    out.normal.back() = n;
+    out.uv.back() = uv;
+  }
+
+ private:
+  bool active_ = false;
+  std::vector<int> object_of_;  // per shape, its object's index or −1
+};
 
 Material compile_material(const MaterialDesc& d) {
   Material m;
@@ -448,7 +505,10 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
 
   const DVec3 o = s.world_origin;
   s.material_used.assign(desc.materials.size(), 0);
-  for (const ShapeDesc& sh : desc.shapes) {
+  const ShadingCompiler shading(desc);
+  for (size_t shape = 0; shape < desc.shapes.size(); ++shape) {
+    const ShapeDesc& sh = desc.shapes[shape];
+    const size_t polygons_before = s.polygons.size();
     const uint32_t mat = static_cast<uint32_t>(sh.material);
     if (mat < s.material_used.size()) s.material_used[mat] = 1;
     const auto& v = sh.vertices;
@@ -466,7 +526,9 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
       s.spheres.radius.push_back(sh.radius);
       s.spheres.material.push_back(mat);
     }
+    if (shading.active()) shading.add(desc, shape, s.polygons, polygons_before, s.shading);
   }
+  s.features.smooth_shading = shading.active();
   if (s.polygons.size() >= kBvhMinPolygons)
     s.polygon_bvh = build_polygon_bvh(s.polygons.v, s.polygons.triangle);
   else
@@ -524,10 +586,11 @@ bool same_shapes(const SceneDesc& a, const SceneDesc& b) {
   for (size_t i = 0; i < a.shapes.size(); ++i) {
     const ShapeDesc &x = a.shapes[i], &y = b.shapes[i];
     if (x.type != y.type || x.vertices != y.vertices || x.center != y.center || x.radius != y.radius ||
-        x.material != y.material)
+        x.material != y.material || x.shading != y.shading)
       return false;
   }
-  return true;
+  // The vertex normals (shared, never changed: the same table, or both without).
+  return a.shading == b.shading || (!a.smooth_shading() && !b.smooth_shading());
 }
 
 bool same_geometry(const SceneDesc& a, const SceneDesc& b) {

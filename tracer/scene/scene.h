@@ -61,6 +61,7 @@ struct SceneFeatures {
   bool triangles = false, quads = false, spheres = false;  // quads: non-triangle polygons
   bool lambertian_only = true;  // every material is the Lambert lobe alone (materials/bsdf.h: is_lambertian)
   bool emissive_spheres = false, environment = false;
+  bool smooth_shading = false;  // some polygon has vertex normals (SceneGeometry::shading)
 };
 
 // The geometry (SceneGeometry, geometry/primitives.h: what the ray queries read) with the camera, materials and
@@ -85,7 +86,7 @@ class Scene : public SceneGeometry {
 
   uint32_t kernel_features() const {
     return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u) |
-           (features.lambertian_only ? 0u : kFeatureGeneralMaterials);
+           (features.lambertian_only && !features.smooth_shading ? 0u : kFeatureGeneralMaterials);
   }
 
   // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
@@ -181,6 +182,9 @@ std::string validate_film_size(int width, int height);
 // A thin-lens camera (aperture_radius > 0) with the bdpt estimator: its light-tracing strategies assume a
 // pinhole, so the pair is refused (auto picks mis for such a camera).
 std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSettings& render);
+// Smooth shading (vertex normals) with the bdpt estimator: its vertices use the geometric normal, so the pair is
+// refused (auto picks mis for such a scene) rather than rendered flat.
+std::string validate_shading_for_estimator(const SceneDesc& scene, const RenderSettings& render);
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
 // The objects' part of it: each holds ≥ 1 shape, in shape order without overlap, of one material, with a usable

@@ -112,12 +112,24 @@ struct MaterialDesc {
   Rgb eta{1.f}, k{0.f};
 };
 
+// Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the
+// coordinates of the model's file (before the object's transform, which compile_scene applies to the normals)
+// and in the file's vertex order (the shape lists its vertices the other way round while its object's transform
+// mirrors; compile_scene follows). Immutable once read: shared by every copy of the scene.
+struct TriangleShading {
+  std::array<Vec3, 3> normal{};  // unit vertex normals; all zero when the file gives none (flat shading)
+  std::array<Vec2, 3> uv{};      // texture coordinates (0 when the file gives none)
+  bool has_normals() const { return normal[0] != Vec3(0.f); }
+};
+inline constexpr uint32_t kNoShading = ~0u;
+
 struct ShapeDesc {
   ShapeType type = ShapeType::Triangle;
   std::array<DVec3, 4> vertices{};  // triangle: 3, quad: 4 (counter-clockwise seen from the front)
   DVec3 center{0.0};                // sphere
   double radius = 0.0;              // sphere
   int material = 0;                 // index into SceneDesc::materials
+  uint32_t shading = kNoShading;    // triangle: index into SceneDesc::shading, kNoShading for flat shading
 };
 
 // Shapes handled as one thing: an OBJ or glTF file's triangles, or a group's shapes (a box's five quads). Clicking
@@ -195,6 +207,10 @@ struct SceneDesc {
   std::vector<MaterialDesc> materials;
   std::vector<ShapeDesc> shapes;
   std::vector<ObjectDesc> objects;  // in the order of their shapes, never overlapping
+  // The model files' vertex normals and texture coordinates (ShapeDesc::shading indexes it); null when no shape
+  // has any. Shared, never changed: copies of a scene (the viewer's edits) share it.
+  std::shared_ptr<const std::vector<TriangleShading>> shading;
+  bool smooth_shading() const { return shading && !shading->empty(); }
 };
 
 }  // namespace pt

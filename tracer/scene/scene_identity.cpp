@@ -1,5 +1,7 @@
 #include "scene/scene_identity.h"
 
+#include <bit>
+
 #include "core/fnv1a.h"
 #include "io/little_endian.h"
 #include "scene/scene_json.h"
@@ -10,7 +12,7 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
   // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
   // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
-  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}};
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}, {}};
   head.render.seed = 0;
   const std::string json = scene_to_json(head);
   uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
@@ -26,6 +28,13 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
     } else {
       for (int k = 0; k < (shape.type == ShapeType::Quad ? 4 : 3); ++k)
         for (int a = 0; a < 3; ++a) put_le_f64(record, shape.vertices[k][a]);
+      if (shape.shading != kNoShading && scene.shading && shape.shading < scene.shading->size()) {
+        const TriangleShading& t = (*scene.shading)[shape.shading];  // the vertex normals and uv shade it
+        for (int k = 0; k < 3; ++k) {
+          for (int a = 0; a < 3; ++a) put_le_u32(record, std::bit_cast<uint32_t>(t.normal[k][a]));
+          for (int a = 0; a < 2; ++a) put_le_u32(record, std::bit_cast<uint32_t>(t.uv[k][a]));
+        }
+      }
     }
     h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
   }

@@ -719,10 +719,17 @@ struct StreamedShapes {
     size_t operator()(std::string_view s) const { return std::hash<std::string_view>()(s); }
   };
   std::vector<ShapeDesc> shapes;
+  std::vector<TriangleShading> shading;  // the models' vertex normals (ShapeDesc::shading)
   std::unordered_map<std::string, int, NameHash, std::equal_to<>> ids;
   std::vector<const std::string*> names;  // by id (keys of `ids`, whose addresses are stable)
   std::vector<size_t> first_use;          // by id: the first shape that names it, for the error message
 
+  // A triangle's vertex normals into `shading`: its index there, or kNoShading for a flat one.
+  uint32_t add_shading(const TriangleShading& t) {
+    if (!t.has_normals()) return kNoShading;
+    shading.push_back(t);
+    return static_cast<uint32_t>(shading.size() - 1);
+  }
   void add(ShapeDesc s, std::string_view material, size_t index) {
     auto it = ids.find(material);
     if (it == ids.end()) {
@@ -764,10 +771,11 @@ struct StreamedShapes {
       fail(member(path, "file"), e.what());
     }
     o.first_shape = shapes.size();
-    for (const auto& tri : mesh.triangles) {
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
       ShapeDesc s;
       s.type = ShapeType::Triangle;
-      for (int k = 0; k < 3; ++k) s.vertices[k] = tri[k];
+      for (int k = 0; k < 3; ++k) s.vertices[k] = mesh.triangles[t][k];
+      if (!mesh.shading.empty()) s.shading = add_shading(mesh.shading[t]);
       add(s, material, index);
     }
     o.shape_count = shapes.size() - o.first_shape;
@@ -808,6 +816,7 @@ struct StreamedShapes {
       ShapeDesc s;
       s.type = ShapeType::Triangle;
       for (int k = 0; k < 3; ++k) s.vertices[k] = model.triangles[t][k];
+      if (!model.shading.empty()) s.shading = add_shading(model.shading[t]);
       if (!transform_shape(s, o.transform, true)) fail(member(path, "transform"), "cannot place the model");
       add(s, override_name ? std::string_view(*override_name) : std::string_view(names[model.triangle_material[t]]), index);
     }
@@ -913,6 +922,8 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   streamed.resolve(material_index);
   s.shapes = std::move(streamed.shapes);
   s.objects = std::move(streamed.objects);
+  if (!streamed.shading.empty())
+    s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(streamed.shading));
   return s;
 }
 

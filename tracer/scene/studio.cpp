@@ -74,13 +74,20 @@ SceneDesc studio_scene(const std::string& model_path) {
   ground.albedo = Rgb(0.5f);
   s.materials = {model, ground};
   s.shapes.reserve(mesh.triangles.size() + 1);
-  for (const auto& t : mesh.triangles) {
+  std::vector<TriangleShading> shading;
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const auto& t = mesh.triangles[i];
     ShapeDesc tri;
     tri.type = ShapeType::Triangle;
     tri.vertices = {t[0], t[1], t[2], DVec3(0.0)};
     tri.material = 0;
+    if (!mesh.shading.empty() && mesh.shading[i].has_normals()) {
+      tri.shading = static_cast<uint32_t>(shading.size());
+      shading.push_back(mesh.shading[i]);
+    }
     s.shapes.push_back(tri);
   }
+  if (!shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(shading));
   ObjectDesc object;  // the model is one object, saved as a reference to its file
   object.kind = ObjectKind::Mesh;
   object.name = std::filesystem::path(model_path).stem().string();

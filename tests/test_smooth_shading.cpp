@@ -1,0 +1,303 @@
+// Smooth shading (geometry/interaction.h: vertex_shading, shading_normal; integrators/path_tracer.h): the
+// terminator offset and the bent normal against hand-computed values, a tessellated sphere with vertex normals
+// against the analytic sphere's image, and the models' normals as the OBJ and scene readers hand them on.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "core/rng.h"
+#include "film/film.h"
+#include "geometry/interaction.h"
+#include "render/renderer.h"
+#include "scene/estimator_choice.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "test_helpers.h"
+
+using namespace pt;
+
+TEST_CASE("smooth shading: the terminator offset of a hand-computed triangle") {
+  // Triangle (0,0,0), (1,0,0), (0,1,0) with normals (0,0,1), (1,0,1)/√2, (0,0,1), hit at barycentrics
+  // (½, ½, 0), i.e. p = (½, 0, 0). Only vertex 1's tangent plane lies above p: (p − v1)·n1 = −½/√2, so
+  // p' = p − ½·(−½/√2)·n1 = p + (1/8, 0, 1/8).
+  Interaction it{};
+  it.p = Vec3(0.5f, 0.f, 0.f);
+  it.ng = it.ns = Vec3(0, 0, 1);
+  const Vec3 v[3] = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  const float r = std::sqrt(0.5f);
+  vertex_shading({Vec3(0, 0, 1), Vec3(r, 0, r), Vec3(0, 0, 1)}, {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)}, v, 0.5f, 0.5f,
+                 0.f, it);
+  REQUIRE(it.lifted);
+  CHECK(it.lift.x == doctest::Approx(0.125).epsilon(1e-6));
+  CHECK(it.lift.y == doctest::Approx(0.0));
+  CHECK(it.lift.z == doctest::Approx(0.125).epsilon(1e-6));
+  // The interpolated normal: (½·(0,0,1) + ½·(r,0,r)) normalised; uv interpolated.
+  const Vec3 want = glm::normalize(Vec3(0.5f * r, 0, 0.5f + 0.5f * r));
+  CHECK(glm::length(it.ns - want) < 1e-6f);
+  CHECK(it.uv.x == doctest::Approx(0.5));
+  CHECK(it.uv.y == doctest::Approx(0.0));
+  // A ray leaving on the front starts from p + lift (plus the error offset), one leaving behind from p.
+  it.p_error = Vec3(0.f);
+  CHECK(glm::length(offset_ray_origin(it, Vec3(0, 0, 1)) - Vec3(0.625f, 0, 0.125f)) < 1e-6f);
+  CHECK(glm::length(offset_ray_origin(it, Vec3(0, 0, -1)) - Vec3(0.5f, 0, 0)) < 1e-6f);
+
+  // Flat normals lift nothing; normals that point the other way (a file whose winding disagrees) are turned to
+  // the geometric side first, and lift towards it too.
+  Interaction flat{};
+  flat.p = it.p;
+  flat.ng = flat.ns = Vec3(0, 0, 1);
+  vertex_shading({Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(0, 0, 1)}, {}, v, 0.5f, 0.5f, 0.f, flat);
+  CHECK_FALSE(flat.lifted);
+  CHECK(flat.ns == Vec3(0, 0, 1));
+  Interaction reversed{};
+  reversed.p = it.p;
+  reversed.ng = reversed.ns = Vec3(0, 0, 1);
+  vertex_shading({Vec3(0, 0, -1), Vec3(-r, 0, -r), Vec3(0, 0, -1)}, {}, v, 0.5f, 0.5f, 0.f, reversed);
+  CHECK(glm::length(reversed.ns - want) < 1e-6f);
+  CHECK(glm::length(reversed.lift - it.lift) < 1e-6f);
+}
+
+TEST_CASE("smooth shading: the bent normal keeps the mirror reflection above the surface and wo in front") {
+  // Random geometric normals, shading normals tilted up to 80° from them and viewing directions on either
+  // side: the reflection of wo about the normal used must leave at an elevation ≥ min(0.9·|wo·ng|, 0.01) on wo's
+  // side (within float rounding), wo must lie in front of it, and a normal that already satisfies this is kept.
+  Pcg32 rng(11, 3);
+  int bent = 0, kept = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 ng = sample_uniform_sphere(Vec2(rng.next_float(), rng.next_float()));
+    const Frame f = Frame::from_normal(ng);
+    const float tilt = 1.4f * rng.next_float(), phi = 6.2831853f * rng.next_float();
+    const Vec3 ns = f.to_world(Vec3(std::sin(tilt) * std::cos(phi), std::sin(tilt) * std::sin(phi), std::cos(tilt)));
+    Vec3 wo = sample_uniform_sphere(Vec2(rng.next_float(), rng.next_float()));
+    if (std::abs(glm::dot(wo, ng)) < 1e-3f) continue;
+    Interaction it{};
+    it.ng = ng;
+    it.ns = ns;
+    const Vec3 n = shading_normal(it, wo);
+    CHECK(std::abs(glm::length(n) - 1.f) < 1e-5f);
+    CHECK(glm::dot(n, ng) > 0.f);  // on ng's side, as it.ns is
+    const float side = glm::dot(wo, ng) < 0.f ? -1.f : 1.f;
+    const Vec3 r = 2.f * glm::dot(n, wo) * n - wo;
+    const float t = std::min(0.9f * std::abs(glm::dot(wo, ng)), 0.01f);
+    CHECK(side * glm::dot(r, ng) >= t - 2e-5f);
+    CHECK(side * glm::dot(wo, n) > 0.f);
+    const Vec3 r0 = 2.f * glm::dot(ns, wo) * ns - wo;
+    if (side * glm::dot(r0, ng) >= t) {
+      CHECK(n == ns);
+      ++kept;
+    } else {
+      ++bent;
+    }
+  }
+  // Both branches ran many times.
+  CHECK(bent > 1000);
+  CHECK(kept > 1000);
+}
+
+namespace {
+
+// A unit sphere at the origin as `rings` × 2·`rings` quads split into triangles (outward fronts), with the exact
+// sphere normals at the vertices when `smooth`.
+void add_tessellated_sphere(SceneDesc& s, int rings, bool smooth) {
+  auto shading = std::make_shared<std::vector<TriangleShading>>();
+  const int segments = 2 * rings;
+  const auto vertex = [&](int i, int j) {
+    const double th = glm::pi<double>() * j / rings, ph = 2.0 * glm::pi<double>() * i / segments;
+    return DVec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+  };
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < segments; ++i) {
+      const DVec3 q[4] = {vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)};
+      for (const std::array<int, 3>& t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+        std::array<DVec3, 3> v{q[t[0]], q[t[1]], q[t[2]]};
+        if (degenerate_triangle(v[0], v[1], v[2])) continue;  // the poles' collapsed corners
+        if (glm::dot(glm::cross(v[1] - v[0], v[2] - v[0]), v[0] + v[1] + v[2]) < 0.0) std::swap(v[1], v[2]);
+        ShapeDesc tri;
+        tri.type = ShapeType::Triangle;
+        tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
+        if (smooth) {
+          TriangleShading sh;
+          for (int k = 0; k < 3; ++k) sh.normal[k] = Vec3(v[k]);
+          tri.shading = static_cast<uint32_t>(shading->size());
+          shading->push_back(sh);
+        }
+        s.shapes.push_back(tri);
+      }
+    }
+  if (smooth) s.shading = shading;
+}
+
+// A white sphere lit from the upper right by a large one-sided light, seen from +z, against black: the
+// terminator crosses the visible disc. `kind`: 0 the analytic sphere, 1 tessellated flat, 2 tessellated smooth.
+SceneDesc lit_sphere_scene(int kind, int rings, double light_size = 3.0) {
+  SceneDesc s;
+  s.camera.position = DVec3(0, 0, 4);
+  s.camera.look_at = DVec3(0.0);
+  s.camera.fov_deg = 32;
+  s.width = s.height = 64;
+  s.render.max_bounces = 1;
+  s.render.estimator = Estimator::Mis;
+  s.render.seed = 5;
+  s.render.sampler = SamplerType::Independent;  // the film's variance is then the error's (test_helpers.h)
+  MaterialDesc white, light;
+  white.name = "white";
+  white.albedo = Rgb(0.8f);
+  light.name = "light";
+  light.albedo = Rgb(0.f);
+  light.emission = Rgb(static_cast<float>(36.0 / (light_size * light_size)));
+  s.materials = {white, light};
+  if (kind == 0) {
+    ShapeDesc sphere;
+    sphere.type = ShapeType::Sphere;
+    sphere.radius = 1.0;
+    s.shapes.push_back(sphere);
+  } else {
+    add_tessellated_sphere(s, rings, kind == 2);
+  }
+  // A 3 × 3 light centred at (4, 2.5, -1), facing the origin (its front is its counter-clockwise side).
+  const DVec3 c(5, 1, 1), n = glm::normalize(-c);
+  const DVec3 u = glm::normalize(glm::cross(n, DVec3(0, 1, 0))), w = glm::cross(n, u);
+  ShapeDesc q;
+  q.type = ShapeType::Quad;
+  const double h = light_size / 2;
+  q.vertices = {c - h * u - h * w, c - h * u + h * w, c + h * u + h * w, c + h * u - h * w};
+  if (glm::dot(glm::cross(q.vertices[1] - q.vertices[0], q.vertices[2] - q.vertices[0]), n) < 0.0)
+    std::swap(q.vertices[1], q.vertices[3]);
+  q.material = 1;
+  s.shapes.push_back(q);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("smooth shading: a tessellated sphere with vertex normals renders as the analytic sphere") {
+  const int spp = 256, rings = 12;
+  const Film analytic = test::render_film(lit_sphere_scene(0, rings), spp, 2);
+  const Film flat = test::render_film(lit_sphere_scene(1, rings), spp, 2);
+  const Film smooth = test::render_film(lit_sphere_scene(2, rings), spp, 2);
+  // Pixels well inside the disc (the polygon's silhouette lies inside the circle by up to 1 − cos(7.5°) ≈ 0.9 %
+  // of the radius, a fraction of a pixel): the disc of radius R_px·0.9 around the centre.
+  const int w = 64;
+  const double radius_px = (1.0 / std::tan(glm::radians(16.0)) / std::sqrt(15.0)) * (w / 2.0);
+  double flat_sq = 0, smooth_sq = 0, noise_sq = 0, sum = 0;
+  int n = 0;
+  for (int y = 0; y < w; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double dx = x + 0.5 - w / 2.0, dy = y + 0.5 - w / 2.0;
+      if (std::hypot(dx, dy) > 0.9 * radius_px) continue;
+      const size_t i = static_cast<size_t>(y) * w + x;
+      const double a = analytic.mean(i).x, f = flat.mean(i).x, sm = smooth.mean(i).x;
+      flat_sq += (f - a) * (f - a);
+      smooth_sq += (sm - a) * (sm - a);
+      noise_sq += 2.0 * analytic.variance_of_mean(i).x;  // E[(x − y)²] of two independent estimates
+      sum += a;
+      ++n;
+    }
+  const double mean = sum / n, flat_rms = std::sqrt(flat_sq / n), smooth_rms = std::sqrt(smooth_sq / n),
+               noise_rms = std::sqrt(noise_sq / n);
+  MESSAGE("mean " << mean << ", rms differences from the analytic sphere: smooth " << smooth_rms << ", flat "
+                  << flat_rms << ", noise alone " << noise_rms);
+  CHECK(smooth_rms < 1.3 * noise_rms);
+  CHECK(flat_rms > 2.0 * noise_rms);
+}
+
+
+TEST_CASE("smooth shading: the scalar and wavefront loops render the same bits") {
+  SceneDesc d = lit_sphere_scene(2, 6);  // 144 triangles: brute force, where auto takes the wavefront
+  d.width = d.height = 24;
+  d.render.path_loop = PathLoop::Scalar;
+  const Film scalar = test::render_film(d, 8, 2);
+  d.render.path_loop = PathLoop::Wavefront;
+  const Film wavefront = test::render_film(d, 8, 2);
+  for (size_t i = 0; i < size_t{24} * 24; ++i) REQUIRE(scalar.mean(i) == wavefront.mean(i));
+}
+
+TEST_CASE("smooth shading: bdpt is refused and auto takes mis, with a reason") {
+  SceneDesc d = lit_sphere_scene(2, 6);
+  CHECK(validate_scene(d).empty());
+  d.render.estimator = Estimator::Bdpt;
+  CHECK(validate_scene(d).find("smooth shading") != std::string::npos);
+  d.render.estimator = Estimator::Auto;
+  const EstimatorChoice c = choose_estimator(d);
+  CHECK(c.estimator == Estimator::Mis);
+  CHECK(c.reason.find("vertex normals") != std::string::npos);
+  // The compiled scene runs the general kernels (the Lambert ones are flat-shaded) and picks mis too.
+  const auto scene = compile_scene(d);
+  CHECK(scene->features.smooth_shading);
+  CHECK((scene->kernel_features() & kFeatureGeneralMaterials) != 0);
+  CHECK(choose_estimator(*scene, 8) == Estimator::Mis);
+  CHECK((compile_scene(lit_sphere_scene(1, 6))->kernel_features() & kFeatureGeneralMaterials) == 0);
+}
+
+namespace {
+
+struct TempFiles {
+  std::filesystem::path dir;
+  TempFiles() : dir(std::filesystem::temp_directory_path() / ("pt_smooth_" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(dir);
+  }
+  ~TempFiles() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream((dir / name).string()) << text;
+    return (dir / name).string();
+  }
+};
+
+void check_normal(Vec3 got, Vec3 want) {
+  INFO("got " << got.x << " " << got.y << " " << got.z << ", want " << want.x << " " << want.y << " " << want.z);
+  CHECK(glm::length(got - glm::normalize(want)) < 1e-6f);
+}
+
+}  // namespace
+
+TEST_CASE("smooth shading: OBJ vertex normals follow the object's transform and its mirroring") {
+  TempFiles files;
+  // One triangle (0,0,0), (1,0,0), (0,1,0), front +z, normals (0,0,1), (0.6,0,0.8), (0,0.6,0.8); a second
+  // triangle names no normals and stays flat.
+  files.write("tri.obj",
+              "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nvn 0.6 0 0.8\nvn 0 0.6 0.8\nvt 0 0\nvt 1 0\nvt 0 1\n"
+              "f 1/1/1 2/2/2 3/3/3\nf 1 3 4\n");
+  const auto scene_with = [&](const std::string& transform) {
+    return parse_scene(R"({"camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+      "film": {"width": 16, "height": 16}, "render": {"max_bounces": 4, "estimator": "auto"}, "background": [1, 1, 1],
+      "materials": {"white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+      "shapes": [{"type": "mesh", "file": "tri.obj", "material": "white", "transform": )" + transform + "}]}",
+                       "tri.json", files.dir.string());
+  };
+  // Scale x by 2 and turn a quarter about +z: a normal maps by R·S⁻¹, (0.6,0,0.8) → (0.3,0,0.8) → (0,0.3,0.8).
+  const SceneDesc plain = scene_with(R"({"scale": [2, 1, 1], "rotate_axis": [0, 0, 1], "rotate_deg": 90})");
+  REQUIRE(plain.shapes.size() == 2);
+  CHECK(plain.shapes[0].shading != kNoShading);
+  CHECK(plain.shapes[1].shading == kNoShading);
+  const auto s = compile_scene(plain);
+  REQUIRE(s->shading.normal.size() == 2);
+  check_normal(s->shading.normal[0][0], Vec3(0, 0, 1));
+  check_normal(s->shading.normal[0][1], Vec3(0, 0.3f, 0.8f));
+  check_normal(s->shading.normal[0][2], Vec3(-0.6f, 0, 0.8f));
+  CHECK(s->shading.uv[0][1] == Vec2(1, 0));
+  for (const Vec3& n : s->shading.normal[1]) CHECK(n == s->polygons.normal[1]);  // the flat face's own normal
+  // Mirrored in x: vertices 1 and 2 trade places (the front stays +z) and so do their normals and uv;
+  // (0.6,0,0.8) → (−0.6,0,0.8) now belongs to vertex 2.
+  const SceneDesc mirrored = scene_with(R"({"scale": [-1, 1, 1]})");
+  const auto m = compile_scene(mirrored);
+  CHECK(m->polygons.normal[0].z > 0.f);
+  check_normal(m->shading.normal[0][1], Vec3(0, 0.6f, 0.8f));
+  check_normal(m->shading.normal[0][2], Vec3(-0.6f, 0, 0.8f));
+  CHECK(m->shading.uv[0][2] == Vec2(1, 0));
+  // Geometry-preserving comparisons see the normals: the same file read twice shares no table but is equal in
+  // shape; a scene without normals is not.
+  CHECK(same_shapes(plain, plain));
+  SceneDesc stripped = plain;
+  stripped.shading.reset();
+  for (ShapeDesc& sh : stripped.shapes) sh.shading = kNoShading;
+  CHECK_FALSE(same_shapes(plain, stripped));
+}
