@@ -597,9 +597,9 @@ void object_fields(ViewerModel& model, PanelState& state, size_t index) {
   ImGui::Text("%s: %s, %zu %s", o.name.c_str(), enum_label(o.kind), o.shape_count, o.shape_count == 1 ? "shape" : "shapes");
   if (o.kind != ObjectKind::Group && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", o.file.c_str());
   const int current = std::clamp(model.scene().shapes[o.first_shape].material, 0, static_cast<int>(model.scene().materials.size()) - 1);
-  // A glTF model keeps its file's materials (each in Materials as NAME/MATERIAL); choosing one here gives that
+  // A model file keeps its file's materials (each in Materials as NAME/MATERIAL); choosing one here gives that
   // one to all of its triangles.
-  if (o.kind == ObjectKind::Gltf) {
+  if (o.kind != ObjectKind::Group) {
     size_t differing = 0;
     for (size_t k = o.first_shape + 1; k < o.first_shape + o.shape_count; ++k)
       differing += model.scene().shapes[k].material != current;

@@ -5,10 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <set>
 #include <stdexcept>
 #include <utility>
 
 #include "io/safe_file.h"
+#include "scene/mtl_material.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
 
@@ -43,6 +46,54 @@ void check_vertex_lines(const std::string& path, const std::string& text) {
   }
 }
 
+// The text of the material libraries named by `mtllib` lines, read from the OBJ's folder under the scene's
+// safety rules; a library that cannot be read is a warning (the geometry stands without it).
+std::string material_libraries(const std::string& path, const std::string& text, std::vector<std::string>& warnings) {
+  std::string out;
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  for (size_t pos = 0; pos < text.size();) {
+    const size_t end = std::min(text.find('\n', pos), text.size());
+    const size_t i = text.find_first_not_of(" \t", pos);
+    if (i < end && text.compare(i, 7, "mtllib ") == 0) {
+      std::string names = text.substr(i + 7, end - i - 7);
+      while (!names.empty() && (names.back() == '\r' || names.back() == ' ' || names.back() == '\t')) names.pop_back();
+      for (size_t a = names.find_first_not_of(" \t"); a < names.size();) {
+        const size_t b = std::min(names.find_first_of(" \t", a), names.size());
+        const std::string lib = (dir / names.substr(a, b - a)).string();
+        try {
+          out += read_file_limited(lib, kMaxSceneFileBytes) + "\n";
+        } catch (const FileError& e) {
+          warnings.push_back(std::string("material library not read (its faces take the default material): ") + e.what());
+        }
+        a = names.find_first_not_of(" \t", b);
+      }
+    }
+    pos = end + 1;
+  }
+  return out;
+}
+
+MtlParams mtl_params(const tinyobj::material_t& m) {
+  MtlParams p;
+  p.name = m.name;
+  p.kd = Rgb(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
+  p.ks = Rgb(m.specular[0], m.specular[1], m.specular[2]);
+  p.ke = Rgb(m.emission[0], m.emission[1], m.emission[2]);
+  p.ns = m.shininess;
+  p.ni = m.ior;
+  p.dissolve = m.dissolve;
+  p.illum = m.illum;
+  const std::pair<const char*, const std::string*> maps[] = {
+      {"map_Kd", &m.diffuse_texname},  {"map_Ks", &m.specular_texname}, {"map_Ns", &m.specular_highlight_texname},
+      {"map_d", &m.alpha_texname},     {"bump", &m.bump_texname},       {"disp", &m.displacement_texname},
+      {"map_Ke", &m.emissive_texname}, {"norm", &m.normal_texname}};
+  for (const auto& [keyword, name] : maps)
+    if (!name->empty()) p.textures.push_back(keyword);
+  for (float* c : {&p.kd.x, &p.kd.y, &p.kd.z, &p.ks.x, &p.ks.y, &p.ks.z, &p.ke.x, &p.ke.y, &p.ke.z, &p.ns, &p.ni})
+    if (!std::isfinite(*c)) *c = 0.f;
+  return p;
+}
+
 }  // namespace
 
 MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
@@ -52,8 +103,9 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
   config.triangulate = true;
   config.vertex_color = false;
   tinyobj::ObjReader reader;
-  // From memory, with no material library: .mtl files named by the OBJ are not opened.
-  if (!reader.ParseFromString(text, std::string(), config)) {
+  MeshTriangles out;
+  // From memory, with the material libraries read above (tinyobjloader opens no file itself).
+  if (!reader.ParseFromString(text, material_libraries(path, text, out.warnings), config)) {
     std::string why = reader.Error();
     while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
     throw std::runtime_error(path + ": not a readable OBJ file" + (why.empty() ? "" : " (" + why + ")"));
@@ -76,12 +128,41 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
     return Vec2(vt[2 * ti], vt[2 * ti + 1]);
   };
 
-  MeshTriangles out;
   bool has_normals = false;
+  // The materials that some face uses (tinyobjloader adds an unnamed one of its own when a library is
+  // missing), in the order of the libraries; `index_of` maps its material ids to out.materials.
+  const auto& materials = reader.GetMaterials();
+  std::vector<int> index_of(materials.size(), -1);
+  for (const tinyobj::shape_t& shape : reader.GetShapes())
+    for (int id : shape.mesh.material_ids)
+      if (id >= 0 && static_cast<size_t>(id) < materials.size()) index_of[id] = 0;
+  for (size_t i = 0; i < materials.size(); ++i)
+    if (index_of[i] == 0) {
+      index_of[i] = static_cast<int>(out.materials.size());
+      out.materials.push_back(mtl_material(mtl_params(materials[i]), out.warnings));
+    }
+  // The parser's own remarks (a usemtl name no library defines, …), a few lines at most.
+  {
+    std::string w = reader.Warning();
+    int lines = 0;
+    for (size_t a = 0; a < w.size() && lines < 5;) {
+      const size_t b = std::min(w.find('\n', a), w.size());
+      if (b > a) out.warnings.push_back(w.substr(a, b - a)), ++lines;
+      a = b + 1;
+    }
+  }
+  std::set<std::string> names;  // made unique: a library may repeat a name, or name one "default"
+  names.insert("default");
+  for (MaterialDesc& d : out.materials) {
+    const std::string base = d.name;
+    for (int k = 2; !names.insert(d.name).second; ++k) d.name = base + " (" + std::to_string(k) + ")";
+  }
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& idx = shape.mesh.indices;
     if (idx.size() % 3 != 0) throw std::runtime_error(path + ": a face was not triangulated");
     for (size_t f = 0; f + 2 < idx.size(); f += 3) {
+      const size_t face = f / 3;
+      const int mat = face < shape.mesh.material_ids.size() ? shape.mesh.material_ids[face] : -1;
       std::array<DVec3, 3> tri;
       TriangleShading shading;
       for (int j = 0; j < 3; ++j) {
@@ -104,6 +185,8 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       if (out.triangles.size() >= kMaxMeshTriangles)
         throw std::runtime_error(path + ": more than " + std::to_string(kMaxMeshTriangles) + " triangles");
       out.triangles.push_back(tri);
+      if (!out.materials.empty())
+        out.triangle_material.push_back(mat >= 0 && static_cast<size_t>(mat) < index_of.size() ? index_of[mat] : -1);
       if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
         shading.normal = {};  // a corner without a normal: the face stays flat
       out.shading.push_back(shading);

@@ -160,8 +160,8 @@ std::string validate_objects(const SceneDesc& s) {
     if (o.kind != ObjectKind::Group && o.file.empty()) return path + ".file: a model names its file";
     const int material = s.shapes[o.first_shape].material;
     for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) {
-      // A glTF model's triangles keep the file's materials; other objects have one.
-      if (o.kind != ObjectKind::Gltf && s.shapes[k].material != material)
+      // A model file's triangles keep the file's materials (glTF, OBJ with .mtl); a group has one.
+      if (o.kind == ObjectKind::Group && s.shapes[k].material != material)
         return path + ": its shapes have one material (shape " + std::to_string(k) + " differs)";
       if (o.kind != ObjectKind::Group && s.shapes[k].type != ShapeType::Triangle) return path + ": a model is made of triangles";
     }

@@ -755,13 +755,14 @@ struct StreamedShapes {
     add(s, *name, index);
   }
 
-  // {"type": "mesh", "name": ..., "file": "x.obj", "material": ..., "transform": {...}}: one object, the file's
-  // triangles each a shape.
+  // {"type": "mesh", "name": ..., "file": "x.obj", "material": ..., "transform": {...}}: one object, the OBJ
+  // file's triangles each a shape. Without "material", the faces take the file's .mtl materials as a glTF
+  // model's take its own (below); an OBJ without a material library then needs "material".
   void add_mesh(const Json& j, size_t index) {
     const std::string path = element("shapes", index);
     check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
     ObjectDesc o = model_object(j, path, ObjectKind::Mesh);
-    const std::string& material = read_string(required_key(j, path, "material"), member(path, "material"));
+    const std::string* override_name = model_material(j, path);
     MeshTriangles mesh;
     try {
       mesh = load_obj_mesh(o.resolved_file, o.transform);
@@ -770,13 +771,26 @@ struct StreamedShapes {
     } catch (const std::exception& e) {
       fail(member(path, "file"), e.what());
     }
+    if (!override_name && mesh.materials.empty())
+      fail(member(path, "material"), "required: the OBJ file names no material library (mtllib) to take its materials from");
+    for (const std::string& w : mesh.warnings) warnings.push_back(w.rfind(o.resolved_file, 0) == 0 ? w : o.resolved_file + ": " + w);
+    // Faces that name no material take the .mtl format's default (diffuse, Kd 0.8), as "NAME/default".
+    const bool unassigned = std::find(mesh.triangle_material.begin(), mesh.triangle_material.end(), -1) != mesh.triangle_material.end();
+    if (unassigned) {
+      MaterialDesc d;
+      d.name = "default";
+      mesh.materials.push_back(d);
+      for (int& m : mesh.triangle_material)
+        if (m < 0) m = static_cast<int>(mesh.materials.size() - 1);
+    }
+    const std::vector<std::string> names = file_material_names(o, mesh.materials, override_name, path);
     o.first_shape = shapes.size();
     for (size_t t = 0; t < mesh.triangles.size(); ++t) {
       ShapeDesc s;
       s.type = ShapeType::Triangle;
       for (int k = 0; k < 3; ++k) s.vertices[k] = mesh.triangles[t][k];
       if (!mesh.shading.empty()) s.shading = add_shading(mesh.shading[t]);
-      add(s, material, index);
+      add(s, override_name ? std::string_view(*override_name) : std::string_view(names[mesh.triangle_material[t]]), index);
     }
     o.shape_count = shapes.size() - o.first_shape;
     objects.push_back(std::move(o));
@@ -790,9 +804,7 @@ struct StreamedShapes {
     const std::string path = element("shapes", index);
     check_known_keys(j, path, {"type", "name", "file", "material", "transform"});
     ObjectDesc o = model_object(j, path, ObjectKind::Gltf);
-    if (o.name.find('/') != std::string::npos) fail(member(path, "name"), "must not contain '/' (it names the materials)");
-    const Json* material = optional_key(j, "material");
-    const std::string* override_name = material ? &read_string(*material, member(path, "material")) : nullptr;
+    const std::string* override_name = model_material(j, path);
     GltfContents model;
     try {
       model = load_gltf(o.resolved_file);
@@ -802,15 +814,7 @@ struct StreamedShapes {
       fail(member(path, "file"), e.what());
     }
     for (const std::string& w : model.warnings) warnings.push_back(o.resolved_file + ": " + w);
-    std::vector<std::string> names(model.materials.size());
-    for (size_t m = 0; m < model.materials.size(); ++m) {
-      names[m] = o.name + "/" + model.materials[m].name;
-      if (!override_name) {
-        MaterialDesc d = model.materials[m];
-        d.name = names[m];
-        imported.push_back(std::move(d));
-      }
-    }
+    const std::vector<std::string> names = file_material_names(o, model.materials, override_name, path);
     o.first_shape = shapes.size();
     for (size_t t = 0; t < model.triangles.size(); ++t) {
       ShapeDesc s;
@@ -822,6 +826,31 @@ struct StreamedShapes {
     }
     o.shape_count = shapes.size() - o.first_shape;
     objects.push_back(std::move(o));
+  }
+
+  // A model's "material" (one scene material for all its triangles), or null: its file's materials then.
+  const std::string* model_material(const Json& j, const std::string& path) const {
+    const Json* material = optional_key(j, "material");
+    return material ? &read_string(*material, member(path, "material")) : nullptr;
+  }
+
+  // The names a model file's materials take in the scene, "NAME/MATERIAL" (NAME the object's); unless one scene
+  // material replaces them all, they join the scene's materials (where a scene material of the same name, an
+  // edit saved from the viewer, overrides the file's).
+  std::vector<std::string> file_material_names(const ObjectDesc& o, const std::vector<MaterialDesc>& materials,
+                                               const std::string* override_name, const std::string& path) {
+    if (!override_name && o.name.find('/') != std::string::npos)
+      fail(member(path, "name"), "must not contain '/' (it names the materials)");
+    std::vector<std::string> names(materials.size());
+    for (size_t m = 0; m < materials.size(); ++m) {
+      names[m] = o.name + "/" + materials[m].name;
+      if (!override_name) {
+        MaterialDesc d = materials[m];
+        d.name = names[m];
+        imported.push_back(std::move(d));
+      }
+    }
+    return names;
   }
 
   // {"type": "group", "name": ..., "material": ..., "transform": {...}, "shapes": [...]}: one object, its
@@ -996,9 +1025,10 @@ Json object_json(const ObjectDesc& o, const std::vector<ShapeDesc>& shapes, cons
                  const std::optional<std::string>& destination_dir) {
   Json j = {{"type", to_string(o.kind)}, {"name", o.name}};
   if (o.kind != ObjectKind::Group) j["file"] = file_reference(o.file, o.resolved_file, destination_dir);
-  // A glTF model's triangles name the file's materials ("NAME/MATERIAL", written among the materials, where
-  // the reader finds them as overrides); one material of the scene's own given to all of them is written here.
-  if (o.kind != ObjectKind::Gltf || (!material.empty() && material.rfind(o.name + "/", 0) != 0)) j["material"] = material;
+  // A model file's triangles may name the file's materials ("NAME/MATERIAL", written among the materials,
+  // where the reader finds them as overrides); one material of the scene's own given to all of them is written
+  // here.
+  if (o.kind == ObjectKind::Group || (!material.empty() && material.rfind(o.name + "/", 0) != 0)) j["material"] = material;
   if (Json t = transform_json(o.transform); !t.empty()) j["transform"] = std::move(t);
   if (o.kind == ObjectKind::Group) {
     Json list = Json::array();

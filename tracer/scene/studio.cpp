@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 
@@ -67,12 +68,30 @@ SceneDesc studio_scene(const std::string& model_path) {
   s.width = 640;
   s.height = 480;
   s.render.max_bounces = 16;
-  MaterialDesc model, ground;
-  model.name = "model";
-  model.albedo = Rgb(0.7f);
+  // The model's own .mtl materials when it names a library ("STEM/NAME", as in a scene file; faces without one
+  // take the format's default), else one grey diffuse material; the ground last.
+  const std::string stem = std::filesystem::path(model_path).stem().string();
+  for (const std::string& w : mesh.warnings) std::fprintf(stderr, "warning: %s: %s\n", model_path.c_str(), w.c_str());
+  if (mesh.materials.empty()) {
+    MaterialDesc model;
+    model.name = "model";
+    model.albedo = Rgb(0.7f);
+    s.materials = {model};
+    mesh.triangle_material.assign(mesh.triangles.size(), 0);
+  } else {
+    s.materials = mesh.materials;
+    for (int& m : mesh.triangle_material)
+      if (m < 0) {
+        if (s.materials.size() == mesh.materials.size()) s.materials.push_back(MaterialDesc{.name = "default"});
+        m = static_cast<int>(s.materials.size() - 1);
+      }
+    for (MaterialDesc& m : s.materials) m.name = stem + "/" + m.name;
+  }
+  MaterialDesc ground;
   ground.name = "ground";
   ground.albedo = Rgb(0.5f);
-  s.materials = {model, ground};
+  const int ground_index = static_cast<int>(s.materials.size());
+  s.materials.push_back(ground);
   s.shapes.reserve(mesh.triangles.size() + 1);
   std::vector<TriangleShading> shading;
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
@@ -80,7 +99,7 @@ SceneDesc studio_scene(const std::string& model_path) {
     ShapeDesc tri;
     tri.type = ShapeType::Triangle;
     tri.vertices = {t[0], t[1], t[2], DVec3(0.0)};
-    tri.material = 0;
+    tri.material = mesh.triangle_material[i];
     if (!mesh.shading.empty() && mesh.shading[i].has_normals()) {
       tri.shading = static_cast<uint32_t>(shading.size());
       shading.push_back(mesh.shading[i]);
@@ -90,7 +109,7 @@ SceneDesc studio_scene(const std::string& model_path) {
   if (!shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(shading));
   ObjectDesc object;  // the model is one object, saved as a reference to its file
   object.kind = ObjectKind::Mesh;
-  object.name = std::filesystem::path(model_path).stem().string();
+  object.name = stem;
   object.file = object.resolved_file = model_path;
   object.shape_count = mesh.triangles.size();
   s.objects.push_back(object);
@@ -99,7 +118,7 @@ SceneDesc studio_scene(const std::string& model_path) {
   floor.type = ShapeType::Quad;  // counter-clockwise seen from above: its front faces +y
   floor.vertices = {DVec3(centre.x - g, y, centre.z + g), DVec3(centre.x + g, y, centre.z + g),
                     DVec3(centre.x + g, y, centre.z - g), DVec3(centre.x - g, y, centre.z - g)};
-  floor.material = 1;
+  floor.material = ground_index;
   s.shapes.push_back(floor);
 
   s.environment = daylight_environment();

@@ -1,0 +1,167 @@
+// OBJ models' .mtl materials (scene/mtl_material.h, scene/mesh_obj.h): the mapping to the nearest project
+// material against hand-computed values, and a scene file's mesh taking its file's materials, saved and read back.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "scene/mesh_obj.h"
+#include "scene/mtl_material.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "scene/studio.h"
+
+using namespace pt;
+
+TEST_CASE("obj materials: .mtl parameters map to the nearest project material") {
+  std::vector<std::string> warnings;
+  MtlParams p;
+  p.name = "clay";
+  p.kd = Rgb(0.5f, 0.25f, 2.f);  // clamped to [0, 1]
+  MaterialDesc d = mtl_material(p, warnings);
+  CHECK(d.type == MaterialType::Diffuse);
+  CHECK(d.albedo == Rgb(0.5f, 0.25f, 1.f));
+  // Ks and Ns: plastic, roughness = (2/(Ns + 2))^¼ (Walter et al. 2007's Beckmann width, α = roughness²).
+  p.ks = Rgb(0.5f);
+  p.ns = 1000.f;
+  d = mtl_material(p, warnings);
+  CHECK(d.type == MaterialType::Plastic);
+  CHECK(d.roughness == doctest::Approx(std::pow(2.0 / 1002.0, 0.25)).epsilon(1e-6));
+  CHECK(d.albedo == Rgb(0.5f, 0.25f, 1.f));
+  p.ns = 0.f;  // the widest lobe: α = 1
+  CHECK(mtl_material(p, warnings).roughness == doctest::Approx(1.0));
+  // Black Kd, coloured Ks: a metal whose F0 is Ks.
+  p.kd = Rgb(0.f);
+  p.ks = Rgb(0.9f, 0.6f, 0.2f);
+  p.ns = 98.f;
+  d = mtl_material(p, warnings);
+  CHECK(d.type == MaterialType::Conductor);
+  CHECK(d.albedo == Rgb(0.9f, 0.6f, 0.2f));
+  CHECK(d.roughness == doctest::Approx(std::pow(0.02, 0.25)).epsilon(1e-6));
+  // illum 7 (refraction): glass of index Ni; smooth without Ks.
+  p.illum = 7;
+  p.ni = 1.33f;
+  p.ks = Rgb(0.f);
+  d = mtl_material(p, warnings);
+  CHECK(d.type == MaterialType::Dielectric);
+  CHECK(d.ior == doctest::Approx(1.33));
+  CHECK(d.roughness == 0.f);
+  // An index below 1 is not a glass's: 1.5.
+  p.ni = 0.f;
+  CHECK(mtl_material(p, warnings).ior == doctest::Approx(1.5));
+  // Ke emits; a black lamp emits from both faces.
+  MtlParams lamp;
+  lamp.name = "lamp";
+  lamp.kd = Rgb(0.f);
+  lamp.ke = Rgb(10.f, 9.f, 8.f);
+  d = mtl_material(lamp, warnings);
+  CHECK(d.emission == Rgb(10.f, 9.f, 8.f));
+  CHECK(d.two_sided);
+  // What is not read is said: a texture, transparency.
+  warnings.clear();
+  MtlParams textured;
+  textured.name = "wood";
+  textured.textures = {"map_Kd"};
+  textured.dissolve = 0.5f;
+  mtl_material(textured, warnings);
+  REQUIRE(warnings.size() == 2);
+  CHECK(warnings[0].find("wood: map_Kd") != std::string::npos);
+  CHECK(warnings[1].find("d < 1") != std::string::npos);
+}
+
+namespace {
+
+struct Folder {
+  std::filesystem::path dir;
+  Folder() : dir(std::filesystem::temp_directory_path() / ("pt_obj_" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(dir);
+  }
+  ~Folder() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream((dir / name).string()) << text;
+    return (dir / name).string();
+  }
+};
+
+const char* kTwoMaterialsObj =
+    "mtllib two.mtl\n"
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\n"
+    "usemtl paint\nf 1 2 3\n"
+    "usemtl chrome\nf 2 4 3\n"
+    "usemtl nowhere\nf 1 3 5\n";
+const char* kTwoMaterialsMtl =
+    "newmtl paint\nKd 0.8 0.1 0.1\nKs 0 0 0\n"
+    "newmtl chrome\nKd 0 0 0\nKs 0.9 0.9 0.9\nNs 200\n";
+
+std::string scene_text(const std::string& mesh) {
+  return R"({"camera": {"position": [0.5, 0.5, 5], "look_at": [0.5, 0.5, 0], "up": [0, 1, 0], "fov_deg": 40},
+    "film": {"width": 16, "height": 16}, "render": {"max_bounces": 4, "estimator": "auto"}, "background": [1, 1, 1],
+    "materials": {"white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "shapes": [)" + mesh + "]}";
+}
+
+}  // namespace
+
+TEST_CASE("obj materials: a mesh without a material takes its .mtl materials, saved and read back as overrides") {
+  Folder f;
+  f.write("tri.obj", kTwoMaterialsObj);
+  f.write("two.mtl", kTwoMaterialsMtl);
+  const SceneDesc s = parse_scene(scene_text(R"({"type": "mesh", "file": "tri.obj"})"), "s.json", f.dir.string());
+  REQUIRE(s.shapes.size() == 3);
+  const auto name = [&](size_t shape) { return s.materials[s.shapes[shape].material].name; };
+  CHECK(name(0) == "tri/paint");
+  CHECK(name(1) == "tri/chrome");
+  CHECK(name(2) == "tri/default");  // a name no library defines: the format's default, diffuse Kd 0.8
+  const MaterialDesc& paint = s.materials[s.shapes[0].material];
+  CHECK(paint.type == MaterialType::Diffuse);
+  CHECK(paint.albedo == Rgb(0.8f, 0.1f, 0.1f));
+  CHECK(s.materials[s.shapes[1].material].type == MaterialType::Conductor);
+  CHECK(s.materials[s.shapes[2].material].albedo == Rgb(0.8f));
+  CHECK(validate_scene(s).empty());
+
+  // Saved: the mesh names no material; its three are written among the scene's and come back as overrides,
+  // an edit included.
+  SceneDesc edited = s;
+  edited.materials[s.shapes[0].material].albedo = Rgb(0.2f, 0.3f, 0.4f);
+  const std::string text = scene_to_json(edited, f.dir.string());
+  CHECK(text.find("\"tri/chrome\"") != std::string::npos);
+  const SceneDesc back = parse_scene(text, "back.json", f.dir.string());
+  REQUIRE(back.shapes.size() == 3);
+  CHECK(back.materials[back.shapes[0].material].name == "tri/paint");
+  CHECK(back.materials[back.shapes[0].material].albedo == Rgb(0.2f, 0.3f, 0.4f));
+  CHECK(back.materials[back.shapes[1].material].name == "tri/chrome");
+
+  // "material" gives one scene material to all faces, as before.
+  const SceneDesc one = parse_scene(scene_text(R"({"type": "mesh", "file": "tri.obj", "material": "white"})"), "o.json",
+                                    f.dir.string());
+  for (const ShapeDesc& sh : one.shapes) CHECK(one.materials[sh.material].name == "white");
+
+  // The model alone takes them too.
+  const SceneDesc alone = studio_scene((f.dir / "tri.obj").string());
+  CHECK(alone.materials[alone.shapes[1].material].name == "tri/chrome");
+  CHECK(alone.materials[alone.shapes.back().material].name == "ground");
+}
+
+TEST_CASE("obj materials: a missing library is a warning, and a mesh without materials or \"material\" is refused") {
+  Folder f;
+  f.write("lost.obj", "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl paint\nf 1 2 3\n");
+  const MeshTriangles mesh = load_obj_mesh((f.dir / "lost.obj").string(), ObjectTransform{});
+  REQUIRE(!mesh.warnings.empty());
+  CHECK(mesh.warnings[0].find("nowhere.mtl") != std::string::npos);  // then the parser's "material not found"
+  CHECK(mesh.materials.empty());
+  try {
+    parse_scene(scene_text(R"({"type": "mesh", "file": "lost.obj"})"), "s.json", f.dir.string());
+    FAIL("a mesh with neither materials nor \"material\" was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).find("shapes[0].material") != std::string::npos);
+    CHECK(std::string(e.what()).find("mtllib") != std::string::npos);
+  }
+}
