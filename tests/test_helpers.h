@@ -9,6 +9,16 @@
 
 namespace pt::test {
 
+// A diffuse material.
+inline MaterialDesc diffuse_material(const std::string& name, Rgb albedo, Rgb emission, bool two_sided) {
+  MaterialDesc m;
+  m.name = name;
+  m.albedo = albedo;
+  m.emission = emission;
+  m.two_sided = two_sided;
+  return m;
+}
+
 // A closed sphere of the given material around a camera at its centre: the furnace.
 inline SceneDesc furnace_scene(Rgb emission, Rgb albedo, int bounces, int rr_depth, Estimator est,
                                double scale = 1.0, DVec3 offset = DVec3(0.0)) {

@@ -9,6 +9,8 @@
 #include "scene/scene.h"
 #include "scene/scene_json.h"
 
+#include "test_helpers.h"
+
 using namespace pt;
 
 namespace {
@@ -165,7 +167,7 @@ TEST_CASE("scene queries: closest hit, skip, occlusion") {
   SceneDesc s;
   s.camera.position = {0, 0, 5};
   s.camera.look_at = {0, 0, 0};
-  s.materials.push_back({"m", MaterialType::Diffuse, Rgb(0.5f), Rgb(0.f), false, 1.5f});
+  s.materials.push_back(test::diffuse_material("m", Rgb(0.5f), Rgb(0.f), false));
   ShapeDesc near_quad;
   near_quad.type = ShapeType::Quad;
   near_quad.vertices = {DVec3(-1, -1, 1), DVec3(1, -1, 1), DVec3(1, 1, 1), DVec3(-1, 1, 1)};

@@ -10,6 +10,8 @@
 #include "core/rng.h"
 #include "sampling/sampling.h"
 
+#include "test_helpers.h"
+
 using namespace pt;
 using pt::test::chi2_test;
 
@@ -188,8 +190,8 @@ TEST_CASE("light sampling: sampled directions follow the strategy's pdf (rectang
   SceneDesc s;
   s.camera.position = {0, 0, 0};
   s.camera.look_at = {0, 0, -1};
-  MaterialDesc a{"a", MaterialType::Diffuse, Rgb(0.f), Rgb(4.f, 3.f, 2.f), false, 1.5f};
-  MaterialDesc b{"b", MaterialType::Diffuse, Rgb(0.f), Rgb(1.f, 1.f, 1.f), true, 1.5f};
+  const MaterialDesc a = test::diffuse_material("a", Rgb(0.f), Rgb(4.f, 3.f, 2.f), false);
+  const MaterialDesc b = test::diffuse_material("b", Rgb(0.f), Rgb(1.f, 1.f, 1.f), true);
   s.materials = {a, b};
   ShapeDesc quad;  // above, facing down (its front normal −y)
   quad.type = ShapeType::Quad;
@@ -243,7 +245,7 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
   SceneDesc s;
   s.camera.position = {0, 0, 0};
   s.camera.look_at = {0, 0, -1};
-  s.materials = {MaterialDesc{"e", MaterialType::Diffuse, Rgb(0.5f), Rgb(1.f), true, 1.5f}};
+  s.materials = {test::diffuse_material("e", Rgb(0.5f), Rgb(1.f), true)};
   ShapeDesc ball;
   ball.type = ShapeType::Sphere;
   ball.center = {0.3, -0.2, 0.1};
@@ -293,7 +295,7 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
   s.camera.position = {0, 0, 0};
   s.camera.look_at = {0, 0, -1};
   s.environment.radiance = Rgb(0.2f, 0.3f, 0.4f);
-  s.materials = {MaterialDesc{"e", MaterialType::Diffuse, Rgb(0.f), Rgb(5.f), false, 1.5f}};
+  s.materials = {test::diffuse_material("e", Rgb(0.f), Rgb(5.f), false)};
   ShapeDesc quad;  // above the receiver, facing down
   quad.type = ShapeType::Quad;
   quad.vertices = {DVec3(-0.5, 1, -0.5), DVec3(0.5, 1, -0.5), DVec3(0.5, 1, 0.5), DVec3(-0.5, 1, 0.5)};

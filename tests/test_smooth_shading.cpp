@@ -31,8 +31,10 @@ TEST_CASE("smooth shading: the terminator offset of a hand-computed triangle") {
   it.ng = it.ns = Vec3(0, 0, 1);
   const Vec3 v[3] = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
   const float r = std::sqrt(0.5f);
+  // The barycentric gradients of (1,0,0) and (0,1,0) about (0,0,0): b1 = x, b2 = y.
+  const std::array<Vec3, 2> kDual{Vec3(1, 0, 0), Vec3(0, 1, 0)};
   vertex_shading({Vec3(0, 0, 1), Vec3(r, 0, r), Vec3(0, 0, 1)}, {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)}, v, 0.5f, 0.5f,
-                 0.f, it);
+                 0.f, kDual, it);
   REQUIRE(it.lifted);
   CHECK(it.lift.x == doctest::Approx(0.125).epsilon(1e-6));
   CHECK(it.lift.y == doctest::Approx(0.0));
@@ -42,6 +44,8 @@ TEST_CASE("smooth shading: the terminator offset of a hand-computed triangle") {
   CHECK(glm::length(it.ns - want) < 1e-6f);
   CHECK(it.uv.x == doctest::Approx(0.5));
   CHECK(it.uv.y == doctest::Approx(0.0));
+  CHECK(it.du_dp == Vec3(1, 0, 0));  // uv = (x, y) on this triangle
+  CHECK(it.dv_dp == Vec3(0, 1, 0));
   // A ray leaving on the front starts from p + lift (plus the error offset), one leaving behind from p.
   it.p_error = Vec3(0.f);
   CHECK(glm::length(offset_ray_origin(it, Vec3(0, 0, 1)) - Vec3(0.625f, 0, 0.125f)) < 1e-6f);
@@ -52,13 +56,13 @@ TEST_CASE("smooth shading: the terminator offset of a hand-computed triangle") {
   Interaction flat{};
   flat.p = it.p;
   flat.ng = flat.ns = Vec3(0, 0, 1);
-  vertex_shading({Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(0, 0, 1)}, {}, v, 0.5f, 0.5f, 0.f, flat);
+  vertex_shading({Vec3(0, 0, 1), Vec3(0, 0, 1), Vec3(0, 0, 1)}, {}, v, 0.5f, 0.5f, 0.f, kDual, flat);
   CHECK_FALSE(flat.lifted);
   CHECK(flat.ns == Vec3(0, 0, 1));
   Interaction reversed{};
   reversed.p = it.p;
   reversed.ng = reversed.ns = Vec3(0, 0, 1);
-  vertex_shading({Vec3(0, 0, -1), Vec3(-r, 0, -r), Vec3(0, 0, -1)}, {}, v, 0.5f, 0.5f, 0.f, reversed);
+  vertex_shading({Vec3(0, 0, -1), Vec3(-r, 0, -r), Vec3(0, 0, -1)}, {}, v, 0.5f, 0.5f, 0.f, kDual, reversed);
   CHECK(glm::length(reversed.ns - want) < 1e-6f);
   CHECK(glm::length(reversed.lift - it.lift) < 1e-6f);
 }
@@ -283,7 +287,7 @@ TEST_CASE("smooth shading: OBJ vertex normals follow the object's transform and 
   check_normal(s->shading.normal[0][0], Vec3(0, 0, 1));
   check_normal(s->shading.normal[0][1], Vec3(0, 0.3f, 0.8f));
   check_normal(s->shading.normal[0][2], Vec3(-0.6f, 0, 0.8f));
-  CHECK(s->shading.uv[0][1] == Vec2(1, 0));
+  CHECK(s->shading.uv[0][1] == Vec2(1, 1));  // vt 1 0: OBJ's v grows upwards, the tracer's downwards
   for (const Vec3& n : s->shading.normal[1]) CHECK(n == s->polygons.normal[1]);  // the flat face's own normal
   // Mirrored in x: vertices 1 and 2 trade places (the front stays +z) and so do their normals and uv;
   // (0.6,0,0.8) → (−0.6,0,0.8) now belongs to vertex 2.
@@ -292,7 +296,7 @@ TEST_CASE("smooth shading: OBJ vertex normals follow the object's transform and 
   CHECK(m->polygons.normal[0].z > 0.f);
   check_normal(m->shading.normal[0][1], Vec3(0, 0.6f, 0.8f));
   check_normal(m->shading.normal[0][2], Vec3(-0.6f, 0, 0.8f));
-  CHECK(m->shading.uv[0][2] == Vec2(1, 0));
+  CHECK(m->shading.uv[0][2] == Vec2(1, 1));
   // Geometry-preserving comparisons see the normals: the same file read twice shares no table but is equal in
   // shape; a scene without normals is not.
   CHECK(same_shapes(plain, plain));

@@ -1,5 +1,7 @@
 #include "viewer/viewer_model.h"
 
+#include "materials/texture.h"
+
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -98,6 +100,26 @@ bool ViewerModel::set_material(size_t index, const MaterialDesc& material) {
   if (s > 0.f) emission_[index] = {material.emission / s, s};
   else emission_[index].strength = 0.f;
   return true;
+}
+
+bool ViewerModel::set_albedo_texture(size_t index, const std::string& file) {
+  if (index >= scene_.materials.size()) return false;
+  MaterialDesc m = scene_.materials[index];
+  m.albedo_texture = m.resolved_albedo_texture = file;
+  m.albedo_map.reset();
+  if (!file.empty()) {
+    try {
+      m.albedo_map = load_texture_file(file, true);
+    } catch (const ImageError& e) {
+      set_status(std::string("albedo texture: ") + e.what(), true);
+      return false;
+    }
+  }
+  if (std::string err = validate_material(m); !err.empty()) {
+    set_status("not applied: " + err, true);
+    return false;
+  }
+  return set_material(index, m);
 }
 
 bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {

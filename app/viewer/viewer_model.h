@@ -82,6 +82,10 @@ class ViewerModel {
 
   // --- Scene edits: validate, update the model, restart accumulation. False (and an error status) if invalid.
   bool set_material(size_t index, const MaterialDesc& material);
+  // Gives material `index` the image `file` (read as sRGB colour; relative to the working directory) as its
+  // albedo texture, or removes its texture for an empty name. False, with a status line, when the file cannot be
+  // read or the material takes no texture.
+  bool set_albedo_texture(size_t index, const std::string& file);
   // Emission as a colour (max component 1) times a strength; remembered separately so strength 0 keeps the colour.
   bool set_emission(size_t index, Rgb colour, float strength);
   Rgb emission_colour(size_t index) const { return emission_[index].colour; }

@@ -1,5 +1,7 @@
 #include "viewer/viewer_panels.h"
 
+#include "materials/texture.h"
+
 #include <imgui.h>
 #include <imgui_internal.h>
 
@@ -497,6 +499,25 @@ void emission_fields(ViewerModel& model, PanelState& state, size_t m) {
                 [&](const std::array<float, 1>& v) { return outcome(model.set_emission(m, model.emission_colour(m), v[0]), model); });
 }
 
+// A material's albedo texture: what it is (its file, or the model file it came in, and its size), a field to
+// give it another image file (Enter applies) and a button to remove it.
+void texture_fields(ViewerModel& model, size_t m, const MaterialDesc& material) {
+  if (material.albedo_map) {
+    const Texture& t = *material.albedo_map;
+    ImGui::TextDisabled("texture: %s, %d x %d, %zu levels", t.source.c_str(), t.width(), t.height(), t.levels.size());
+    ImGui::SameLine();
+    if (ImGui::SmallButton("remove")) model.set_albedo_texture(m, "");
+  }
+  char file[512];
+  std::snprintf(file, sizeof file, "%s", material.albedo_texture.c_str());
+  if (ImGui::InputTextWithHint("albedo texture", "image file (.png, .jpg, .exr, ...)", file, sizeof file,
+                               ImGuiInputTextFlags_EnterReturnsTrue) &&
+      std::string(file) != material.albedo_texture)
+    model.set_albedo_texture(m, file);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("an image whose colour times the albedo is the albedo at each point (the model's texture coordinates)");
+}
+
 // True when `text` contains `filter` (case-insensitive); an empty filter matches everything.
 bool matches_filter(const std::string& text, const char* filter) {
   const std::string_view f(filter);
@@ -545,7 +566,8 @@ void materials_section(ViewerModel& model, PanelState& state) {
       }
       const bool uses_albedo = takes(t, MaterialParam::Albedo) &&
                                !(takes(t, MaterialParam::Metal) && (m.metal != MetalPreset::None || m.complex_ior));
-      if (uses_albedo) changed |= ImGui::ColorEdit3("albedo", &m.albedo.x, ImGuiColorEditFlags_Float);
+      if (uses_albedo) changed |= ImGui::ColorEdit3(m.albedo_map ? "albedo (x texture)" : "albedo", &m.albedo.x, ImGuiColorEditFlags_Float);
+      if (uses_albedo && t != MaterialType::Subsurface) texture_fields(model, i, m);
       changed |= ImGui::Checkbox("two-sided emission", &m.two_sided);
       if (changed) model.set_material(i, m);
       // One numeric property: applied on the model's current material, so no other field is ever reverted.

@@ -4,6 +4,7 @@
 #include <ImfInputFile.h>
 #include <doctest/doctest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <set>
 
@@ -299,6 +300,33 @@ TEST_CASE("viewer: the environment switches between constant and sky live, a mis
   CHECK(model.status().find("no-such-map.exr") != std::string::npos);
   CHECK(model.session().stats().generation == g);
   CHECK(model.scene().environment.type == EnvironmentType::Sky);
+}
+
+TEST_CASE("viewer: a material takes an albedo texture file live, a bad file is refused, and it is removed again") {
+  ViewerModel model(small_cornell(), "cornell", stop_at(4));
+  size_t white = 0;
+  while (model.scene().materials[white].name != "white") ++white;
+  const std::string png = (std::filesystem::temp_directory_path() / ("pt_viewer_tex_" + std::to_string(::getpid()) + ".png")).string();
+  write_png_rgb8(png, 1, 1, {255, 0, 0});  // pure red: the box's shapes have no uv, so they read this one texel
+  const DisplayFrame before = final_frame(model);
+  REQUIRE(model.set_albedo_texture(white, png));
+  REQUIRE(model.scene().materials[white].albedo_map);
+  CHECK(model.scene().materials[white].albedo_texture == png);
+  const DisplayFrame red = final_frame(model);
+  // The back wall (white, now albedo × red): its green falls to almost nothing, its red stays.
+  const glm::dvec3 b = block_mean(before, 14, 8, 26, 16), r = block_mean(red, 14, 8, 26, 16);
+  CHECK(r.y < 0.2 * b.y);
+  CHECK(r.x > 0.5 * b.x);
+  const uint64_t g = model.session().stats().generation;
+  CHECK(!model.set_albedo_texture(white, "no-such-texture.png"));
+  CHECK(model.status_is_error());
+  CHECK(model.status().find("no-such-texture.png") != std::string::npos);
+  CHECK(model.session().stats().generation == g);
+  CHECK(model.scene().materials[white].albedo_map);
+  REQUIRE(model.set_albedo_texture(white, ""));
+  CHECK(!model.scene().materials[white].albedo_map);
+  CHECK(model.scene().materials[white].albedo_texture.empty());
+  std::filesystem::remove(png);
 }
 
 TEST_CASE("viewer: on shadertoy (look-at 1 unit ahead in a room 25 wide) the orbit pivots about the room's centre") {

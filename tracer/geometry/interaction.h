@@ -24,12 +24,13 @@ struct Interaction {
   // Smooth shading (make_interaction fills these for the general-material kernels; vertex_shading below):
   Vec3 ns;              // unit shading normal, on ng's side; ng where the surface is flat-shaded
   Vec2 uv{0.f};         // texture coordinates
+  Vec3 du_dp{0.f}, dv_dp{0.f};  // gradients of u and v along the surface: a step δp in it moves uv by (du_dp·δp, dv_dp·δp)
   Vec3 lift{0.f};       // shadow-terminator offset: rays leaving on ng's side start from p + lift
   bool lifted = false;  // lift is not zero
 };
 
 // The shading normal, texture coordinates and terminator offset of a hit at barycentrics (b0, b1, b2) of a
-// triangle with (camera-relative) vertices v and per-vertex normals n, uv:
+// triangle with (camera-relative) vertices v, per-vertex normals n and uv, and barycentric gradients `dual`:
 // - ns interpolates the vertex normals (Phong), turned to ng's side, so that the winding of the triangle keeps
 //   deciding which side is the front (one-sided emitters, a glass mesh's inside) even in a file whose normals
 //   point the other way; a zero interpolated normal leaves ns = ng.
@@ -39,12 +40,16 @@ struct Interaction {
 //   Shadow rays from it no longer hit the neighbouring faces of the flat triangle, which drew the terminator as
 //   a jagged dark band. Kept only when it leaves towards ng's side (never into the surface).
 inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 3>& uv, const Vec3 v[3], float b0,
-                           float b1, float b2, Interaction& it) {
+                           float b1, float b2, const std::array<Vec3, 2>& dual, Interaction& it) {
   const Vec3 sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
   const float len2 = glm::dot(sum, sum);
   const float side = glm::dot(sum, it.ng) < 0.f ? -1.f : 1.f;
   if (len2 > 1e-12f) it.ns = sum * (side / std::sqrt(len2));
   it.uv = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
+  // u = u0 + b1·(u1 − u0) + b2·(u2 − u0), and b1, b2 have the gradients `dual` (PolygonSoA::dual).
+  const Vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
+  it.du_dp = e1.x * dual[0] + e2.x * dual[1];
+  it.dv_dp = e1.y * dual[0] + e2.y * dual[1];
   const float b[3] = {b0, b1, b2};
   Vec3 lift(0.f);
   for (int k = 0; k < 3; ++k) {
@@ -101,7 +106,7 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
     if constexpr ((F & kFeatureGeneralMaterials) != 0) {
       if (!s.shading.empty()) [[unlikely]] {
         const Vec3 v[3] = {a, b, c};
-        vertex_shading(s.shading.normal[i], s.shading.uv[i], v, b0, b1, b2, it);
+        vertex_shading(s.shading.normal[i], s.shading.uv[i], v, b0, b1, b2, dual[0], it);
       }
     }
   } else {

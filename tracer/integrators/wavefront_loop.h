@@ -21,6 +21,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   ShadowRay shadows[kWavefrontBatch];
   for (int i = 0; i < n; ++i) {
     paths[i].ray = camera_rays[i];
+    paths[i].cone_spread = o.cone_spread_for(samplers[i].sample_index());
     if (features) paths[i].features.out = &features[i];
     live[i] = static_cast<uint16_t>(i);
   }

@@ -56,4 +56,11 @@ void prepare_material(Material& m) {
   }
 }
 
+Material with_albedo(const Material& m, Rgb albedo) {
+  Material t = m;
+  t.albedo = albedo;
+  if (t.type == MaterialType::Conductor && !t.complex_ior) t.f_avg = fresnel_schlick_avg(albedo);
+  return t;
+}
+
 }  // namespace pt

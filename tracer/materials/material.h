@@ -85,6 +85,8 @@ struct EnergyTable {
   }
 };
 
+struct Texture;
+
 struct Material {
   MaterialType type = MaterialType::Diffuse;
   Rgb albedo{0.8f};      // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′
@@ -96,6 +98,8 @@ struct Material {
   MetalPreset metal = MetalPreset::None;
   bool complex_ior = false;  // conductor: Fresnel from eta/k instead of the Schlick curve through albedo
   Rgb eta{1.f}, k{0.f};      // conductor complex index (from the preset or the file)
+  // The albedo's image (materials/texture.h), or null; owned by the scene (Scene::textures keeps it alive).
+  const Texture* albedo_texture = nullptr;
 
   // Derived by prepare_material():
   float alpha = 0.f;     // GGX α = roughness² (roughness clamped to [0, 1]); α < kSmoothAlpha = 1e-3 is smooth
@@ -107,5 +111,10 @@ struct Material {
 
 // Fills the derived fields from the parameters. Call after any parameter change.
 void prepare_material(Material& m);
+
+// A textured material at one hit: `m` with the albedo `albedo` (the texture's value there) and what
+// prepare_material derives from the albedo (a conductor's Schlick F_avg) redone. Materials whose derived
+// tables depend on the albedo beyond that (subsurface) take no texture (validate_material).
+Material with_albedo(const Material& m, Rgb albedo);
 
 }  // namespace pt

@@ -48,12 +48,15 @@ inline uint64_t sample_key(uint64_t pixel, uint64_t sample, uint64_t seed) {
 class IndependentSampler {
  public:
   IndependentSampler() = default;  // for arrays of samplers to be filled in (integrators/wavefront.h)
-  IndependentSampler(uint64_t pixel, uint64_t sample, uint64_t seed) : dims_(sample_key(pixel, sample, seed)) {}
+  IndependentSampler(uint64_t pixel, uint64_t sample, uint64_t seed)
+      : dims_(sample_key(pixel, sample, seed)), sample_(static_cast<uint32_t>(sample)) {}
   float get_1d(uint32_t dim) const { return dims_.get_1d(dim); }
   Vec2 get_2d(uint32_t dim) const { return dims_.get_2d(dim); }
+  uint32_t sample_index() const { return sample_; }  // which of its pixel's samples this is
 
  private:
   HashedDimensions dims_;
+  uint32_t sample_ = 0;
 };
 
 namespace sobol_detail {
@@ -167,6 +170,7 @@ class SobolSampler {
     return {to_unit(x), to_unit(y)};
   }
   float get_1d(uint32_t d) const { return hashed_.get_1d(d); }
+  uint32_t sample_index() const { return sobol_detail::reverse_bits(reversed_index_); }  // which of its pixel's samples
 
  private:
   friend class SobolBatch;  // the same scrambles across SIMD lanes (sampling/sobol_batch.h)

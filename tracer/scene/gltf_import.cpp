@@ -8,23 +8,26 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <map>
 #include <set>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "io/image_io.h"
 #include "io/safe_file.h"
+#include "materials/texture.h"
 #include "scene/mesh_obj.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
 #include "scene/studio.h"
 
-// The parser's implementation lives in this translation unit alone. Images are not decoded (textures are not
-// read yet) and never read from other files; files go through read_file_limited (the scene's safety rules).
+// The parser's implementation lives in this translation unit alone. Images (embedded, data URIs or files beside
+// the model, all read through read_file_limited: the scene's safety rules) are decoded by decode_rgba8 below.
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <stb_image.h>
 #include <tiny_gltf.h>
 
 namespace pt {
@@ -42,7 +45,7 @@ struct Reader {
   const std::string& path;
   const tg::Model& m;
   GltfContents out;
-  bool any_normals = false;  // out.shading holds an entry per triangle from the first smooth one on
+  bool any_shading = false;  // out.shading holds an entry per triangle from the first with normals or uv on
   std::set<std::string> warned;
 
   [[noreturn]] void fail(const std::string& where, const std::string& why) const {
@@ -206,12 +209,63 @@ struct Reader {
     if (!std::isfinite(emissive.x) || !std::isfinite(emissive.y) || !std::isfinite(emissive.z)) fail(where, "emission is not finite");
     d.emission = glm::max(emissive, Rgb(0.f));
     d.two_sided = g.doubleSided;
-    if (pbr.baseColorTexture.index >= 0 || pbr.metallicRoughnessTexture.index >= 0 || g.normalTexture.index >= 0 ||
-        g.emissiveTexture.index >= 0 || g.occlusionTexture.index >= 0)
-      warn("textures are not read yet: materials use their factors alone");
+    if (pbr.baseColorTexture.index >= 0 && takes(d.type, MaterialParam::Albedo)) {
+      // The base colour is the factor times the texture (the specification's rule): albedo holds the factor.
+      d.albedo_map = texture(pbr.baseColorTexture.index, where + ".pbrMetallicRoughness.baseColorTexture", true);
+      d.albedo = glm::clamp(base, Rgb(0.f), Rgb(1.f));
+      if (pbr.baseColorTexture.texCoord != 0)
+        warn("only TEXCOORD_0 is read: textures naming another set use TEXCOORD_0");
+    }
+    if (pbr.metallicRoughnessTexture.index >= 0 || g.normalTexture.index >= 0 || g.emissiveTexture.index >= 0 ||
+        g.occlusionTexture.index >= 0)
+      warn("only base colour textures are read yet: metallic-roughness, normal, emissive and occlusion textures are "
+           "left out");
     if (g.alphaMode != "OPAQUE") warn("alpha modes are not read yet: every surface is opaque");
     if (metallic > 0.0 && metallic < 1.0) warn("metallic factors between 0 and 1 are rounded to 0 or 1 for now");
     return d;
+  }
+
+  // textures[index] as a pyramid (materials/texture.h), shared by every material that names it: its image's
+  // decoded texels (sRGB-decoded for colour) and its sampler's wrap modes.
+  std::map<std::pair<int, bool>, std::shared_ptr<const Texture>> textures;
+  std::shared_ptr<const Texture> texture(int index, const std::string& where, bool srgb) {
+    if (const auto it = textures.find({index, srgb}); it != textures.end()) return it->second;
+    if (index < 0 || static_cast<size_t>(index) >= m.textures.size())
+      fail(where + ".index", "texture " + std::to_string(index) + " does not exist");
+    const tg::Texture& t = m.textures[index];
+    const std::string tat = "textures[" + std::to_string(index) + "]";
+    if (t.source < 0 || static_cast<size_t>(t.source) >= m.images.size())
+      fail(tat + ".source", "image " + std::to_string(t.source) + " does not exist");
+    const tg::Image& img = m.images[t.source];
+    const std::string iat = "images[" + std::to_string(t.source) + "]";
+    if (img.image.empty() || img.component != 4 || img.width <= 0 || img.height <= 0 ||
+        img.image.size() != static_cast<size_t>(img.width) * img.height * 4)
+      fail(iat, (img.uri.empty() ? std::string("its data") : "'" + img.uri + "'") + " could not be read");
+    TextureWrap wrap_u = TextureWrap::Repeat, wrap_v = TextureWrap::Repeat;
+    if (t.sampler >= 0) {
+      if (static_cast<size_t>(t.sampler) >= m.samplers.size())
+        fail(tat + ".sampler", "sampler " + std::to_string(t.sampler) + " does not exist");
+      const auto mode = [](int w) {
+        return w == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE     ? TextureWrap::Clamp
+               : w == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT ? TextureWrap::Mirror
+                                                             : TextureWrap::Repeat;
+      };
+      wrap_u = mode(m.samplers[t.sampler].wrapS);
+      wrap_v = mode(m.samplers[t.sampler].wrapT);
+    }
+    Image linear;
+    linear.width = img.width;
+    linear.height = img.height;
+    linear.rgb.resize(3 * static_cast<size_t>(img.width) * img.height);
+    float table[256];
+    for (int i = 0; i < 256; ++i) table[i] = srgb ? srgb_to_linear(i / 255.f) : i / 255.f;
+    for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p)
+      for (int c = 0; c < 3; ++c) linear.rgb[3 * p + c] = table[img.image[4 * p + c]];
+    const std::string name = std::filesystem::path(path).filename().string() + " " + iat +
+                             (img.uri.empty() || img.uri.rfind("data:", 0) == 0 ? "" : " (" + img.uri + ")");
+    auto tex = make_texture(linear, wrap_u, wrap_v, name);
+    textures[{index, srgb}] = tex;
+    return tex;
   }
 
   static glm::dmat4 local_transform(const tg::Node& n) {
@@ -285,6 +339,7 @@ struct Reader {
           if (!normals.empty()) shading.normal[k] = normals[idx[t + k]];
           if (!uv.empty()) shading.uv[k] = uv[idx[t + k]];
         }
+        shading.has_uv = !uv.empty();
         if (mirror) {
           std::swap(tri[1], tri[2]);
           std::swap(shading.normal[1], shading.normal[2]);
@@ -300,11 +355,11 @@ struct Reader {
         out.triangle_material.push_back(material);
         if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
           shading.normal = {};  // a zero normal: the face stays flat
-        if (shading.has_normals() && !any_normals) {  // the first smooth triangle: the flat ones before it too
-          any_normals = true;
+        if (shading.any() && !any_shading) {  // the first triangle with either: the ones before it too
+          any_shading = true;
           out.shading.resize(out.triangles.size() - 1);
         }
-        if (any_normals) out.shading.push_back(shading);
+        if (any_shading) out.shading.push_back(shading);
       }
     }
   }
@@ -428,8 +483,36 @@ bool write_nothing(std::string* err, const std::string&, const std::vector<unsig
   if (err) *err += "writing is not allowed";
   return false;
 }
-bool skip_image(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
-  return true;  // textures are not read yet: images stay undecoded
+// tinygltf's image callback: the bytes of images[index] decoded by stb_image to 8-bit RGBA (16-bit images are
+// rounded to 8 bits); the reader turns them into textures where a material uses them.
+bool decode_rgba8(tg::Image* image, const int index, std::string* err, std::string*, int, int, const unsigned char* bytes,
+                  int size, void*) {
+  int w = 0, h = 0, n = 0;
+  const std::string where = "images[" + std::to_string(index) + "]";
+  if (!stbi_info_from_memory(bytes, size, &w, &h, &n)) {
+    const char* why = stbi_failure_reason();
+    if (err) *err += where + ": not a decodable image (" + (why ? why : "unknown format") + ")";
+    return false;
+  }
+  if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels) {
+    if (err) *err += where + ": " + std::to_string(w) + " x " + std::to_string(h) + " texels (at most " +
+                     std::to_string(kMaxTextureTexels) + ")";
+    return false;
+  }
+  stbi_uc* px = stbi_load_from_memory(bytes, size, &w, &h, &n, 4);
+  if (!px) {
+    const char* why = stbi_failure_reason();
+    if (err) *err += where + ": cannot decode (" + (why ? why : "?") + ")";
+    return false;
+  }
+  image->width = w;
+  image->height = h;
+  image->component = 4;
+  image->bits = 8;
+  image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+  image->image.assign(px, px + static_cast<size_t>(w) * h * 4);
+  stbi_image_free(px);
+  return true;
 }
 
 }  // namespace
@@ -449,7 +532,7 @@ GltfContents load_gltf(const std::string& path) {
   }
   tg::TinyGLTF parser;
   parser.SetFsCallbacks({&file_exists, &expand_path, &read_whole_file, &write_nothing, nullptr});
-  parser.SetImageLoader(&skip_image, nullptr);
+  parser.SetImageLoader(&decode_rgba8, nullptr);
   tg::Model model;
   std::string err, warn;
   const std::string base_dir = std::filesystem::path(path).parent_path().string();
@@ -482,7 +565,7 @@ SceneDesc gltf_scene(const std::string& path) {
     tri.type = ShapeType::Triangle;
     tri.vertices = {g.triangles[i][0], g.triangles[i][1], g.triangles[i][2], DVec3(0.0)};
     tri.material = g.triangle_material[i];
-    if (!g.shading.empty() && g.shading[i].has_normals()) {
+    if (!g.shading.empty() && g.shading[i].any()) {
       tri.shading = static_cast<uint32_t>(shading.size());
       shading.push_back(g.shading[i]);
     }

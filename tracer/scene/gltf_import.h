@@ -5,16 +5,19 @@
 // - indexed or plain triangle primitives (POSITION; any other primitive mode is refused, never guessed), listed
 //   the other way round under a mirroring transform so that faces keep their fronts; smooth-shaded by their
 //   NORMAL attribute (mapped by the inverse transpose of the node's transform), flat without one; TEXCOORD_0
-//   kept with the normals (for the textures to come);
+//   gives texture coordinates;
 // - the first perspective camera met in the node graph (yfov; the aspect ratio sets the film's shape);
 // - materials mapped to the project's nearest material until the glTF metallic–roughness BSDF lands: metallic
 //   ≥ 0.5 → conductor (F0 = base colour, GGX α = roughness²), KHR_materials_transmission → smooth or rough
 //   dielectric (KHR_materials_ior, default 1.5), otherwise plastic (a Lambert base under a GGX coat of index 1.5,
 //   i.e. F0 = 0.04, the specification's dielectric); emission = emissiveFactor × KHR_materials_emissive_strength;
 //   a primitive without a material gets the specification's default (white, metallic 1, roughness 1).
-// Not read yet, each named once on the warnings list: textures, alpha modes, KHR_lights_punctual lights, skins
-// and morph targets, orthographic cameras (TANGENT is passed over: it serves normal maps, which come with
-// textures). Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// - base colour textures (baseColorTexture × baseColorFactor, on TEXCOORD_0, sRGB-decoded, the sampler's wrap
+//   modes, trilinear filtering by ray cones: materials/texture.h), images embedded, in data URIs or in files
+//   beside the model, decoded by stb_image; one texture shared by every material naming it.
+// Not read yet, each named once on the warnings list: other textures (metallic-roughness, normal, emissive,
+// occlusion), alpha modes, KHR_lights_punctual lights, skins and morph targets, orthographic cameras (TANGENT is
+// passed over: it serves normal maps). Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)

@@ -123,12 +123,13 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
     const float len = glm::length(n);
     return len > 0.f ? n / len : Vec3(0.f);
   };
+  // OBJ's v grows upwards from the image's bottom; the tracer's from its top (materials/texture.h).
   const auto corner_uv = [&](int ti) {
     if (ti < 0 || static_cast<size_t>(ti) >= vt.size() / 2) return Vec2(0.f);
-    return Vec2(vt[2 * ti], vt[2 * ti + 1]);
+    return Vec2(vt[2 * ti], 1.f - vt[2 * ti + 1]);
   };
 
-  bool has_normals = false;
+  bool has_shading = false;
   // The materials that some face uses (tinyobjloader adds an unnamed one of its own when a library is
   // missing), in the order of the libraries; `index_of` maps its material ids to out.materials.
   const auto& materials = reader.GetMaterials();
@@ -168,6 +169,7 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       for (int j = 0; j < 3; ++j) {
         shading.normal[j] = corner_normal(idx[f + j].normal_index);
         shading.uv[j] = corner_uv(idx[f + j].texcoord_index);
+        if (idx[f + j].texcoord_index >= 0) shading.has_uv = true;
         const int vi = idx[f + j].vertex_index;
         if (vi < 0 || static_cast<size_t>(vi) >= vertex_count)
           throw std::runtime_error(path + ": a face refers to a vertex the file does not have (it has " +
@@ -190,10 +192,10 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
         shading.normal = {};  // a corner without a normal: the face stays flat
       out.shading.push_back(shading);
-      has_normals = has_normals || shading.has_normals();
+      has_shading = has_shading || shading.any();
     }
   }
-  if (!has_normals) out.shading.clear();
+  if (!has_shading) out.shading.clear();
   if (out.triangles.empty()) throw std::runtime_error(path + ": the mesh has no triangle of non-zero area");
   return out;
 }

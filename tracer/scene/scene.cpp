@@ -107,6 +107,8 @@ std::string validate_camera(const CameraDesc& c) {
   return {};
 }
 
+}  // namespace
+
 std::string validate_material(const MaterialDesc& m) {
   const std::string p = "materials." + m.name;
   if (!finite3(m.albedo) || glm::any(glm::lessThan(m.albedo, Vec3(0.f))) ||
@@ -123,8 +125,17 @@ std::string validate_material(const MaterialDesc& m) {
     if (!finite3(m.eta) || !glm::all(glm::greaterThan(m.eta, Vec3(0.f)))) return p + ".eta: components must be finite and > 0";
     if (!finite3(m.k) || glm::any(glm::lessThan(m.k, Vec3(0.f)))) return p + ".k: components must be finite and >= 0";
   }
+  if (m.albedo_map || !m.albedo_texture.empty()) {
+    if (!takes(m.type, MaterialParam::Albedo) || m.type == MaterialType::Subsurface ||
+        (m.type == MaterialType::Conductor && m.metal != MetalPreset::None))
+      return p + ".albedo_texture: a " + std::string(to_string(m.type)) +
+             " material takes no albedo texture (diffuse, mirror, plastic and albedo-coloured conductors do)";
+    if (!m.albedo_map) return p + ".albedo_texture: the image is not loaded";
+  }
   return {};
 }
+
+namespace {
 
 }  // namespace
 
@@ -187,10 +198,16 @@ std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSetting
 }
 
 std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSettings& r) {
-  if (s.smooth_shading() && r.estimator == Estimator::Bdpt)
+  if (r.estimator != Estimator::Bdpt) return {};
+  if (s.smooth_shading())
     return "render.estimator: the bdpt estimator does not support smooth shading (the models' vertex normals) for "
            "now (use mis, or auto)";
+  if (textured(s)) return "render.estimator: the bdpt estimator does not support textures for now (use mis, or auto)";
   return {};
+}
+
+bool textured(const SceneDesc& s) {
+  return std::any_of(s.materials.begin(), s.materials.end(), [](const MaterialDesc& m) { return m.albedo_map != nullptr; });
 }
 
 std::string validate_scene(const SceneDesc& s) {
@@ -304,15 +321,20 @@ void add_polygon(PolygonSoA& soa, const std::array<DVec3, N>& world, DVec3 origi
 class ShadingCompiler {
  public:
   explicit ShadingCompiler(const SceneDesc& desc) {
-    if (!desc.smooth_shading()) return;
+    if (!desc.shading || desc.shading->empty()) return;
     for (const ShapeDesc& sh : desc.shapes)
-      if (sh.shading != kNoShading && (*desc.shading)[sh.shading].has_normals()) active_ = true;
+      if (sh.shading != kNoShading) {
+        const TriangleShading& t = (*desc.shading)[sh.shading];
+        active_ = active_ || t.any();
+        smooth_ = smooth_ || t.has_normals();
+      }
     if (!active_) return;
     object_of_.assign(desc.shapes.size(), -1);
     for (size_t i = 0; i < desc.objects.size(); ++i)
       for (size_t k = 0; k < desc.objects[i].shape_count; ++k) object_of_[desc.objects[i].first_shape + k] = static_cast<int>(i);
   }
-  bool active() const { return active_; }
+  bool active() const { return active_; }  // some shape has normals or uv: SceneGeometry::shading is filled
+  bool smooth() const { return smooth_; }  // some shape has normals
 
   void add(const SceneDesc& desc, size_t shape, const PolygonSoA& polygons, size_t first, PolygonShading& out) const {
     const ShapeDesc& sh = desc.shapes[shape];
@@ -323,20 +345,20 @@ class ShadingCompiler {
     }
     if (sh.shading == kNoShading || polygons.size() != first + 1) return;
     const TriangleShading& t = (*desc.shading)[sh.shading];
-    if (!t.has_normals()) return;
     std::array<Vec3, 3> n = t.normal;
     std::array<Vec2, 3> uv = t.uv;
     if (const int obj = object_of_[shape]; obj >= 0) {
       const ObjectTransform& tr = desc.objects[static_cast<size_t>(obj)].transform;
-      for (Vec3& v : n) v = Vec3(glm::normalize(normal_to_world(tr, DVec3(v))));
+      if (t.has_normals())
+        for (Vec3& v : n) v = Vec3(glm::normalize(normal_to_world(tr, DVec3(v))));
       if (mirrors(tr)) std::swap(n[1], n[2]), std::swap(uv[1], uv[2]);
     }
-    out.normal.back() = n;
+    if (t.has_normals()) out.normal.back() = n;
     out.uv.back() = uv;
   }
 
  private:
-  bool active_ = false;
+  bool active_ = false, smooth_ = false;
   std::vector<int> object_of_;  // per shape, its object's index or −1
 };
 
@@ -353,6 +375,7 @@ Material compile_material(const MaterialDesc& d) {
   m.complex_ior = d.complex_ior;
   m.eta = d.eta;
   m.k = d.k;
+  m.albedo_texture = d.albedo_map.get();  // kept alive by Scene::textures
   prepare_material(m);
   return m;
 }
@@ -399,18 +422,29 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
 // The scene features that follow from its compiled materials.
 void note_material_features(Scene& s) {
   s.features.lambertian_only = std::all_of(s.materials.begin(), s.materials.end(), is_lambertian);
+  s.features.textures = std::any_of(s.materials.begin(), s.materials.end(),
+                                    [](const Material& m) { return m.albedo_texture != nullptr; });
+}
+
+// Keeps the textures of `desc`'s materials alive as long as the scene (its materials point to them).
+void keep_textures(const SceneDesc& desc, Scene& s) {
+  for (const MaterialDesc& m : desc.materials)
+    if (m.albedo_map && std::find(s.textures.begin(), s.textures.end(), m.albedo_map) == s.textures.end())
+      s.textures.push_back(m.albedo_map);
 }
 
 void compile_materials(const SceneDesc& desc, Scene& s) {
   s.materials.clear();
   for (const MaterialDesc& m : desc.materials) s.materials.push_back(compile_material(m));
+  keep_textures(desc, s);
   note_material_features(s);
 }
 
 bool same_material(const MaterialDesc& a, const MaterialDesc& b) {
   return a.type == b.type && a.albedo == b.albedo && a.emission == b.emission && a.two_sided == b.two_sided &&
          a.ior == b.ior && a.roughness == b.roughness && a.g == b.g && a.metal == b.metal &&
-         a.complex_ior == b.complex_ior && a.eta == b.eta && a.k == b.k;
+         a.complex_ior == b.complex_ior && a.eta == b.eta && a.k == b.k && a.albedo_texture == b.albedo_texture &&
+         a.albedo_map == b.albedo_map;
 }
 
 bool same_environment(const EnvironmentDesc& a, const EnvironmentDesc& b) {
@@ -528,7 +562,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     }
     if (shading.active()) shading.add(desc, shape, s.polygons, polygons_before, s.shading);
   }
-  s.features.smooth_shading = shading.active();
+  s.features.smooth_shading = shading.smooth();
   if (s.polygons.size() >= kBvhMinPolygons)
     s.polygon_bvh = build_polygon_bvh(s.polygons.v, s.polygons.triangle);
   else
@@ -617,6 +651,7 @@ bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc&
   if (!same_camera(before.camera, after.camera) && !move_camera(s, after.camera)) return false;
   for (size_t i = 0; i < after.materials.size(); ++i)
     if (!same_material(before.materials[i], after.materials[i])) s.materials[i] = compile_material(after.materials[i]);
+  keep_textures(after, s);
   note_material_features(s);
   if (!same_environment(before.environment, after.environment)) compile_environment(after.environment, s);
   compile_lights(s);
@@ -656,6 +691,8 @@ bool apply_edit(Scene& s, const SceneEdit& edit) {
   if (std::holds_alternative<FilmSize>(edit)) return false;  // needs the camera: set_scene_resolution
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
     s.materials.at(m->index) = compile_material(m->material);
+    if (m->material.albedo_map && std::find(s.textures.begin(), s.textures.end(), m->material.albedo_map) == s.textures.end())
+      s.textures.push_back(m->material.albedo_map);  // kept for the scene's life: a render may still read the old one
     note_material_features(s);
   } else {
     compile_environment(std::get<EnvironmentDesc>(edit), s);

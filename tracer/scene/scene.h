@@ -62,6 +62,7 @@ struct SceneFeatures {
   bool lambertian_only = true;  // every material is the Lambert lobe alone (materials/bsdf.h: is_lambertian)
   bool emissive_spheres = false, environment = false;
   bool smooth_shading = false;  // some polygon has vertex normals (SceneGeometry::shading)
+  bool textures = false;        // some material has an albedo texture
 };
 
 // The geometry (SceneGeometry, geometry/primitives.h: what the ray queries read) with the camera, materials and
@@ -74,6 +75,7 @@ class Scene : public SceneGeometry {
   DVec3 world_origin{0.0};  // the camera position subtracted from all geometry
 
   std::vector<Material> materials;
+  std::vector<std::shared_ptr<const Texture>> textures;  // what the materials' texture pointers point to
   std::vector<char> material_used;  // per material: some shape has it (the `auto` estimator asks)
   SceneFeatures features;
 
@@ -86,7 +88,7 @@ class Scene : public SceneGeometry {
 
   uint32_t kernel_features() const {
     return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u) |
-           (features.lambertian_only && !features.smooth_shading ? 0u : kFeatureGeneralMaterials);
+           (features.lambertian_only && !features.smooth_shading && !features.textures ? 0u : kFeatureGeneralMaterials);
   }
 
   // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
@@ -182,9 +184,14 @@ std::string validate_film_size(int width, int height);
 // A thin-lens camera (aperture_radius > 0) with the bdpt estimator: its light-tracing strategies assume a
 // pinhole, so the pair is refused (auto picks mis for such a camera).
 std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSettings& render);
-// Smooth shading (vertex normals) with the bdpt estimator: its vertices use the geometric normal, so the pair is
-// refused (auto picks mis for such a scene) rather than rendered flat.
+// Smooth shading (vertex normals) or textures with the bdpt estimator: its vertices use the geometric normal and
+// the materials' plain albedo, so the pair is refused (auto picks mis for such a scene) rather than rendered
+// otherwise than the path tracer renders it.
 std::string validate_shading_for_estimator(const SceneDesc& scene, const RenderSettings& render);
+// Some material has an albedo texture.
+bool textured(const SceneDesc& scene);
+// "" when the material's parameters are valid, else "materials.NAME.field: reason".
+std::string validate_material(const MaterialDesc& material);
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".
 std::string validate_scene(const SceneDesc& desc);
 // The objects' part of it: each holds ≥ 1 shape, in shape order without overlap, of one material, with a usable

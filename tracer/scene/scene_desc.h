@@ -12,6 +12,7 @@
 #include "core/math.h"
 #include "io/image_io.h"
 #include "materials/material.h"
+#include "materials/texture.h"
 #include "scene/object_transform.h"
 
 namespace pt {
@@ -110,6 +111,13 @@ struct MaterialDesc {
   MetalPreset metal = MetalPreset::None;  // conductor: measured η, k instead of albedo
   bool complex_ior = false;               // conductor: eta/k given in the file
   Rgb eta{1.f}, k{0.f};
+  // An image whose colour, times `albedo` (then a factor, default 1), is the albedo at each point, looked up
+  // at the surface's texture coordinates (materials/texture.h): the file as the scene file writes it ("" for
+  // none, or for a texture that came inside a model file), the file relative to the scene file's folder (not
+  // saved), and the loaded pyramid (null for none).
+  std::string albedo_texture;
+  std::string resolved_albedo_texture;
+  std::shared_ptr<const Texture> albedo_map;
 };
 
 // Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the
@@ -118,8 +126,10 @@ struct MaterialDesc {
 // mirrors; compile_scene follows). Immutable once read: shared by every copy of the scene.
 struct TriangleShading {
   std::array<Vec3, 3> normal{};  // unit vertex normals; all zero when the file gives none (flat shading)
-  std::array<Vec2, 3> uv{};      // texture coordinates (0 when the file gives none)
+  std::array<Vec2, 3> uv{};      // texture coordinates, v downwards (materials/texture.h); 0 when not given
+  bool has_uv = false;
   bool has_normals() const { return normal[0] != Vec3(0.f); }
+  bool any() const { return has_uv || has_normals(); }
 };
 inline constexpr uint32_t kNoShading = ~0u;
 
@@ -210,7 +220,13 @@ struct SceneDesc {
   // The model files' vertex normals and texture coordinates (ShapeDesc::shading indexes it); null when no shape
   // has any. Shared, never changed: copies of a scene (the viewer's edits) share it.
   std::shared_ptr<const std::vector<TriangleShading>> shading;
-  bool smooth_shading() const { return shading && !shading->empty(); }
+  // Some triangle has vertex normals.
+  bool smooth_shading() const {
+    if (shading)
+      for (const TriangleShading& t : *shading)
+        if (t.has_normals()) return true;
+    return false;
+  }
 };
 
 }  // namespace pt

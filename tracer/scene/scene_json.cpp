@@ -573,16 +573,17 @@ RenderSettings read_render(const Json& j, const std::string& path) {
   return r;
 }
 
-MaterialDesc read_material(const std::string& name, const Json& j, const std::string& path) {
+MaterialDesc read_material(const std::string& name, const Json& j, const std::string& path, const std::string& base_dir) {
   expect_object(j, path);
-  check_known_keys(j, path, {"type", "albedo", "emission", "two_sided", "ior", "roughness", "g", "metal", "eta", "k"});
+  check_known_keys(j, path, {"type", "albedo", "emission", "two_sided", "ior", "roughness", "g", "metal", "eta", "k",
+                             "albedo_texture"});
   MaterialDesc m;
   m.name = name;
   m.type = read_enum<MaterialType>(required_key(j, path, "type"), member(path, "type"), "material type");
   const std::string variant = std::string("a ") + to_string(m.type) + " material";
   // The keys this type takes (kMaterialParams, materials/material.h); any other known key is refused by name.
   std::vector<const char*> applicable{"type", "emission", "two_sided"};
-  if (takes(m.type, MaterialParam::Albedo)) applicable.push_back("albedo");
+  if (takes(m.type, MaterialParam::Albedo)) applicable.insert(applicable.end(), {"albedo", "albedo_texture"});
   if (takes(m.type, MaterialParam::Metal)) applicable.insert(applicable.end(), {"metal", "eta", "k"});
   if (takes(m.type, MaterialParam::Ior)) applicable.push_back("ior");
   if (takes(m.type, MaterialParam::Roughness)) applicable.push_back("roughness");
@@ -608,6 +609,22 @@ MaterialDesc read_material(const std::string& name, const Json& j, const std::st
   if (const Json* v = optional_key(j, "g")) m.g = read_float(*v, member(path, "g"));
   if (const Json* v = optional_key(j, "emission")) m.emission = read_rgb(*v, member(path, "emission"));
   if (const Json* v = optional_key(j, "two_sided")) m.two_sided = read_bool(*v, member(path, "two_sided"));
+  if (const Json* v = optional_key(j, "albedo_texture")) {
+    // An image file (relative to the scene file's folder) whose colours replace the albedo (materials/texture.h).
+    const std::string at = member(path, "albedo_texture");
+    m.albedo_texture = read_string(*v, at);
+    if (m.albedo_texture.empty()) fail(at, "must not be empty");
+    const std::filesystem::path file(m.albedo_texture);
+    m.resolved_albedo_texture =
+        file.is_absolute() || base_dir.empty() ? m.albedo_texture : (std::filesystem::path(base_dir) / file).string();
+    if (!optional_key(j, "albedo")) m.albedo = Rgb(1.f);  // with a texture, albedo is its factor
+    try {
+      m.albedo_map = load_texture_file(m.resolved_albedo_texture, true);
+    } catch (const ImageError& e) {
+      fail(at, e.what());
+    }
+    if (std::string err = validate_material(m); !err.empty()) fail(path, err);
+  }
   return m;
 }
 
@@ -724,9 +741,9 @@ struct StreamedShapes {
   std::vector<const std::string*> names;  // by id (keys of `ids`, whose addresses are stable)
   std::vector<size_t> first_use;          // by id: the first shape that names it, for the error message
 
-  // A triangle's vertex normals into `shading`: its index there, or kNoShading for a flat one.
+  // A triangle's vertex normals and uv into `shading`: its index there, or kNoShading for one without either.
   uint32_t add_shading(const TriangleShading& t) {
-    if (!t.has_normals()) return kNoShading;
+    if (!t.any()) return kNoShading;
     shading.push_back(t);
     return static_cast<uint32_t>(shading.size() - 1);
   }
@@ -939,11 +956,21 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   for (const auto& item : materials.items()) {
     if (item.key().empty()) fail("materials", "a material name must not be empty");
     material_index.emplace(item.key(), static_cast<int>(s.materials.size()));
-    s.materials.push_back(read_material(item.key(), item.value(), "materials." + item.key()));
+    s.materials.push_back(read_material(item.key(), item.value(), "materials." + item.key(), base_dir));
   }
-  // glTF models' materials, unless the file's materials already name them (an override, e.g. saved edits).
-  for (MaterialDesc& m : streamed.imported)
-    if (material_index.emplace(m.name, static_cast<int>(s.materials.size())).second) s.materials.push_back(std::move(m));
+  // Model files' materials, unless the scene's materials already name them (an override, e.g. saved edits). A
+  // texture that came inside the model file stays with its material: the override's own albedo_texture, when it
+  // names one, replaces it.
+  for (MaterialDesc& m : streamed.imported) {
+    const auto [it, added] = material_index.emplace(m.name, static_cast<int>(s.materials.size()));
+    if (added) {
+      s.materials.push_back(std::move(m));
+    } else if (MaterialDesc& over = s.materials[static_cast<size_t>(it->second)];
+               !over.albedo_map && m.albedo_map && m.albedo_texture.empty() && takes(over.type, MaterialParam::Albedo) &&
+               over.type != MaterialType::Subsurface) {
+      over.albedo_map = m.albedo_map;
+    }
+  }
 
   const Json& shapes = required_key(root, "", "shapes");  // its elements were streamed (SceneSax)
   if (!shapes.is_array()) fail("shapes", "expected an array, " + got(shapes));
@@ -1085,6 +1112,8 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
       j["k"] = triple(m.k);
     } else if (takes(t, MaterialParam::Albedo)) {
       j["albedo"] = triple(m.albedo);
+      if (!m.albedo_texture.empty())
+        j["albedo_texture"] = file_reference(m.albedo_texture, m.resolved_albedo_texture, destination_dir);
     }
     if (takes(t, MaterialParam::Ior)) j["ior"] = number(m.ior);
     if (takes(t, MaterialParam::Roughness)) j["roughness"] = number(m.roughness);

@@ -82,7 +82,11 @@ SceneDesc studio_scene(const std::string& model_path) {
     s.materials = mesh.materials;
     for (int& m : mesh.triangle_material)
       if (m < 0) {
-        if (s.materials.size() == mesh.materials.size()) s.materials.push_back(MaterialDesc{.name = "default"});
+        if (s.materials.size() == mesh.materials.size()) {
+          MaterialDesc d;  // the .mtl default: diffuse, Kd 0.8
+          d.name = "default";
+          s.materials.push_back(d);
+        }
         m = static_cast<int>(s.materials.size() - 1);
       }
     for (MaterialDesc& m : s.materials) m.name = stem + "/" + m.name;
@@ -100,7 +104,7 @@ SceneDesc studio_scene(const std::string& model_path) {
     tri.type = ShapeType::Triangle;
     tri.vertices = {t[0], t[1], t[2], DVec3(0.0)};
     tri.material = mesh.triangle_material[i];
-    if (!mesh.shading.empty() && mesh.shading[i].has_normals()) {
+    if (!mesh.shading.empty() && mesh.shading[i].any()) {
       tri.shading = static_cast<uint32_t>(shading.size());
       shading.push_back(mesh.shading[i]);
     }

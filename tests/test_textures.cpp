@@ -1,0 +1,321 @@
+// Image textures (materials/texture.h): sRGB decoding, wrap modes and texel centres against hand-computed values,
+// the mip pyramid's box filter, a receding checkerboard against its supersampled render (no aliasing), and
+// textures as scene files and glTF files give them.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "film/film.h"
+#include "io/image_io.h"
+#include "materials/texture.h"
+#include "render/renderer.h"
+#include "scene/camera.h"
+#include "scene/estimator_choice.h"
+#include "scene/gltf_import.h"
+#include "scene/scene.h"
+#include "scene/scene_json.h"
+#include "test_helpers.h"
+
+using namespace pt;
+
+namespace {
+
+struct Folder {
+  std::filesystem::path dir;
+  Folder() : dir(std::filesystem::temp_directory_path() / ("pt_tex_" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(dir);
+  }
+  ~Folder() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  std::string path(const std::string& name) const { return (dir / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path(name), std::ios::binary) << text;
+    return path(name);
+  }
+};
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+Image image(int w, int h, const std::vector<float>& rgb) {
+  Image i;
+  i.width = w;
+  i.height = h;
+  i.rgb = rgb;
+  return i;
+}
+
+}  // namespace
+
+TEST_CASE("textures: 8-bit colour images decode from sRGB with the exact transfer function, data images as they are") {
+  Folder f;
+  // One row: 0, 10, 128, 255 in red; green and blue fixed.
+  write_png_rgb8(f.path("row.png"), 4, 1, {0, 1, 2, 10, 1, 2, 128, 1, 2, 255, 1, 2});
+  const Image srgb = decode_image(read_bytes(f.path("row.png")), true, "row.png");
+  REQUIRE(srgb.width == 4);
+  REQUIRE(srgb.height == 1);
+  // IEC 61966-2-1: v ≤ 0.04045 → v/12.92, else ((v + 0.055)/1.055)^2.4.
+  CHECK(srgb.at(0, 0).x == 0.f);
+  CHECK(srgb.at(1, 0).x == doctest::Approx(10.0 / 255.0 / 12.92).epsilon(1e-6));
+  CHECK(srgb.at(2, 0).x == doctest::Approx(std::pow((128.0 / 255.0 + 0.055) / 1.055, 2.4)).epsilon(1e-6));
+  CHECK(srgb.at(2, 0).x == doctest::Approx(0.2158605).epsilon(1e-5));
+  CHECK(srgb.at(3, 0).x == doctest::Approx(1.0));
+  const Image data = decode_image(read_bytes(f.path("row.png")), false, "row.png");
+  CHECK(data.at(2, 0).x == doctest::Approx(128.0 / 255.0));
+  // Not an image: refused with the name given.
+  try {
+    decode_image("not an image at all", true, "bad.png");
+    FAIL("garbage decoded");
+  } catch (const ImageError& e) {
+    CHECK(std::string(e.what()).rfind("bad.png: ", 0) == 0);
+  }
+}
+
+TEST_CASE("textures: texel centres, bilinear weights and the three wrap modes") {
+  // Four texels in a row with values 0, 1, 2, 3 (red), one texel high.
+  const Image row = image(4, 1, {0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0});
+  const auto at = [&](TextureWrap w, float u) {
+    return texture_lookup(*make_texture(row, w, TextureWrap::Repeat, "row"), Vec2(u, 0.5f), 0.f).x;
+  };
+  // Texel i's centre is u = (i + ½)/4; halfway between two centres the weights are ½ each.
+  CHECK(at(TextureWrap::Repeat, 0.375f) == doctest::Approx(1.0));
+  CHECK(at(TextureWrap::Repeat, 0.5f) == doctest::Approx(1.5));
+  // u = 1.125 is texel 0's centre one period on (repeat), texel 3's edge beyond (clamp), and the mirror image
+  // of u = 0.875, texel 3's centre (mirror).
+  CHECK(at(TextureWrap::Repeat, 1.125f) == doctest::Approx(0.0));
+  CHECK(at(TextureWrap::Clamp, 1.125f) == doctest::Approx(3.0));
+  CHECK(at(TextureWrap::Mirror, 1.125f) == doctest::Approx(3.0));
+  // Between texel 3 and the next: repeat blends with texel 0, clamp holds texel 3, mirror repeats texel 3.
+  CHECK(at(TextureWrap::Repeat, 1.0f) == doctest::Approx(1.5));
+  CHECK(at(TextureWrap::Clamp, 1.0f) == doctest::Approx(3.0));
+  CHECK(at(TextureWrap::Mirror, 1.0f) == doctest::Approx(3.0));
+  // Negative coordinates: u = −0.125 is texel 3's centre repeated, texel 0 clamped, texel 0 mirrored.
+  CHECK(at(TextureWrap::Repeat, -0.125f) == doctest::Approx(3.0));
+  CHECK(at(TextureWrap::Clamp, -0.125f) == doctest::Approx(0.0));
+  CHECK(at(TextureWrap::Mirror, -0.125f) == doctest::Approx(0.0));
+  // Far away and non-finite coordinates stay defined.
+  CHECK(std::isfinite(at(TextureWrap::Repeat, 3.0e9f)));
+  CHECK(std::isfinite(at(TextureWrap::Mirror, std::nanf(""))));
+}
+
+TEST_CASE("textures: each mip level is the 2 x 2 box mean of the one above and lookups blend the two around the footprint") {
+  // A 4 × 4 checkerboard of single texels (0 and 1): level 1 is 0.5 everywhere, level 2 too.
+  std::vector<float> rgb;
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 4; ++x) {
+      const float v = static_cast<float>((x + y) % 2);
+      rgb.insert(rgb.end(), {v, v, v});
+    }
+  const auto t = make_texture(image(4, 4, rgb), TextureWrap::Repeat, TextureWrap::Repeat, "checker");
+  REQUIRE(t->levels.size() == 3);
+  CHECK(t->levels[1].width == 2);
+  CHECK(t->levels[2].width == 1);
+  for (const Rgb& c : t->levels[1].texels) CHECK(c.x == 0.5f);
+  CHECK(t->levels[2].texels[0].x == 0.5f);
+  // At texel (1, 0)'s centre (value 1): a footprint of one texel or less reads level 0; two texels, level 1;
+  // √2 texels, halfway between (log2 √2 = ½).
+  const Vec2 centre(1.5f / 4.f, 0.5f / 4.f);
+  CHECK(texture_lookup(*t, centre, 1.f).x == doctest::Approx(1.0));
+  CHECK(texture_lookup(*t, centre, 2.f).x == doctest::Approx(0.5));
+  CHECK(texture_lookup(*t, centre, std::sqrt(2.f)).x == doctest::Approx(0.75));
+  CHECK(texture_lookup(*t, centre, 1e9f).x == doctest::Approx(0.5));  // beyond the last level: the last level
+  // An odd size: a 3 × 1 row (0, 1, 2) halves to 1 texel holding the mean of texels 0 and 1.
+  const auto odd = make_texture(image(3, 1, {0, 0, 0, 1, 0, 0, 2, 0, 0}), TextureWrap::Repeat, TextureWrap::Repeat, "odd");
+  REQUIRE(odd->levels.size() == 2);
+  CHECK(odd->levels[1].texels[0].x == doctest::Approx(0.5));
+}
+
+namespace {
+
+// A floor plane receding from a camera 1 above it, textured with a fine checkerboard repeated `repeats` times
+// across its 200 × 200 extent, under a white sky (no floor is seen from below it): a diffuse surface of albedo
+// a under a uniform unit sky reflects exactly a, so every pixel is the texture's filtered value, noise-free but
+// for how the texture is sampled.
+SceneDesc checker_floor_scene(const std::shared_ptr<const Texture>& checker, float repeats) {
+  SceneDesc s;
+  s.camera.position = DVec3(0, 1, 0);
+  s.camera.look_at = DVec3(0, 0.8, -10);
+  s.camera.fov_deg = 40;
+  s.width = 48;
+  s.height = 32;
+  s.render.max_bounces = 1;
+  s.render.estimator = Estimator::Mis;
+  s.render.sampler = SamplerType::Independent;
+  s.environment.radiance = Rgb(1.f);
+  MaterialDesc floor;
+  floor.name = "floor";
+  floor.albedo = Rgb(1.f);
+  floor.albedo_map = checker;
+  s.materials = {floor};
+  auto shading = std::make_shared<std::vector<TriangleShading>>();
+  const DVec3 a(-100, 0, 100), b(100, 0, 100), c(100, 0, -100), d(-100, 0, -100);
+  const Vec2 ua(0, repeats), ub(repeats, repeats), uc(repeats, 0), ud(0, 0);
+  for (const auto& [v, uv] : {std::pair{std::array<DVec3, 3>{a, b, c}, std::array<Vec2, 3>{ua, ub, uc}},
+                              std::pair{std::array<DVec3, 3>{a, c, d}, std::array<Vec2, 3>{ua, uc, ud}}}) {
+    ShapeDesc tri;
+    tri.type = ShapeType::Triangle;
+    tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
+    TriangleShading sh;
+    sh.uv = uv;
+    sh.has_uv = true;
+    tri.shading = static_cast<uint32_t>(shading->size());
+    shading->push_back(sh);
+    s.shapes.push_back(tri);
+  }
+  s.shading = shading;
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("textures: a receding checkerboard filtered by ray cones matches its supersampled render without aliasing") {
+  // 64 × 64 texels in checks of 8 × 8, repeated 50 times across the plane (checks 0.5 wide): near the camera a
+  // check spans pixels, towards the horizon hundreds fall in one. The reference is independent of the renderer's
+  // filtering: each pixel the mean of the unfiltered texture (level 0) over 32 × 32 stratified points of it,
+  // traced to the plane y = −1 (camera-relative) by hand.
+  std::vector<float> rgb;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const float v = static_cast<float>((x / 8 + y / 8) % 2);
+      rgb.insert(rgb.end(), {v, v, v});
+    }
+  const auto checker = make_texture(image(64, 64, rgb), TextureWrap::Repeat, TextureWrap::Repeat, "checker");
+  const float repeats = 50.f;
+  SceneDesc d = checker_floor_scene(checker, repeats);
+  const Camera camera = compile_camera(d.camera, d.width, d.height);
+  const auto reference_at = [&](int x, int y) {
+    double sum = 0;
+    for (int j = 0; j < 32; ++j)
+      for (int i = 0; i < 32; ++i) {
+        const Ray r = camera.generate_ray(x + (i + 0.5f) / 32.f, y + (j + 0.5f) / 32.f);
+        if (!(r.d.y < 0.f)) continue;
+        const Vec3 p = r.o + (-1.f / r.d.y) * r.d;  // world x, z (the camera sits at x = z = 0)
+        sum += texture_lookup(*checker, Vec2((p.x + 100.f) / 200.f * repeats, (p.z + 100.f) / 200.f * repeats), 0.f).x;
+      }
+    return sum / (32 * 32);
+  };
+  const auto rms_error = [&](const Film& film, int y0, int y1) {
+    double sq = 0;
+    int n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < d.width; ++x) {
+        const double e = film.mean(static_cast<size_t>(y) * d.width + x).x - reference_at(x, y);
+        sq += e * e;
+        ++n;
+      }
+    return std::sqrt(sq / n);
+  };
+  const int horizon = d.height / 2 + 2;  // the first rows below the horizon: 64 to 1000 texels per pixel
+  d.render.seed = 4;
+  const double far4 = rms_error(test::render_film(d, 4, 2), horizon, horizon + 4);
+  const double all64 = rms_error(test::render_film(d, 64, 2), horizon, d.height);
+  MESSAGE("rms error against the supersampled reference: far rows at 4 spp " << far4 << ", whole floor at 64 spp " << all64);
+  // Far away the filtered lookups hold the mean of many checks: measured 0.085, against 0.135 with level 0
+  // forced (unfiltered: each of the 4 samples is 0 or 1). Over the floor, 64 samples converge on the reference
+  // with little bias: measured 0.036, against 0.088 for a cone a whole pixel wide at every sample (which blurs
+  // each pixel over two). Deterministic (fixed seed): the bounds sit between the right and the wrong figures.
+  CHECK(far4 < 0.11);
+  CHECK(all64 < 0.05);
+}
+
+TEST_CASE("textures: a scene file's albedo_texture loads, multiplies albedo, saves as a file reference and is checked") {
+  Folder f;
+  write_png_rgb8(f.path("red.png"), 2, 2, {255, 0, 0, 255, 0, 0, 255, 0, 0, 255, 0, 0});
+  const auto scene_with = [&](const std::string& material) {
+    return R"({"camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+      "film": {"width": 8, "height": 8}, "render": {"max_bounces": 2, "estimator": "auto"}, "background": [1, 1, 1],
+      "materials": {"paint": )" + material + R"(},
+      "shapes": [{"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "paint"}]})";
+  };
+  const SceneDesc s = parse_scene(scene_with(R"({"type": "diffuse", "albedo_texture": "red.png"})"), "s.json", f.dir.string());
+  REQUIRE(s.materials[0].albedo_map);
+  CHECK(s.materials[0].albedo == Rgb(1.f));  // without "albedo" the texture stands alone
+  CHECK(s.materials[0].albedo_map->width() == 2);
+  CHECK(s.materials[0].albedo_map->levels[0].at(1, 1) == Rgb(1.f, 0.f, 0.f));
+  // Saved relative to where it is written, read back the same; bdpt is refused, auto takes mis.
+  const std::string text = scene_to_json(s, f.dir.string());
+  CHECK(text.find("\"albedo_texture\": \"red.png\"") != std::string::npos);
+  const SceneDesc back = parse_scene(text, "back.json", f.dir.string());
+  CHECK(back.materials[0].albedo_texture == "red.png");
+  CHECK(choose_estimator(s).estimator == Estimator::Mis);
+  SceneDesc bdpt = s;
+  bdpt.render.estimator = Estimator::Bdpt;
+  CHECK(validate_scene(bdpt).find("textures") != std::string::npos);
+  // A texture on a material that takes none, and a file that is no image, are refused by their keys.
+  const auto error = [&](const std::string& material) {
+    try {
+      parse_scene(scene_with(material), "s.json", f.dir.string());
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(error(R"({"type": "dielectric", "albedo_texture": "red.png"})").find("materials.paint") != std::string::npos);
+  f.write("junk.png", "junk");
+  CHECK(error(R"({"type": "diffuse", "albedo_texture": "junk.png"})").find("materials.paint.albedo_texture") != std::string::npos);
+  CHECK(error(R"({"type": "diffuse", "albedo_texture": "missing.png"})").find("materials.paint.albedo_texture") != std::string::npos);
+  CHECK(error(R"({"type": "subsurface", "albedo_texture": "red.png"})").find("albedo_texture") != std::string::npos);
+}
+
+TEST_CASE("textures: a glTF base colour texture from a file beside the model, its sampler and its factor") {
+  Folder f;
+  // 2 × 2: top-left red, top-right green, bottom-left blue, bottom-right white (rows top first).
+  write_png_rgb8(f.path("four.png"), 2, 2, {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255});
+  std::string buf;
+  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0}, uv{0, 0, 1, 0, 0, 1};
+  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
+  buf.append(reinterpret_cast<const char*>(uv.data()), 24);
+  f.write("tri.bin", buf);
+  f.write("tri.gltf", R"({"asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 60, "uri": "tri.bin"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
+    "images": [{"uri": "four.png"}],
+    "samplers": [{"wrapS": 33071, "wrapT": 33648}],
+    "textures": [{"source": 0, "sampler": 0}],
+    "materials": [{"name": "painted", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1],
+                   "baseColorTexture": {"index": 0}, "metallicFactor": 0}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+  const GltfContents g = load_gltf(f.path("tri.gltf"));
+  REQUIRE(g.materials.size() == 1);
+  const MaterialDesc& m = g.materials[0];
+  REQUIRE(m.albedo_map);
+  CHECK(m.albedo == Rgb(0.5f, 1.f, 1.f));  // the factor; the texture multiplies it when shading
+  CHECK(m.albedo_map->wrap_u == TextureWrap::Clamp);
+  CHECK(m.albedo_map->wrap_v == TextureWrap::Mirror);
+  // glTF's uv origin is the image's top-left texel: uv (0, 0) is red, (1, 0) green, (0, 1) blue.
+  const Texture& t = *m.albedo_map;
+  CHECK(texture_lookup(t, Vec2(0.25f, 0.25f), 0.f) == Rgb(1.f, 0.f, 0.f));
+  CHECK(texture_lookup(t, Vec2(0.75f, 0.25f), 0.f) == Rgb(0.f, 1.f, 0.f));
+  CHECK(texture_lookup(t, Vec2(0.25f, 0.75f), 0.f) == Rgb(0.f, 0.f, 1.f));
+  REQUIRE(g.shading.size() == 1);
+  CHECK(g.shading[0].has_uv);
+  CHECK(g.shading[0].uv[2] == Vec2(0, 1));
+  // The image missing, or not an image: refused with the glTF path.
+  std::filesystem::remove(f.path("four.png"));
+  try {
+    load_gltf(f.path("tri.gltf"));
+    FAIL("a missing image was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).find("images[0]") != std::string::npos);
+  }
+  f.write("four.png", "not a png");
+  try {
+    load_gltf(f.path("tri.gltf"));
+    FAIL("an undecodable image was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).find("images[0]") != std::string::npos);
+  }
+}
