@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(fuzz_scene fuzz_images fuzz_geometry_files fuzz_film_state fuzz_gltf)
+((${#targets[@]})) || targets=(fuzz_scene fuzz_images fuzz_geometry_files fuzz_film_state fuzz_gltf fuzz_texture)
 
 tools/install_packages.sh clang-14 libclang-rt-14-dev
 
@@ -28,6 +28,7 @@ for t in "${targets[@]}"; do
     fuzz_geometry_files) seeds=(tests/fuzz/seeds/geometry); extra=(-max_len=4096) ;;
     fuzz_film_state) seeds=(tests/fuzz/seeds/states); extra=(-max_len=4096) ;;
     fuzz_gltf) seeds=(tests/fuzz/seeds/gltf); extra=(-max_len=8192) ;;
+    fuzz_texture) seeds=(tests/fuzz/seeds/textures); extra=(-max_len=4096) ;;
     *) echo "unknown fuzz target $t" >&2; exit 2 ;;
   esac
   echo "== $t: ${seconds} s =="
@@ -36,7 +37,7 @@ for t in "${targets[@]}"; do
        -timeout=10 -rss_limit_mb=2560 -print_final_stats=1 -artifact_prefix="$findings/" 2>"build-fuzz/$t.log"; then
     status=1
     echo "$t: FINDING (build-fuzz/$t.log, build-fuzz/findings/$t/):" >&2
-    grep -E 'ERROR|SUMMARY|fuzz_(scene|images|geometry_files|film_state|gltf):|Test unit written' "build-fuzz/$t.log" | head -20 >&2
+    grep -E 'ERROR|SUMMARY|fuzz_(scene|images|geometry_files|film_state|gltf|texture):|Test unit written' "build-fuzz/$t.log" | head -20 >&2
   fi
   grep -E '^stat::(number_of_executed_units|peak_rss_mb)|cov: ' "build-fuzz/$t.log" | tail -3
 done

@@ -1,0 +1,44 @@
+// libFuzzer target: the texture decoders (materials/texture.h: decode_image, stb_image's PNG, JPEG, BMP, TGA, GIF,
+// PSD, PNM readers) and the pyramid built from what they give. The first byte picks sRGB or data decoding and the
+// wrap modes; the rest is the file. Any input must give either an image whose size is consistent and whose
+// texels are finite and in [0, 1], with a pyramid whose lookups are finite, or an error naming the input; a
+// crash, a sanitizer report, a hang or an oversized allocation is a finding.
+// Build and run: tools/fuzz.sh (docs/reliability.md).
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "fuzz_input.h"
+#include "io/image_io.h"
+#include "materials/texture.h"
+
+const char* const pt::fuzz::kTarget = "fuzz_texture";
+
+using pt::fuzz::finding;
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size == 0) return 0;
+  const bool srgb = data[0] & 1;
+  const auto wrap = [](int bits) { return static_cast<pt::TextureWrap>(bits % 3); };
+  const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
+  pt::Image img;
+  try {
+    img = pt::decode_image(bytes, srgb, "input");
+  } catch (const pt::ImageError& e) {
+    if (std::string(e.what()).rfind("input: ", 0) != 0) finding("error message does not name the input", e.what());
+    return 0;
+  }
+  if (img.width <= 0 || img.height <= 0 || img.rgb.size() != 3ull * img.width * img.height)
+    finding("inconsistent image size", std::to_string(img.width) + "x" + std::to_string(img.height));
+  for (float v : img.rgb)
+    if (!(v >= 0.f && v <= 1.f)) finding("texel outside [0, 1]", std::to_string(v));
+  const auto t = pt::make_texture(img, wrap(data[0] >> 1), wrap(data[0] >> 3), "input");
+  for (int k = 0; k < 8; ++k) {
+    const pt::Vec2 uv(0.37f * k - 1.1f, 0.91f - 0.29f * k);
+    const pt::Rgb a = pt::texture_lookup(*t, uv, static_cast<float>(k * k));
+    const pt::Rgb b = pt::texture_lookup(*t, uv, pt::Vec2(0.3f, 0.01f * k), pt::Vec2(-0.001f, 0.02f));
+    if (!std::isfinite(a.x + a.y + a.z) || !std::isfinite(b.x + b.y + b.z)) finding("lookup not finite", std::to_string(k));
+  }
+  return 0;
+}
