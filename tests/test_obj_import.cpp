@@ -10,11 +10,14 @@
 #include <string>
 #include <vector>
 
+#include "io/image_io.h"
 #include "scene/mesh_obj.h"
 #include "scene/mtl_material.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
 #include "scene/studio.h"
+
+#include "temp_folder.h"
 
 using namespace pt;
 
@@ -66,30 +69,16 @@ TEST_CASE("obj materials: .mtl parameters map to the nearest project material") 
   warnings.clear();
   MtlParams textured;
   textured.name = "wood";
-  textured.textures = {"map_Kd"};
+  textured.textures = {"bump"};
   textured.dissolve = 0.5f;
   mtl_material(textured, warnings);
   REQUIRE(warnings.size() == 2);
-  CHECK(warnings[0].find("wood: map_Kd") != std::string::npos);
+  CHECK(warnings[0].find("wood: bump") != std::string::npos);
   CHECK(warnings[1].find("d < 1") != std::string::npos);
 }
 
 namespace {
 
-struct Folder {
-  std::filesystem::path dir;
-  Folder() : dir(std::filesystem::temp_directory_path() / ("pt_obj_" + std::to_string(::getpid()))) {
-    std::filesystem::create_directories(dir);
-  }
-  ~Folder() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream((dir / name).string()) << text;
-    return (dir / name).string();
-  }
-};
 
 const char* kTwoMaterialsObj =
     "mtllib two.mtl\n"
@@ -111,7 +100,7 @@ std::string scene_text(const std::string& mesh) {
 }  // namespace
 
 TEST_CASE("obj materials: a mesh without a material takes its .mtl materials, saved and read back as overrides") {
-  Folder f;
+  test::TempFolder f("obj");
   f.write("tri.obj", kTwoMaterialsObj);
   f.write("two.mtl", kTwoMaterialsMtl);
   const SceneDesc s = parse_scene(scene_text(R"({"type": "mesh", "file": "tri.obj"})"), "s.json", f.dir.string());
@@ -151,7 +140,7 @@ TEST_CASE("obj materials: a mesh without a material takes its .mtl materials, sa
 }
 
 TEST_CASE("obj materials: a missing library is a warning, and a mesh without materials or \"material\" is refused") {
-  Folder f;
+  test::TempFolder f("obj");
   f.write("lost.obj", "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl paint\nf 1 2 3\n");
   const MeshTriangles mesh = load_obj_mesh((f.dir / "lost.obj").string(), ObjectTransform{});
   REQUIRE(!mesh.warnings.empty());
@@ -164,4 +153,38 @@ TEST_CASE("obj materials: a missing library is a warning, and a mesh without mat
     CHECK(std::string(e.what()).find("shapes[0].material") != std::string::npos);
     CHECK(std::string(e.what()).find("mtllib") != std::string::npos);
   }
+}
+
+TEST_CASE("obj materials: map_Kd is the albedo's texture (times Kd), with vt flipped to the image's top-left origin") {
+  test::TempFolder f("obj");
+  std::filesystem::create_directories(f.dir / "model");
+  // 2 x 1: left red, right green.
+  write_png_rgb8((f.dir / "model" / "rg.png").string(), 2, 1, {255, 0, 0, 0, 255, 0});
+  std::ofstream((f.dir / "model" / "tex.obj").string())
+      << "mtllib tex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0\nvt 0.75 0\nvt 0.25 1\nusemtl painted\nf 1/1 2/2 3/3\n";
+  std::ofstream((f.dir / "model" / "tex.mtl").string()) << "newmtl painted\nKd 0.5 0.5 0.5\nmap_Kd rg.png\n";
+  const MeshTriangles mesh = load_obj_mesh((f.dir / "model" / "tex.obj").string(), ObjectTransform{});
+  REQUIRE(mesh.materials.size() == 1);
+  const MaterialDesc& m = mesh.materials[0];
+  REQUIRE(m.albedo_map);
+  CHECK(m.albedo == Rgb(0.5f));  // Kd, the texture's factor
+  CHECK(m.albedo_map->levels[0].at(0, 0) == Rgb(1.f, 0.f, 0.f));
+  REQUIRE(mesh.shading.size() == 1);
+  CHECK(mesh.shading[0].has_uv);
+  CHECK(mesh.shading[0].uv[0] == Vec2(0.25f, 1.f));  // vt (0.25, 0): the bottom row, v = 1 from the top
+  CHECK(mesh.shading[0].uv[2] == Vec2(0.25f, 0.f));
+  // In a scene file one folder up: saved with the texture's path from there, read back with the texture.
+  const SceneDesc s = parse_scene(scene_text(R"({"type": "mesh", "file": "model/tex.obj"})"), "s.json", f.dir.string());
+  const std::string text = scene_to_json(s, f.dir.string());
+  INFO(text);
+  CHECK(text.find("\"albedo_texture\": \"model/rg.png\"") != std::string::npos);
+  const SceneDesc back = parse_scene(text, "back.json", f.dir.string());
+  CHECK(back.materials[back.shapes[0].material].albedo_map);
+  // A map that cannot be read is a warning; the material keeps Kd.
+  std::filesystem::remove(f.dir / "model" / "rg.png");
+  const MeshTriangles lost = load_obj_mesh((f.dir / "model" / "tex.obj").string(), ObjectTransform{});
+  CHECK(!lost.materials[0].albedo_map);
+  bool warned = false;
+  for (const std::string& w : lost.warnings) warned = warned || w.find("map_Kd") != std::string::npos;
+  CHECK(warned);
 }

@@ -18,6 +18,7 @@
 #include "scene/estimator_choice.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
+#include "temp_folder.h"
 #include "test_helpers.h"
 
 using namespace pt;
@@ -241,20 +242,6 @@ TEST_CASE("smooth shading: bdpt is refused and auto takes mis, with a reason") {
 
 namespace {
 
-struct TempFiles {
-  std::filesystem::path dir;
-  TempFiles() : dir(std::filesystem::temp_directory_path() / ("pt_smooth_" + std::to_string(::getpid()))) {
-    std::filesystem::create_directories(dir);
-  }
-  ~TempFiles() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream((dir / name).string()) << text;
-    return (dir / name).string();
-  }
-};
 
 void check_normal(Vec3 got, Vec3 want) {
   INFO("got " << got.x << " " << got.y << " " << got.z << ", want " << want.x << " " << want.y << " " << want.z);
@@ -264,7 +251,7 @@ void check_normal(Vec3 got, Vec3 want) {
 }  // namespace
 
 TEST_CASE("smooth shading: OBJ vertex normals follow the object's transform and its mirroring") {
-  TempFiles files;
+  test::TempFolder files("smooth");
   // One triangle (0,0,0), (1,0,0), (0,1,0), front +z, normals (0,0,1), (0.6,0,0.8), (0,0.6,0.8); a second
   // triangle names no normals and stays flat.
   files.write("tri.obj",

@@ -20,27 +20,13 @@
 #include "scene/gltf_import.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
+#include "temp_folder.h"
 #include "test_helpers.h"
 
 using namespace pt;
 
 namespace {
 
-struct Folder {
-  std::filesystem::path dir;
-  Folder() : dir(std::filesystem::temp_directory_path() / ("pt_tex_" + std::to_string(::getpid()))) {
-    std::filesystem::create_directories(dir);
-  }
-  ~Folder() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-  std::string path(const std::string& name) const { return (dir / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path(name), std::ios::binary) << text;
-    return path(name);
-  }
-};
 
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -58,7 +44,7 @@ Image image(int w, int h, const std::vector<float>& rgb) {
 }  // namespace
 
 TEST_CASE("textures: 8-bit colour images decode from sRGB with the exact transfer function, data images as they are") {
-  Folder f;
+  test::TempFolder f("tex");
   // One row: 0, 10, 128, 255 in red; green and blue fixed.
   write_png_rgb8(f.path("row.png"), 4, 1, {0, 1, 2, 10, 1, 2, 128, 1, 2, 255, 1, 2});
   const Image srgb = decode_image(read_bytes(f.path("row.png")), true, "row.png");
@@ -229,7 +215,7 @@ TEST_CASE("textures: a receding checkerboard filtered by ray cones matches its s
 }
 
 TEST_CASE("textures: a scene file's albedo_texture loads, multiplies albedo, saves as a file reference and is checked") {
-  Folder f;
+  test::TempFolder f("tex");
   write_png_rgb8(f.path("red.png"), 2, 2, {255, 0, 0, 255, 0, 0, 255, 0, 0, 255, 0, 0});
   const auto scene_with = [&](const std::string& material) {
     return R"({"camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
@@ -268,7 +254,7 @@ TEST_CASE("textures: a scene file's albedo_texture loads, multiplies albedo, sav
 }
 
 TEST_CASE("textures: a glTF base colour texture from a file beside the model, its sampler and its factor") {
-  Folder f;
+  test::TempFolder f("tex");
   // 2 × 2: top-left red, top-right green, bottom-left blue, bottom-right white (rows top first).
   write_png_rgb8(f.path("four.png"), 2, 2, {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255});
   std::string buf;

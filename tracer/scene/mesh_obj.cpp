@@ -10,7 +10,9 @@
 #include <stdexcept>
 #include <utility>
 
+#include "io/image_io.h"
 #include "io/safe_file.h"
+#include "materials/texture.h"
 #include "scene/mtl_material.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -84,7 +86,7 @@ MtlParams mtl_params(const tinyobj::material_t& m) {
   p.dissolve = m.dissolve;
   p.illum = m.illum;
   const std::pair<const char*, const std::string*> maps[] = {
-      {"map_Kd", &m.diffuse_texname},  {"map_Ks", &m.specular_texname}, {"map_Ns", &m.specular_highlight_texname},
+      {"map_Ks", &m.specular_texname}, {"map_Ns", &m.specular_highlight_texname},
       {"map_d", &m.alpha_texname},     {"bump", &m.bump_texname},       {"disp", &m.displacement_texname},
       {"map_Ke", &m.emissive_texname}, {"norm", &m.normal_texname}};
   for (const auto& [keyword, name] : maps)
@@ -92,6 +94,24 @@ MtlParams mtl_params(const tinyobj::material_t& m) {
   for (float* c : {&p.kd.x, &p.kd.y, &p.kd.z, &p.ks.x, &p.ks.y, &p.ks.z, &p.ke.x, &p.ke.y, &p.ke.z, &p.ns, &p.ni})
     if (!std::isfinite(*c)) *c = 0.f;
   return p;
+}
+
+// map_Kd: the image (relative to the OBJ's folder) whose colour times Kd is the material's albedo, as the .mtl
+// format defines it; for the material just added to out.materials. One that cannot be read is a warning (the
+// material keeps Kd alone).
+void add_diffuse_map(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
+  MaterialDesc& d = out.materials.back();
+  if (!takes(d.type, MaterialParam::Albedo) || d.type == MaterialType::Subsurface) {
+    out.warnings.push_back("material " + d.name + ": map_Kd is not used by its " + to_string(d.type) + " mapping");
+    return;
+  }
+  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  try {
+    d.albedo_map = load_texture_file(file, true);
+    d.albedo_texture = d.resolved_albedo_texture = file;
+  } catch (const ImageError& e) {
+    out.warnings.push_back("material " + d.name + ": map_Kd not read (its Kd colour stands alone): " + e.what());
+  }
 }
 
 }  // namespace
@@ -141,6 +161,7 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
     if (index_of[i] == 0) {
       index_of[i] = static_cast<int>(out.materials.size());
       out.materials.push_back(mtl_material(mtl_params(materials[i]), out.warnings));
+      if (!materials[i].diffuse_texname.empty()) add_diffuse_map(path, materials[i].diffuse_texname, out);
     }
   // The parser's own remarks (a usemtl name no library defines, …), a few lines at most.
   {

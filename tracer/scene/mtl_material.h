@@ -9,8 +9,9 @@
 // - roughness from the Phong exponent by Walter et al. 2007 ("Microfacet Models for Refraction through Rough
 //   Surfaces", §5.2: Beckmann α = √(2/(Ns + 2))), roughness = √α since the project's α = roughness²;
 // - emission Ke, on both faces when the material is otherwise black (an .mtl lamp has no front).
-// Textures (map_Kd, map_d, bump, …) and dissolve d < 1 (transparency, cut-outs) are not read yet: each is one
-// warning line, and the surface keeps its colours and stays opaque.
+// map_Kd, the albedo's image (times Kd, as the format defines it), is the mesh reader's to load (mesh_obj.h);
+// the other textures (map_Ks, map_d, bump, …) and dissolve d < 1 (transparency, cut-outs) are not read yet:
+// each is one warning line, and the surface keeps its colours and stays opaque.
 #pragma once
 #include <string>
 #include <vector>
@@ -25,7 +26,7 @@ struct MtlParams {
   Rgb kd{0.8f}, ks{0.f}, ke{0.f};
   float ns = 0.f, ni = 1.f, dissolve = 1.f;
   int illum = 2;
-  std::vector<std::string> textures;  // the texture statements it has (map_Kd, …), by keyword
+  std::vector<std::string> textures;  // the texture statements it has that are not read (map_Ks, bump, …), by keyword
 };
 
 // The nearest project material; appends to `warnings` what it leaves out.

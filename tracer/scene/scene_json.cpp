@@ -791,6 +791,14 @@ struct StreamedShapes {
     if (!override_name && mesh.materials.empty())
       fail(member(path, "material"), "required: the OBJ file names no material library (mtllib) to take its materials from");
     for (const std::string& w : mesh.warnings) warnings.push_back(w.rfind(o.resolved_file, 0) == 0 ? w : o.resolved_file + ": " + w);
+    // Texture files the .mtl names (found beside the OBJ) are written as the scene file would name them: from
+    // the mesh's own file name.
+    const std::filesystem::path obj_dir = std::filesystem::path(o.resolved_file).parent_path();
+    for (MaterialDesc& m : mesh.materials)
+      if (!m.albedo_texture.empty())
+        m.albedo_texture = (std::filesystem::path(o.file).parent_path() /
+                            std::filesystem::path(m.resolved_albedo_texture).lexically_relative(obj_dir))
+                               .generic_string();
     // Faces that name no material take the .mtl format's default (diffuse, Kd 0.8), as "NAME/default".
     const bool unassigned = std::find(mesh.triangle_material.begin(), mesh.triangle_material.end(), -1) != mesh.triangle_material.end();
     if (unassigned) {
