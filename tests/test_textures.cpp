@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "core/thread_pool.h"
 #include "film/film.h"
+#include "integrators/feature_pass.h"
 #include "io/image_io.h"
 #include "materials/texture.h"
 #include "render/renderer.h"
@@ -212,6 +214,24 @@ TEST_CASE("textures: a receding checkerboard filtered by ray cones matches its s
   // each pixel over two). Deterministic (fixed seed): the bounds sit between the right and the wrong figures.
   CHECK(far4 < 0.11);
   CHECK(all64 < 0.05);
+}
+
+TEST_CASE("textures: the feature guide and the film's albedo layer see the textured albedo") {
+  // A floor of a uniform texture (0.2, 0.6, 0.9) × factor (1, 1, 0.5): the guide the viewer's preview multiplies
+  // back, and the albedo layer of a render, hold the product (the untextured factor alone would be (1, 1, 0.5)).
+  const auto tint = make_texture(image(1, 1, {0.2f, 0.6f, 0.9f}), TextureWrap::Repeat, TextureWrap::Repeat, "tint");
+  SceneDesc d = checker_floor_scene(tint, 4.f);
+  d.materials[0].albedo = Rgb(1.f, 1.f, 0.5f);
+  const auto scene = compile_scene(d);
+  ThreadPool pool(2);
+  FeatureImage guide;
+  trace_feature_image(*scene, d.render, pool, guide);
+  const size_t i = static_cast<size_t>(d.height - 2) * d.width + d.width / 2;  // a floor pixel
+  CHECK(guide.albedo[3 * i] == doctest::Approx(0.2f));
+  CHECK(guide.albedo[3 * i + 1] == doctest::Approx(0.6f));
+  CHECK(guide.albedo[3 * i + 2] == doctest::Approx(0.45f));
+  const Film film = test::render_film(d, 2, 2, true);
+  CHECK(film.albedo_image()[3 * i + 1] == doctest::Approx(0.6f));
 }
 
 TEST_CASE("textures: a scene file's albedo_texture loads, multiplies albedo, saves as a file reference and is checked") {

@@ -21,6 +21,10 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
   FeatureTrace trace{&out};
   Rgb L(0.f), beta(1.f);
   uint32_t skip = ~0u;
+  // The ray cone of the pixel's centre ray, a whole pixel wide: the guide is one sample per pixel, and a textured
+  // albedo filtered over the pixel is what the preview multiplies back.
+  const float spread = integrator_detail::PathOptions(settings, s.camera).pixel_angle;
+  float cone_width = 0.f;
   for (int depth = 0;; ++depth) {
     if (depth > 0) found = intersect_scene<F>(s, ray, kInfinity, skip, hit);
     if (!found) {
@@ -29,7 +33,9 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
       return out;
     }
     const Interaction it = make_interaction<F>(s, ray, hit);
-    const Material& m = s.materials[it.material];
+    cone_width += spread * hit.t;
+    integrator_detail::MaterialScratch scratch;
+    const Material& m = integrator_detail::material_at<kM>(s, it, ray.d, cone_width, scratch);
     const Vec3 wo = -ray.d;
     if (!is_black(m.emission)) L += beta * area_light_emission(s.lights[s.light_of_prim[it.prim]], it.ng, wo);
     trace.at_vertex<kM>(depth, ray.o, it, wo, m, depth >= settings.max_bounces, L);

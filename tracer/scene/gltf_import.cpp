@@ -559,20 +559,16 @@ SceneDesc gltf_scene(const std::string& path) {
   s.materials = std::move(g.materials);
   s.shapes.reserve(g.triangles.size());
   DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  std::vector<TriangleShading> shading;
   for (size_t i = 0; i < g.triangles.size(); ++i) {
     ShapeDesc tri;
     tri.type = ShapeType::Triangle;
     tri.vertices = {g.triangles[i][0], g.triangles[i][1], g.triangles[i][2], DVec3(0.0)};
     tri.material = g.triangle_material[i];
-    if (!g.shading.empty() && g.shading[i].any()) {
-      tri.shading = static_cast<uint32_t>(shading.size());
-      shading.push_back(g.shading[i]);
-    }
+    if (!g.shading.empty() && g.shading[i].any()) tri.shading = static_cast<uint32_t>(i);  // the table moves as it is
     s.shapes.push_back(tri);
     for (int k = 0; k < 3; ++k) lo = glm::min(lo, g.triangles[i][k]), hi = glm::max(hi, g.triangles[i][k]);
   }
-  if (!shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(shading));
+  if (!g.shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(g.shading));
   s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
   if (g.emits) {
     s.environment.type = EnvironmentType::Constant;
