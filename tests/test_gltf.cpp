@@ -436,18 +436,26 @@ TEST_CASE("gltf: a scene file places a glTF model with a transform, its material
   CHECK_THROWS_WITH_AS(parse_scene(slash, "slash.json", dir.path.string()), doctest::Contains("shapes[1].name"), SceneError);
 }
 
-TEST_CASE("gltf: the shipped cornell-gltf scene loads its model, keeps its two materials and agrees with the box") {
+TEST_CASE("gltf: the shipped cornell-gltf scene loads its models, keeps their materials and agrees with the box") {
   const SceneDesc s = load_scene(std::string(PT_SCENES_DIR) + "/cornell-gltf.json");
   const SceneDesc box = load_scene("cornell");
-  REQUIRE(s.objects.size() == box.objects.size() + 1);
-  const ObjectDesc& toys = s.objects.back();
+  REQUIRE(s.objects.size() == box.objects.size() + 2);
+  const ObjectDesc& toys = s.objects[box.objects.size()];
   CHECK(toys.kind == ObjectKind::Gltf);
   CHECK(toys.shape_count == 48 * 24 * 2 + 8);  // the torus's quads as triangle pairs, the gem's eight faces
   std::set<std::string> names;
   for (size_t k = toys.first_shape; k < toys.first_shape + toys.shape_count; ++k) names.insert(s.materials[s.shapes[k].material].name);
   CHECK(names == std::set<std::string>{"toys/gold", "toys/crystal"});
   // Everything of the Cornell box is there unchanged, and the lens is on (so auto picks mis).
-  CHECK(s.materials.size() == box.materials.size() + 2);
+  CHECK(s.materials.size() == box.materials.size() + 3);
+  // The ball: an OBJ with vertex normals, texture coordinates and its .mtl's textured material.
+  const ObjectDesc& ball = s.objects.back();
+  CHECK(ball.kind == ObjectKind::Mesh);
+  const MaterialDesc& paint = s.materials[s.shapes[ball.first_shape].material];
+  CHECK(paint.name == "ball/ball");
+  CHECK(paint.albedo_map);
+  CHECK(s.shapes[ball.first_shape].shading != kNoShading);
+  CHECK(s.smooth_shading());
   for (size_t k = 0; k < toys.first_shape; ++k) CHECK(s.shapes[k].vertices == box.shapes[k].vertices);
   CHECK(s.camera.aperture_radius == 6.0);
   // The torus rests on the short block (top at y = 165): its lowest point lies on it, within rounding.
