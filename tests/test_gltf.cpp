@@ -525,3 +525,33 @@ TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and 
   replace_once(nan, R"("componentType": 5126, "count": 3, "type": "VEC2")", R"("componentType": 5126, "count": 3, "type": "VEC3")");
   CHECK(load_error(dir, nan).find("TEXCOORD_0") != std::string::npos);
 }
+
+TEST_CASE("gltf: a model file alone is one object that a saved scene refers to, normals, texture and edits kept") {
+  // Debian's textured box with normals: saved from its standalone scene, the file names the model instead of
+  // listing its triangles, and reads back to the same shapes, vertex normals and texture; an edited material
+  // comes back as an override.
+  const std::string box = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
+  if (!std::filesystem::exists(box)) {
+    test::skip_for_missing("assimp-testmodels", "the standalone glTF save test");
+    return;
+  }
+  SceneDesc s = gltf_scene(box);
+  REQUIRE(s.objects.size() == 1);
+  CHECK(s.objects[0].kind == ObjectKind::Gltf);
+  CHECK(s.objects[0].shape_count == s.shapes.size());
+  const size_t m = static_cast<size_t>(s.shapes[0].material);
+  CHECK(s.materials[m].name.rfind("BoxTextured/", 0) == 0);
+  REQUIRE(s.materials[m].albedo_map);
+  s.materials[m].roughness = 0.25f;
+  TempDir dir;
+  const std::string text = scene_to_json(s, dir.path.string());
+  CHECK(text.find("\"type\": \"gltf\"") != std::string::npos);
+  CHECK(text.find("\"triangle\"") == std::string::npos);
+  const SceneDesc back = parse_scene(text, "back.json", dir.path.string());
+  REQUIRE(back.shapes.size() == s.shapes.size());
+  const MaterialDesc& bm = back.materials[back.shapes[0].material];
+  CHECK(bm.name == s.materials[m].name);
+  CHECK(bm.roughness == 0.25f);
+  CHECK(bm.albedo_map);  // the file's texture stays with its overridden material
+  CHECK(back.smooth_shading() == s.smooth_shading());
+}

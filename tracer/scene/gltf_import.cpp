@@ -556,7 +556,18 @@ SceneDesc gltf_scene(const std::string& path) {
   s.width = 640;
   s.height = g.aspect_ratio > 0.0 ? std::clamp(static_cast<int>(std::lround(640.0 / g.aspect_ratio)), 1, 16384) : 480;
   s.render.max_bounces = 16;
+  // The model is one object (kind gltf, named after the file's stem), its materials named "STEM/NAME" as a scene
+  // file's gltf shape names them: saved from the viewer, the scene refers to the file (its normals, textures and
+  // all) instead of writing its triangles out, and edited materials come back as overrides.
+  const std::string stem = std::filesystem::path(path).stem().string();
   s.materials = std::move(g.materials);
+  for (MaterialDesc& m : s.materials) m.name = stem + "/" + m.name;
+  ObjectDesc object;
+  object.kind = ObjectKind::Gltf;
+  object.name = stem;
+  object.file = object.resolved_file = path;
+  object.shape_count = g.triangles.size();
+  s.objects.push_back(object);
   s.shapes.reserve(g.triangles.size());
   DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
   for (size_t i = 0; i < g.triangles.size(); ++i) {
