@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <string>
 
+#include <stb_image.h>
+
 #include "fuzz_input.h"
 #include "io/image_io.h"
 #include "materials/texture.h"
@@ -22,6 +24,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const bool srgb = data[0] & 1;
   const auto wrap = [](int bits) { return static_cast<pt::TextureWrap>(bits % 3); };
   const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
+  // Images claiming over 2^20 texels are legitimate (up to kMaxTextureTexels) but only slow and large to decode:
+  // the harness passes over them, as it bounds the input's length, so that time goes to the decoders' logic.
+  int w = 0, h = 0, n = 0;
+  if (stbi_info_from_memory(data + 1, static_cast<int>(size - 1), &w, &h, &n) && static_cast<long long>(w) * h > (1 << 20))
+    return 0;
   pt::Image img;
   try {
     img = pt::decode_image(bytes, srgb, "input");

@@ -13,6 +13,8 @@
 //   receiver: in a white furnace every light sample returns exactly 1). Map (file or tabulated sky):
 //   ∝ luminance × sin θ over the lat-long image (lights/environment_map.h).
 // - Sun: uniform in its cone.
+// - Point, Spot, Directional (punctual): their one direction, with pdf 1 and LightSample::delta set (no BSDF
+//   sample can hit them, so they take no MIS weight).
 #pragma once
 #include "geometry/interaction.h"
 #include "scene/scene.h"  // the lights and their selection probabilities (the one arrow up: tools/include_graph.py)
@@ -26,8 +28,9 @@ struct LightSample {
   Vec3 wi;         // unit direction receiver → light
   float dist;      // distance receiver → light (infinite for infinite lights)
   Rgb Le;          // emitted radiance towards the receiver (0 if it sees the back of a one-sided light)
-  float pdf;       // solid-angle density, excluding the light choice
+  float pdf;       // solid-angle density, excluding the light choice; 1 for a punctual light (a Dirac in wi)
   uint32_t prim;   // the light's primitive (kNoPrimitive for infinite lights), excluded from the shadow test
+  bool delta = false;  // a punctual light: Le is the incident irradiance's factor I/d² (or E), no MIS partner
 };
 
 // The receiving point of a light sample: position and the unit normal of the side being lit.
@@ -151,7 +154,40 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
   if ((l.kind == LightKind::Rectangle || l.kind == LightKind::Polygon) && !l.two_sided &&
       glm::dot(s.polygons.normal[l.prim], ref.p - s.polygons.v[0][l.prim]) <= 0.f)
     return false;
+  ls.delta = false;
   switch (l.kind) {
+    case LightKind::Point:
+    case LightKind::Spot: {
+      // A Dirac in direction: the "radiance" times the cosine over the pdf must give the irradiance I·cos/d², so
+      // Le carries I/d² and pdf is 1 (pbrt-v4's PointLight::SampleLi). The spot's falloff is glTF's
+      // (KHR_lights_punctual, "Inner and Outer Cone Angles"): t = clamp((cos θ − cos_outer)/(cos_inner −
+      // cos_outer), 0, 1), intensity × t².
+      ls.p = l.position;
+      const Vec3 d = l.position - ref.p;
+      const float dist2 = glm::dot(d, d);
+      if (!(dist2 > 0.f)) return false;
+      ls.dist = std::sqrt(dist2);
+      ls.wi = d / ls.dist;
+      float scale = 1.f / dist2;
+      if (l.kind == LightKind::Spot) {
+        const float c = glm::dot(-ls.wi, l.direction);
+        const float t = std::clamp((c - l.cos_outer) / std::max(l.cos_inner - l.cos_outer, 1e-3f), 0.f, 1.f);
+        scale *= t * t;
+      }
+      ls.Le = l.emission * scale;
+      ls.pdf = 1.f;
+      ls.delta = true;
+      return scale > 0.f && std::isfinite(scale);
+    }
+    case LightKind::Directional: {
+      ls.p = Vec3(0.f);
+      ls.dist = kInfinity;
+      ls.wi = l.direction;
+      ls.Le = l.emission;
+      ls.pdf = 1.f;
+      ls.delta = true;
+      return true;
+    }
     case LightKind::Environment: {
       ls.dist = kInfinity;
       ls.p = Vec3(0.f);

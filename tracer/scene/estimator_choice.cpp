@@ -59,6 +59,8 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
   if (scene.smooth_shading())
     return {Estimator::Mis, "mis: smooth shading (vertex normals), which bdpt does not support yet"};
   if (textured(scene)) return {Estimator::Mis, "mis: textures, which bdpt does not support yet"};
+  if (!scene.punctual_lights.empty())
+    return {Estimator::Mis, "mis: point, spot or directional lights, which bdpt does not support yet"};
   const Estimator e = pick(scan, scene.render.max_bounces);
   if (e == Estimator::Bdpt) {
     const MaterialDesc& m = scene.materials[static_cast<size_t>(scan.focusing)];
@@ -72,7 +74,8 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
 }
 
 Estimator choose_estimator(const Scene& scene, int max_bounces) {
-  if (scene.camera.thin_lens() || scene.features.smooth_shading || scene.features.textures) return Estimator::Mis;
+  if (scene.camera.thin_lens() || scene.features.smooth_shading || scene.features.textures || !scene.punctual_lights.empty())
+    return Estimator::Mis;
   return pick(scan_materials(scene.materials,
                              [&](size_t i) { return i < scene.material_used.size() && scene.material_used[i] != 0; }),
               max_bounces);

@@ -38,7 +38,7 @@ namespace tg = tinygltf;
 
 // The extensions this reader understands; others in extensionsRequired are refused.
 const std::set<std::string> kReadExtensions = {"KHR_materials_emissive_strength", "KHR_materials_ior",
-                                               "KHR_materials_transmission"};
+                                               "KHR_materials_transmission", "KHR_lights_punctual"};
 
 struct Reader {
   Reader(const std::string& file, const tg::Model& model) : path(file), m(model) {}
@@ -405,6 +405,40 @@ struct Reader {
       out.aspect_ratio = c.perspective.aspectRatio;
   }
 
+  // The node's KHR_lights_punctual light: at the node's origin, shining along its −z axis.
+  void add_light(const tg::Value& ext, const glm::dmat4& world, const std::string& node_where) {
+    const std::string where = node_where + ".extensions.KHR_lights_punctual.light";
+    if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsNumber()) fail(where, "missing or not a number");
+    const int index = static_cast<int>(ext.Get("light").GetNumberAsDouble());
+    if (index < 0 || static_cast<size_t>(index) >= m.lights.size())
+      fail(where, "light " + std::to_string(index) + " does not exist (the file has " + std::to_string(m.lights.size()) + ")");
+    const tg::Light& g = m.lights[index];
+    const std::string lat = "extensions.KHR_lights_punctual.lights[" + std::to_string(index) + "]";
+    PunctualLightDesc l;
+    l.name = g.name.empty() ? "light " + std::to_string(index) : g.name;
+    if (g.type == "point") l.kind = PunctualKind::Point;
+    else if (g.type == "spot") l.kind = PunctualKind::Spot;
+    else if (g.type == "directional") l.kind = PunctualKind::Directional;
+    else fail(lat + ".type", "'" + g.type + "' is not point, spot or directional");
+    Rgb colour(1.f);
+    if (g.color.size() >= 3) colour = Rgb(g.color[0], g.color[1], g.color[2]);
+    l.intensity = colour * static_cast<float>(g.intensity);
+    if (!std::isfinite(l.intensity.x + l.intensity.y + l.intensity.z) || glm::any(glm::lessThan(l.intensity, Rgb(0.f))))
+      fail(lat, "colour × intensity must be finite and not negative");
+    l.position = DVec3(world * glm::dvec4(0, 0, 0, 1));
+    l.direction = DVec3(world * glm::dvec4(0, 0, -1, 0));
+    if (!(glm::length(l.direction) > 0.0)) fail(node_where, "the light's transform is degenerate");
+    l.direction = glm::normalize(l.direction);
+    if (l.kind == PunctualKind::Spot) {
+      l.inner_cone = g.spot.innerConeAngle;
+      l.outer_cone = g.spot.outerConeAngle;
+      if (!(l.inner_cone >= 0.0 && l.inner_cone < l.outer_cone && l.outer_cone <= 0.5 * glm::pi<double>()))
+        fail(lat + ".spot", "cone angles must satisfy 0 <= innerConeAngle < outerConeAngle <= pi/2");
+    }
+    if (g.range > 0.0) warn("light ranges are passed over: lights follow the inverse-square law everywhere");
+    out.lights.push_back(l);
+  }
+
   // Depth first; `on_path` holds the nodes above, so a cycle is found where it closes.
   void visit(int node, const glm::dmat4& parent, std::vector<bool>& on_path, int depth) {
     const std::string where = "nodes[" + std::to_string(node) + "]";
@@ -422,8 +456,7 @@ struct Reader {
     if (n.skin >= 0) warn("skins are not read: skinned meshes keep their bind pose");
     if (n.mesh >= 0) add_mesh(n.mesh, world, where);
     if (n.camera >= 0) add_camera(n.camera, world, where);
-    if (n.extensions.count("KHR_lights_punctual"))
-      warn("KHR_lights_punctual lights are not supported yet: they are left out");
+    if (const tg::Value* ext = extension(n.extensions, "KHR_lights_punctual")) add_light(*ext, world, where);
     on_path[node] = true;
     for (int child : n.children) visit(child, world, on_path, depth + 1);
     on_path[node] = false;
@@ -581,7 +614,9 @@ SceneDesc gltf_scene(const std::string& path) {
   }
   if (!g.shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(g.shading));
   s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
-  if (g.emits) {
+  s.punctual_lights = std::move(g.lights);
+  for (PunctualLightDesc& l : s.punctual_lights) l.object = 0;  // placed by the model's object
+  if (g.emits || !s.punctual_lights.empty()) {
     s.environment.type = EnvironmentType::Constant;
     s.environment.radiance = Rgb(0.f);
   } else {

@@ -15,9 +15,12 @@
 // - base colour textures (baseColorTexture × baseColorFactor, on TEXCOORD_0, sRGB-decoded, the sampler's wrap
 //   modes, trilinear filtering by ray cones: materials/texture.h), images embedded, in data URIs or in files
 //   beside the model, decoded by stb_image; one texture shared by every material naming it.
+// - KHR_lights_punctual: point, spot and directional lights at their nodes (position, −z axis), colour ×
+//   intensity read one to one as W/sr (point, spot) and W/m² (directional), never divided by 683; the spot's
+//   cone angles; `range` is passed over (the inverse-square law holds everywhere), said once as a warning.
 // Not read yet, each named once on the warnings list: other textures (metallic-roughness, normal, emissive,
-// occlusion), alpha modes, KHR_lights_punctual lights, skins and morph targets, orthographic cameras (TANGENT is
-// passed over: it serves normal maps). Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// occlusion), alpha modes, skins and morph targets, orthographic cameras (TANGENT is passed over: it serves
+// normal maps). Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)
@@ -40,6 +43,7 @@ struct GltfContents {
   // in the triangles' vertex order; empty when no primitive has normals (TriangleShading).
   std::vector<TriangleShading> shading;
   std::vector<MaterialDesc> materials;          // the file's materials (unique names), then the default if used
+  std::vector<PunctualLightDesc> lights;        // KHR_lights_punctual, placed by their nodes (object −1)
   std::optional<CameraDesc> camera;             // the first perspective camera in the node graph
   double aspect_ratio = 0;                      // that camera's aspect ratio (width/height); 0 when not given
   bool emits = false;                           // some material emits light

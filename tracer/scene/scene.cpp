@@ -197,6 +197,36 @@ std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSetting
   return {};
 }
 
+std::string validate_punctual_for_estimator(const SceneDesc& s, const RenderSettings& r) {
+  if (s.punctual_lights.empty()) return {};
+  if (r.estimator == Estimator::Uniform || r.estimator == Estimator::Cosine)
+    return std::string("render.estimator: ") + to_string(r.estimator) +
+           " cannot reach point, spot or directional lights (no ray hits a light of no size): use nee, mis or auto";
+  if (r.estimator == Estimator::Bdpt)
+    return "render.estimator: the bdpt estimator does not support point, spot or directional lights for now (use mis, "
+           "or auto)";
+  return {};
+}
+
+namespace {
+
+std::string validate_punctual_lights(const SceneDesc& s) {
+  for (size_t i = 0; i < s.punctual_lights.size(); ++i) {
+    const PunctualLightDesc& l = s.punctual_lights[i];
+    const std::string p = "punctual_lights[" + std::to_string(i) + "] (" + l.name + ")";
+    if (!finite3(l.position)) return p + ".position: must be finite";
+    if (!finite3(l.direction) || !(glm::length(l.direction) > 0.0)) return p + ".direction: must be finite and not zero";
+    if (std::string why = radiance_problem(l.intensity); !why.empty()) return p + ".intensity: " + why;
+    if (l.kind == PunctualKind::Spot &&
+        !(l.inner_cone >= 0.0 && l.inner_cone < l.outer_cone && l.outer_cone <= 0.5 * glm::pi<double>()))
+      return p + ": spot cone angles must satisfy 0 <= inner < outer <= pi/2";
+    if (l.object >= static_cast<int>(s.objects.size())) return p + ": no such object";
+  }
+  return {};
+}
+
+}  // namespace
+
 std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSettings& r) {
   if (r.estimator != Estimator::Bdpt) return {};
   if (s.smooth_shading())
@@ -216,6 +246,8 @@ std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
   if (std::string err = validate_lens_for_estimator(s.camera, s.render); !err.empty()) return err;
   if (std::string err = validate_shading_for_estimator(s, s.render); !err.empty()) return err;
+  if (std::string err = validate_punctual_for_estimator(s, s.render); !err.empty()) return err;
+  if (std::string err = validate_punctual_lights(s); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
   if (s.materials.empty()) return "materials: the scene defines no material";
   for (const MaterialDesc& m : s.materials)
@@ -455,6 +487,38 @@ bool same_environment(const EnvironmentDesc& a, const EnvironmentDesc& b) {
 
 // The light list (emitting primitives, then the environment and the sun) and its power-proportional selection
 // distribution, from the compiled materials, geometry and environment.
+// SceneDesc::punctual_lights into Scene::punctual_lights: placed by their objects' transforms, camera-relative.
+void compile_punctual_lights(const SceneDesc& desc, Scene& s) {
+  s.punctual_lights.clear();
+  for (const PunctualLightDesc& d : desc.punctual_lights) {
+    DVec3 position = d.position, direction = d.direction;
+    if (d.object >= 0 && static_cast<size_t>(d.object) < desc.objects.size()) {
+      const ObjectTransform& t = desc.objects[static_cast<size_t>(d.object)].transform;
+      position = to_world(t, d.position);
+      direction = to_world(t, d.direction) - to_world(t, DVec3(0.0));
+    }
+    Light l;
+    l.emission = d.intensity;
+    l.position = Vec3(position - s.world_origin);
+    switch (d.kind) {
+      case PunctualKind::Point:
+        l.kind = LightKind::Point;
+        break;
+      case PunctualKind::Spot:
+        l.kind = LightKind::Spot;
+        l.direction = Vec3(glm::normalize(direction));
+        l.cos_inner = static_cast<float>(std::cos(d.inner_cone));
+        l.cos_outer = static_cast<float>(std::cos(d.outer_cone));
+        break;
+      case PunctualKind::Directional:
+        l.kind = LightKind::Directional;
+        l.direction = Vec3(-glm::normalize(direction));  // towards the light
+        break;
+    }
+    s.punctual_lights.push_back(l);
+  }
+}
+
 void compile_lights(Scene& s) {
   s.lights.clear();
   s.light_pmf.clear();
@@ -515,6 +579,18 @@ void compile_lights(Scene& s) {
     power.push_back(disk * 2.0 * glm::pi<double>() * l.one_minus_cos_max * (l.emission.x + l.emission.y + l.emission.z));
   }
   s.features.environment = !s.infinite_lights.empty();
+  // Punctual lights, by the area lights' convention (their Φ = π·A·Le is counted as A·Le, i.e. Φ/π): a point
+  // 4·I, a spot 2(1 − cos of its mean cone angle)·I; a directional light as the infinite ones, π R²·E.
+  for (const Light& l : s.punctual_lights) {
+    const double sum = double(l.emission.x) + l.emission.y + l.emission.z;
+    double p = 0.0;
+    if (l.kind == LightKind::Point) p = 4.0 * sum;
+    else if (l.kind == LightKind::Spot) p = 2.0 * (1.0 - 0.5 * (double(l.cos_inner) + l.cos_outer)) * sum;
+    else p = disk * sum;
+    if (!(p > 0.0)) continue;
+    s.lights.push_back(l);
+    power.push_back(p);
+  }
   double total = 0.0;
   for (double p : power) total += p;
   double running = 0.0;
@@ -578,6 +654,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     r2 = std::max(r2, r * r);
   }
   s.bounding_radius = std::sqrt(r2);
+  compile_punctual_lights(desc, s);
   compile_materials(desc, s);
   compile_environment(desc.environment, s);
   compile_lights(s);

@@ -32,6 +32,9 @@ enum class LightKind : uint8_t {
   Sphere,       // sampled in its cone (outside) or by area (inside)
   Environment,  // constant radiance or a lat-long map (Scene::environment)
   Sun,          // a distant disk: a cone of directions of constant radiance
+  Point,        // punctual (no size: reached by light sampling alone): intensity `emission` W/sr from `position`
+  Spot,         // a point whose intensity fades from cos_inner to cos_outer about `direction` (glTF's falloff)
+  Directional,  // parallel light of irradiance `emission` travelling against `direction`
 };
 struct Light {
   LightKind kind = LightKind::Polygon;
@@ -40,9 +43,12 @@ struct Light {
   Rgb emission{0.f};             // area light and sun radiance
   bool two_sided = false;
   Vec3 corner{0.f}, edge_x{0.f}, edge_y{0.f};  // Rectangle: corner and perpendicular edges (camera-relative)
-  Vec3 direction{0.f};           // Sun: unit direction towards it
+  Vec3 direction{0.f};           // Sun, Directional: unit direction towards it; Spot: the way it shines
   float one_minus_cos_max = 0.f; // Sun: angular radius as 1 − cos
+  Vec3 position{0.f};            // Point, Spot (camera-relative)
+  float cos_inner = 1.f, cos_outer = 0.f;  // Spot
   bool infinite() const { return kind == LightKind::Environment || kind == LightKind::Sun; }
+  bool delta() const { return kind == LightKind::Point || kind == LightKind::Spot || kind == LightKind::Directional; }
   bool polygon() const { return kind == LightKind::Polygon || kind == LightKind::Rectangle; }  // a triangle or quad
   bool sphere() const { return kind == LightKind::Sphere; }
 };
@@ -84,6 +90,7 @@ class Scene : public SceneGeometry {
   std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
   std::vector<float> light_pmf;
   std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
+  std::vector<Light> punctual_lights;     // compiled from SceneDesc::punctual_lights; compile_lights adds them
   double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
 
   uint32_t kernel_features() const {
@@ -184,6 +191,9 @@ std::string validate_film_size(int width, int height);
 // A thin-lens camera (aperture_radius > 0) with the bdpt estimator: its light-tracing strategies assume a
 // pinhole, so the pair is refused (auto picks mis for such a camera).
 std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSettings& render);
+// Punctual lights (glTF's point, spot and directional lights) with an estimator that does not sample lights
+// (uniform, cosine: no ray can hit a light of no size) or with bdpt (not supported yet): refused.
+std::string validate_punctual_for_estimator(const SceneDesc& scene, const RenderSettings& render);
 // Smooth shading (vertex normals) or textures with the bdpt estimator: its vertices use the geometric normal and
 // the materials' plain albedo, so the pair is refused (auto picks mis for such a scene) rather than rendered
 // otherwise than the path tracer renders it.

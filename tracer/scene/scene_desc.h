@@ -84,6 +84,17 @@ struct EnumTable<ObjectKind> {
       {ObjectKind::Gltf, "gltf", "glTF 2.0 model"},
   }};
 };
+// Lights of no size (glTF's KHR_lights_punctual): a point radiating equally in all directions, a spot (a point
+// whose cone fades from an inner to an outer angle), or a directional light (parallel rays from infinitely far).
+enum class PunctualKind { Point, Spot, Directional };
+template <>
+struct EnumTable<PunctualKind> {
+  static constexpr std::array<EnumEntry<PunctualKind>, 3> kEntries{{
+      {PunctualKind::Point, "point", "Point light"},
+      {PunctualKind::Spot, "spot", "Spot light"},
+      {PunctualKind::Directional, "directional", "Directional light"},
+  }};
+};
 template <>
 struct EnumTable<EnvironmentType> {
   static constexpr std::array<EnumEntry<EnvironmentType>, 3> kEntries{{
@@ -157,6 +168,20 @@ struct ObjectDesc {
   std::string resolved_file;  // mesh: `file` relative to the scene file's directory (not saved)
 };
 
+// A punctual light, in the coordinates of the model file it came from (the object's transform places it, as it
+// places the object's shapes; compile_scene applies it). Reached by light sampling alone: no ray can hit it.
+struct PunctualLightDesc {
+  std::string name;
+  PunctualKind kind = PunctualKind::Point;
+  DVec3 position{0.0};             // point, spot
+  DVec3 direction{0.0, 0.0, -1.0}; // spot, directional: the way the light travels
+  // Point and spot: radiant intensity (W/sr in scene units); directional: irradiance on a surface facing it
+  // (W/m²). glTF's candela and lux are read one to one (docs/scene-format.md).
+  Rgb intensity{1.f};
+  double inner_cone = 0.0, outer_cone = 0.7853981633974483;  // spot: angles from the axis, radians
+  int object = -1;  // the SceneDesc::objects entry that places it, −1 for the world
+};
+
 struct CameraDesc {
   DVec3 position{278, 273, -800};
   DVec3 look_at{278, 273, 0};
@@ -217,6 +242,7 @@ struct SceneDesc {
   std::vector<MaterialDesc> materials;
   std::vector<ShapeDesc> shapes;
   std::vector<ObjectDesc> objects;  // in the order of their shapes, never overlapping
+  std::vector<PunctualLightDesc> punctual_lights;  // from model files (glTF KHR_lights_punctual)
   // The model files' vertex normals and texture coordinates (ShapeDesc::shading indexes it); null when no shape
   // has any. Shared, never changed: copies of a scene (the viewer's edits) share it.
   std::shared_ptr<const std::vector<TriangleShading>> shading;

@@ -12,7 +12,7 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
   // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
   // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
-  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}, {}};
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}, {}, {}};
   head.render.seed = 0;
   const std::string json = scene_to_json(head);
   uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
@@ -36,6 +36,17 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
         }
       }
     }
+    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+  }
+  // The model files' punctual lights (not in the scene file: their files bring them).
+  for (const PunctualLightDesc& l : scene.punctual_lights) {
+    record.clear();
+    put_le_u32(record, static_cast<uint32_t>(l.kind));
+    put_le_u32(record, static_cast<uint32_t>(l.object));
+    for (int a = 0; a < 3; ++a) put_le_f64(record, l.position[a]), put_le_f64(record, l.direction[a]);
+    for (int a = 0; a < 3; ++a) put_le_u32(record, std::bit_cast<uint32_t>(l.intensity[a]));
+    put_le_f64(record, l.inner_cone);
+    put_le_f64(record, l.outer_cone);
     h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
   }
   return h;

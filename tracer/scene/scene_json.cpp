@@ -839,6 +839,10 @@ struct StreamedShapes {
       fail(member(path, "file"), e.what());
     }
     for (const std::string& w : model.warnings) warnings.push_back(o.resolved_file + ": " + w);
+    for (PunctualLightDesc& l : model.lights) {  // placed by this object's transform, as its shapes are
+      l.object = static_cast<int>(objects.size());
+      lights.push_back(std::move(l));
+    }
     const std::vector<std::string> names = file_material_names(o, model.materials, override_name, path);
     o.first_shape = shapes.size();
     for (size_t t = 0; t < model.triangles.size(); ++t) {
@@ -930,6 +934,7 @@ struct StreamedShapes {
   }
 
   std::vector<ObjectDesc> objects;  // in shape order
+  std::vector<PunctualLightDesc> lights;  // glTF models' punctual lights
   std::string base_dir;  // where relative mesh paths start (the scene file's directory)
   std::vector<MaterialDesc> imported;  // glTF models' materials, named "OBJECT/MATERIAL"
   std::vector<std::string> warnings;   // what the glTF files hold that is not read (printed by load_scene_file)
@@ -986,6 +991,7 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   streamed.resolve(material_index);
   s.shapes = std::move(streamed.shapes);
   s.objects = std::move(streamed.objects);
+  s.punctual_lights = std::move(streamed.lights);
   if (!streamed.shading.empty())
     s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(streamed.shading));
   return s;
