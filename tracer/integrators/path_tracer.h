@@ -134,9 +134,12 @@ template <MaterialSet kM>
       const float len = glm::length(along);
       along = len > 1e-6f ? along / len : Frame::from_normal(it.ng).s;
       const Vec3 across = glm::cross(it.ng, along);
-      const auto to_uv = [&](Vec3 w) { return Vec2(glm::dot(it.du_dp, w), glm::dot(it.dv_dp, w)); };
+      const glm::mat3& t = m.albedo_uv_transform;  // surface uv → texture uv (KHR_texture_transform)
+      const glm::mat2 linear(t);
+      const auto to_uv = [&](Vec3 w) { return linear * Vec2(glm::dot(it.du_dp, w), glm::dot(it.dv_dp, w)); };
       const Vec2 major = to_uv(along * (cone_width / cos)), minor = to_uv(across * cone_width);
-      return *new (&scratch.m) Material(with_albedo(m, m.albedo * texture_lookup(*m.albedo_texture, it.uv, major, minor)));
+      const Vec2 uv = Vec2(t * glm::vec3(it.uv, 1.f));
+      return *new (&scratch.m) Material(with_albedo(m, m.albedo * texture_lookup(*m.albedo_texture, uv, major, minor)));
     }
   }
   return m;

@@ -100,6 +100,7 @@ struct Material {
   Rgb eta{1.f}, k{0.f};      // conductor complex index (from the preset or the file)
   // The albedo's image (materials/texture.h), or null; owned by the scene (Scene::textures keeps it alive).
   const Texture* albedo_texture = nullptr;
+  glm::mat3 albedo_uv_transform{1.f};  // surface uv → texture uv (MaterialDesc::albedo_uv_transform)
 
   // Derived by prepare_material():
   float alpha = 0.f;     // GGX α = roughness² (roughness clamped to [0, 1]); α < kSmoothAlpha = 1e-3 is smooth

@@ -38,7 +38,8 @@ namespace tg = tinygltf;
 
 // The extensions this reader understands; others in extensionsRequired are refused.
 const std::set<std::string> kReadExtensions = {"KHR_materials_emissive_strength", "KHR_materials_ior",
-                                               "KHR_materials_transmission", "KHR_lights_punctual"};
+                                               "KHR_materials_transmission", "KHR_lights_punctual",
+                                               "KHR_texture_transform"};
 
 struct Reader {
   Reader(const std::string& file, const tg::Model& model) : path(file), m(model) {}
@@ -215,6 +216,8 @@ struct Reader {
       d.albedo = glm::clamp(base, Rgb(0.f), Rgb(1.f));
       if (pbr.baseColorTexture.texCoord != 0)
         warn("only TEXCOORD_0 is read: textures naming another set use TEXCOORD_0");
+      if (const tg::Value* tt = extension(pbr.baseColorTexture.extensions, "KHR_texture_transform"))
+        d.albedo_uv_transform = texture_transform(*tt, where + ".pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform");
     }
     if (pbr.metallicRoughnessTexture.index >= 0 || g.normalTexture.index >= 0 || g.emissiveTexture.index >= 0 ||
         g.occlusionTexture.index >= 0)
@@ -266,6 +269,32 @@ struct Reader {
     auto tex = make_texture(linear, wrap_u, wrap_v, name);
     textures[{index, srgb}] = tex;
     return tex;
+  }
+
+  // KHR_texture_transform: uv' = T·R·S·(u, v, 1) (offset, rotation in radians, scale); texCoord overrides are
+  // warned about (TEXCOORD_0 only). The rotation turns (u, v) by u' = u cos r + v sin r, v' = −u sin r + v cos r:
+  // the direction Khronos' TextureTransformTest sample model checks (its green marker; three.js and Blender's
+  // importer turn this way), the transpose of the matrix the extension's README prints in its GLSL sketch,
+  // which that model marks red.
+  glm::mat3 texture_transform(const tg::Value& ext, const std::string& where) {
+    const auto pair = [&](const char* key, double fallback) {
+      glm::dvec2 v(fallback);
+      if (ext.Has(key)) {
+        const tg::Value& a = ext.Get(key);
+        if (!a.IsArray() || a.ArrayLen() != 2 || !a.Get(0).IsNumber() || !a.Get(1).IsNumber())
+          fail(where + "." + key, "must be two numbers");
+        v = glm::dvec2(a.Get(0).GetNumberAsDouble(), a.Get(1).GetNumberAsDouble());
+      }
+      return v;
+    };
+    const glm::dvec2 offset = pair("offset", 0.0), scale = pair("scale", 1.0);
+    const double r = number(ext, "rotation", 0.0);
+    if (!std::isfinite(offset.x + offset.y + scale.x + scale.y + r)) fail(where, "a value is not finite");
+    if (ext.Has("texCoord")) warn("KHR_texture_transform's texCoord is passed over: TEXCOORD_0 is used");
+    const glm::dmat3 t(1, 0, 0, 0, 1, 0, offset.x, offset.y, 1);  // column-major, as the specification's GLSL
+    const glm::dmat3 rot(std::cos(r), -std::sin(r), 0, std::sin(r), std::cos(r), 0, 0, 0, 1);  // columns
+    const glm::dmat3 s(scale.x, 0, 0, 0, scale.y, 0, 0, 0, 1);
+    return glm::mat3(t * rot * s);
   }
 
   static glm::dmat4 local_transform(const tg::Node& n) {

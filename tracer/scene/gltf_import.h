@@ -14,7 +14,8 @@
 //   a primitive without a material gets the specification's default (white, metallic 1, roughness 1).
 // - base colour textures (baseColorTexture × baseColorFactor, on TEXCOORD_0, sRGB-decoded, the sampler's wrap
 //   modes, trilinear filtering by ray cones: materials/texture.h), images embedded, in data URIs or in files
-//   beside the model, decoded by stb_image; one texture shared by every material naming it.
+//   beside the model, decoded by stb_image; one texture shared by every material naming it; its
+//   KHR_texture_transform (offset, rotation, scale);
 // - KHR_lights_punctual: point, spot and directional lights at their nodes (position, −z axis), colour ×
 //   intensity read one to one as W/sr (point, spot) and W/m² (directional), never divided by 683; the spot's
 //   cone angles; `range` is passed over (the inverse-square law holds everywhere), said once as a warning.

@@ -408,6 +408,7 @@ Material compile_material(const MaterialDesc& d) {
   m.eta = d.eta;
   m.k = d.k;
   m.albedo_texture = d.albedo_map.get();  // kept alive by Scene::textures
+  m.albedo_uv_transform = d.albedo_uv_transform;
   prepare_material(m);
   return m;
 }
@@ -476,7 +477,7 @@ bool same_material(const MaterialDesc& a, const MaterialDesc& b) {
   return a.type == b.type && a.albedo == b.albedo && a.emission == b.emission && a.two_sided == b.two_sided &&
          a.ior == b.ior && a.roughness == b.roughness && a.g == b.g && a.metal == b.metal &&
          a.complex_ior == b.complex_ior && a.eta == b.eta && a.k == b.k && a.albedo_texture == b.albedo_texture &&
-         a.albedo_map == b.albedo_map;
+         a.albedo_map == b.albedo_map && a.albedo_uv_transform == b.albedo_uv_transform;
 }
 
 bool same_environment(const EnvironmentDesc& a, const EnvironmentDesc& b) {

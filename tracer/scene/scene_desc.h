@@ -129,6 +129,10 @@ struct MaterialDesc {
   std::string albedo_texture;
   std::string resolved_albedo_texture;
   std::shared_ptr<const Texture> albedo_map;
+  // Maps the surface's texture coordinates to the texture's, (u, v, 1) ↦ M·(u, v, 1): glTF's
+  // KHR_texture_transform (offset · rotation · scale); the identity elsewhere. Not written to scene files: it
+  // comes with the model file's texture.
+  glm::mat3 albedo_uv_transform{1.f};
 };
 
 // Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the

@@ -982,6 +982,7 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
                !over.albedo_map && m.albedo_map && m.albedo_texture.empty() && takes(over.type, MaterialParam::Albedo) &&
                over.type != MaterialType::Subsurface) {
       over.albedo_map = m.albedo_map;
+      over.albedo_uv_transform = m.albedo_uv_transform;
     }
   }
 
