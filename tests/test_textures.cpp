@@ -15,6 +15,7 @@
 #include "film/film.h"
 #include "integrators/feature_pass.h"
 #include "io/image_io.h"
+#include "io/texture_io.h"
 #include "materials/texture.h"
 #include "render/renderer.h"
 #include "scene/camera.h"

@@ -1,6 +1,6 @@
 #include "viewer/viewer_model.h"
 
-#include "materials/texture.h"
+#include "io/texture_io.h"
 
 #include <cctype>
 #include <cmath>

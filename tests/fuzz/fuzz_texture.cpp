@@ -13,6 +13,7 @@
 
 #include "fuzz_input.h"
 #include "io/image_io.h"
+#include "io/texture_io.h"
 #include "materials/texture.h"
 
 const char* const pt::fuzz::kTarget = "fuzz_texture";

@@ -1,14 +1,8 @@
 #include "materials/texture.h"
 
-#include <stb_image.h>
-
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <limits>
 
-#include "io/image_io.h"
-#include "io/safe_file.h"
 
 namespace pt {
 
@@ -68,73 +62,24 @@ float srgb_to_linear(float v) {
   return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
 }
 
-std::shared_ptr<const Texture> make_texture(const Image& linear, TextureWrap wrap_u, TextureWrap wrap_v,
-                                            std::string source) {
+std::shared_ptr<const Texture> make_texture(int width, int height, const std::vector<float>& rgb, TextureWrap wrap_u,
+                                            TextureWrap wrap_v, std::string source) {
   auto t = std::make_shared<Texture>();
   t->wrap_u = wrap_u;
   t->wrap_v = wrap_v;
   t->source = std::move(source);
   TextureLevel base;
-  base.width = std::max(1, linear.width);
-  base.height = std::max(1, linear.height);
+  base.width = std::max(1, width);
+  base.height = std::max(1, height);
   base.texels.assign(static_cast<size_t>(base.width) * base.height, Rgb(0.f));
-  for (int y = 0; y < linear.height; ++y)
-    for (int x = 0; x < linear.width; ++x) base.texels[static_cast<size_t>(y) * base.width + x] = linear.at(x, y);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const size_t i = static_cast<size_t>(y) * width + x;
+      if (3 * i + 2 < rgb.size()) base.texels[static_cast<size_t>(y) * base.width + x] = Rgb(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+    }
   t->levels.push_back(std::move(base));
   while (t->levels.back().width > 1 || t->levels.back().height > 1) t->levels.push_back(half_level(t->levels.back()));
   return t;
-}
-
-Image decode_image(const std::string& bytes, bool srgb, const std::string& what) {
-  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) throw ImageError(what + ": the image is too large");
-  const int len = static_cast<int>(bytes.size());
-  int w = 0, h = 0, n = 0;
-  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
-    const char* why = stbi_failure_reason();
-    throw ImageError(what + ": not a decodable image (" + (why ? why : "unknown format") + ")");
-  }
-  if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels)
-    throw ImageError(what + ": " + std::to_string(w) + " × " + std::to_string(h) + " texels (at most " +
-                     std::to_string(kMaxTextureTexels) + ")");
-  Image img;
-  img.width = w;
-  img.height = h;
-  img.rgb.resize(3 * static_cast<size_t>(w) * h);
-  const bool sixteen = stbi_is_16_bit_from_memory(data, len);
-  const auto convert = [&](float v) { return srgb ? srgb_to_linear(v) : v; };
-  if (sixteen) {
-    stbi_us* px = stbi_load_16_from_memory(data, len, &w, &h, &n, 3);
-    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
-    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = convert(px[i] / 65535.f);
-    stbi_image_free(px);
-  } else {
-    stbi_uc* px = stbi_load_from_memory(data, len, &w, &h, &n, 3);
-    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
-    float table[256];
-    for (int i = 0; i < 256; ++i) table[i] = convert(i / 255.f);
-    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[px[i]];
-    stbi_image_free(px);
-  }
-  return img;
-}
-
-std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const std::string name = std::filesystem::path(path).filename().string();
-  if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") {
-    HdrImageResult r = read_hdr_image(path);
-    if (!r.ok()) throw ImageError(r.error);
-    return make_texture(r.image, TextureWrap::Repeat, TextureWrap::Repeat, name);
-  }
-  std::string bytes;
-  try {
-    bytes = read_file_limited(path, kMaxTextureFileBytes);
-  } catch (const FileError& e) {
-    throw ImageError(e.what());
-  }
-  return make_texture(decode_image(bytes, srgb, path), TextureWrap::Repeat, TextureWrap::Repeat, name);
 }
 
 Rgb texture_lookup(const Texture& t, Vec2 uv, float texels) {

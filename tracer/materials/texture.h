@@ -1,4 +1,4 @@
-// Image textures: a linear RGB mip-map pyramid with a wrap mode per axis, looked up bilinearly within a level and
+// Image textures: a linear RGB mip-map pyramid (reading image files into one: io/texture_io.h) with a wrap mode per axis, looked up bilinearly within a level and
 // linearly between the two levels around the ray cone's footprint (trilinear filtering; after pbrt-v4's
 // util/mipmap.h, with the level chosen by Akenine-Möller et al. 2021, "Improved Shader and Texture Level of
 // Detail Using Ray Cones", JCGT 10(1): the cone's width where it meets the surface, over the cosine of the
@@ -19,8 +19,6 @@
 #include "core/math.h"
 
 namespace pt {
-
-struct Image;
 
 // What happens outside [0, 1]: the image repeats, its edge texels extend, or it repeats mirrored (glTF's
 // REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT).
@@ -48,25 +46,15 @@ struct Texture {
   int height() const { return levels[0].height; }
 };
 
-// Texels a texture may hold (level 0): larger images are refused before decoding; and the largest file read.
+// Texels a texture may hold (level 0): larger images are refused before decoding (io/texture_io.h).
 inline constexpr long long kMaxTextureTexels = 1ll << 26;
-inline constexpr size_t kMaxTextureFileBytes = size_t{1} << 30;
 
-// The pyramid of a linear image (at least 1 × 1).
-std::shared_ptr<const Texture> make_texture(const Image& linear, TextureWrap wrap_u, TextureWrap wrap_v,
-                                            std::string source);
+// The pyramid of a linear RGB image of width × height texels (rgb: 3 floats per texel, rows top first).
+std::shared_ptr<const Texture> make_texture(int width, int height, const std::vector<float>& rgb, TextureWrap wrap_u,
+                                            TextureWrap wrap_v, std::string source);
 
 // The sRGB transfer function's inverse: a stored value in [0, 1] to linear (IEC 61966-2-1).
 float srgb_to_linear(float v);
-
-// Decodes an image file's bytes (PNG, JPEG, BMP, TGA, … through stb_image) to linear RGB: 8- and 16-bit images
-// are colour (sRGB-decoded) when `srgb`, else taken as linear data; alpha is dropped. Throws ImageError naming
-// `what` and the reason (undecodable, empty, more than kMaxTextureTexels texels).
-Image decode_image(const std::string& bytes, bool srgb, const std::string& what);
-
-// An image file as a texture: .exr, .hdr and .pfm through read_hdr_image (linear), anything else through
-// decode_image (read under the scene's file rules). Throws ImageError naming the file.
-std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb);
 
 // The filtered texture at (u, v) for a footprint `texels` texels of level 0 wide: trilinear between the levels
 // around log2(texels) (level 0 bilinear for a footprint of a texel or less; the last level beyond).

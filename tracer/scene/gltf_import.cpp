@@ -16,7 +16,7 @@
 
 #include "io/image_io.h"
 #include "io/safe_file.h"
-#include "materials/texture.h"
+#include "io/texture_io.h"
 #include "scene/mesh_obj.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"

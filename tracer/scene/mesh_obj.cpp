@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "io/image_io.h"
+#include "io/texture_io.h"
 #include "io/safe_file.h"
 #include "materials/texture.h"
 #include "scene/mtl_material.h"

@@ -26,6 +26,7 @@
 #include "scene/studio.h"
 #include "scene/scene.h"
 #include "io/image_io.h"
+#include "io/texture_io.h"
 #include "io/safe_file.h"
 
 namespace pt {

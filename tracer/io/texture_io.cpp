@@ -1,0 +1,65 @@
+#include "io/texture_io.h"
+
+#include <stb_image.h>
+
+#include <cctype>
+#include <filesystem>
+#include <limits>
+
+#include "io/safe_file.h"
+
+namespace pt {
+
+Image decode_image(const std::string& bytes, bool srgb, const std::string& what) {
+  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) throw ImageError(what + ": the image is too large");
+  const int len = static_cast<int>(bytes.size());
+  int w = 0, h = 0, n = 0;
+  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
+    const char* why = stbi_failure_reason();
+    throw ImageError(what + ": not a decodable image (" + (why ? why : "unknown format") + ")");
+  }
+  if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels)
+    throw ImageError(what + ": " + std::to_string(w) + " × " + std::to_string(h) + " texels (at most " +
+                     std::to_string(kMaxTextureTexels) + ")");
+  Image img;
+  img.width = w;
+  img.height = h;
+  img.rgb.resize(3 * static_cast<size_t>(w) * h);
+  const bool sixteen = stbi_is_16_bit_from_memory(data, len);
+  const auto convert = [&](float v) { return srgb ? srgb_to_linear(v) : v; };
+  if (sixteen) {
+    stbi_us* px = stbi_load_16_from_memory(data, len, &w, &h, &n, 3);
+    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
+    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = convert(px[i] / 65535.f);
+    stbi_image_free(px);
+  } else {
+    stbi_uc* px = stbi_load_from_memory(data, len, &w, &h, &n, 3);
+    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
+    float table[256];
+    for (int i = 0; i < 256; ++i) table[i] = convert(i / 255.f);
+    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[px[i]];
+    stbi_image_free(px);
+  }
+  return img;
+}
+
+std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string name = std::filesystem::path(path).filename().string();
+  if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") {
+    HdrImageResult r = read_hdr_image(path);
+    if (!r.ok()) throw ImageError(r.error);
+    return make_texture(r.image, TextureWrap::Repeat, TextureWrap::Repeat, name);
+  }
+  std::string bytes;
+  try {
+    bytes = read_file_limited(path, kMaxTextureFileBytes);
+  } catch (const FileError& e) {
+    throw ImageError(e.what());
+  }
+  return make_texture(decode_image(bytes, srgb, path), TextureWrap::Repeat, TextureWrap::Repeat, name);
+}
+
+}  // namespace pt

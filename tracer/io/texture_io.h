@@ -1,0 +1,32 @@
+// Image files as textures (materials/texture.h): decoding PNG, JPEG, BMP, TGA, … through stb_image, sRGB to
+// linear for colour, and reading a texture file under the scene's file rules.
+#pragma once
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "io/image_io.h"
+#include "materials/texture.h"
+
+namespace pt {
+
+// The pyramid of a linear image (materials/texture.h).
+inline std::shared_ptr<const Texture> make_texture(const Image& linear, TextureWrap wrap_u, TextureWrap wrap_v,
+                                                   std::string source) {
+  return make_texture(linear.width, linear.height, linear.rgb, wrap_u, wrap_v, std::move(source));
+}
+
+// The largest texture file read.
+inline constexpr size_t kMaxTextureFileBytes = size_t{1} << 30;
+
+// Decodes an image file's bytes (PNG, JPEG, BMP, TGA, … through stb_image) to linear RGB: 8- and 16-bit images
+// are colour (sRGB-decoded) when `srgb`, else taken as linear data; alpha is dropped. Throws ImageError naming
+// `what` and the reason (undecodable, empty, more than kMaxTextureTexels texels).
+Image decode_image(const std::string& bytes, bool srgb, const std::string& what);
+
+// An image file as a texture: .exr, .hdr and .pfm through read_hdr_image (linear), anything else through
+// decode_image (read under the scene's file rules). Throws ImageError naming the file.
+std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb);
+
+}  // namespace pt
