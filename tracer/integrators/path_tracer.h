@@ -103,7 +103,8 @@ struct PathOptions {
   // max(1/8, 1/√spp), the cone of sample k spans max(1/8, 1/√(k+1)) of a pixel: the first samples of a
   // progressive render are smooth, later ones sharp, and the converged image filters over an eighth of a pixel.
   // Measured on a receding checkerboard against its supersampled image (tests/test_textures.cpp): a whole-pixel
-  // cone errs by 0.088 rms at 64 spp, this one by 0.036; at 4 spp far from the camera, unfiltered lookups err by 0.135, these by 0.085.
+  // cone errs by 0.088 rms at 64 spp, this one by 0.036; at 4 spp far from the camera, unfiltered lookups err
+  // by 0.135, these by 0.085.
   float cone_spread_for(uint32_t index) const {
     return pixel_angle * std::max(0.125f, 1.f / std::sqrt(static_cast<float>(index) + 1.f));
   }
