@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,22 @@ TEST_CASE("textures: 8-bit colour images decode from sRGB with the exact transfe
     FAIL("garbage decoded");
   } catch (const ImageError& e) {
     CHECK(std::string(e.what()).rfind("bad.png: ", 0) == 0);
+  }
+}
+
+TEST_CASE("textures: a 16-bit PGM that stb decodes at 8 bits is read within its buffer") {
+  // Found by fuzz_texture: a 1 × 1 PGM with maxval 62155 and its data cut short, which stb_image calls 16-bit
+  // and whose 16-bit load came back as 3 bytes; reading it as 16-bit texels ran past them (AddressSanitizer's
+  // heap-buffer-overflow, caught by the sanitizer stage). Decoded at 8 bits it is one texel in [0, 1].
+  std::ifstream in(std::string(PT_TEST_DATA_DIR) + "/pgm_16bit_truncated.pgm", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() == 14);
+  try {
+    const Image img = decode_image(bytes, true, "short.pgm");
+    REQUIRE(img.rgb.size() == 3u * img.width * img.height);
+    for (float v : img.rgb) CHECK((v >= 0.f && v <= 1.f));
+  } catch (const ImageError& e) {
+    CHECK(std::string(e.what()).rfind("short.pgm: ", 0) == 0);
   }
 }
 

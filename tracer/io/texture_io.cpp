@@ -26,21 +26,21 @@ Image decode_image(const std::string& bytes, bool srgb, const std::string& what)
   img.width = w;
   img.height = h;
   img.rgb.resize(3 * static_cast<size_t>(w) * h);
-  const bool sixteen = stbi_is_16_bit_from_memory(data, len);
-  const auto convert = [&](float v) { return srgb ? srgb_to_linear(v) : v; };
-  if (sixteen) {
-    stbi_us* px = stbi_load_16_from_memory(data, len, &w, &h, &n, 3);
-    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
-    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = convert(px[i] / 65535.f);
+  // 8 bits per channel whatever the file holds (stb rounds 16-bit images): its 16-bit loader was found by
+  // fuzzing to return an 8-bit buffer for some inputs it calls 16-bit (fuzz_texture), and colour textures gain
+  // nothing visible from the extra bits. The decoded size must be the one announced.
+  int dw = 0, dh = 0, dn = 0;
+  stbi_uc* px = stbi_load_from_memory(data, len, &dw, &dh, &dn, 3);
+  if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
+  if (dw != w || dh != h) {
     stbi_image_free(px);
-  } else {
-    stbi_uc* px = stbi_load_from_memory(data, len, &w, &h, &n, 3);
-    if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
-    float table[256];
-    for (int i = 0; i < 256; ++i) table[i] = convert(i / 255.f);
-    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[px[i]];
-    stbi_image_free(px);
+    throw ImageError(what + ": decoded as " + std::to_string(dw) + " x " + std::to_string(dh) + ", announced as " +
+                     std::to_string(w) + " x " + std::to_string(h));
   }
+  float table[256];
+  for (int i = 0; i < 256; ++i) table[i] = srgb ? srgb_to_linear(i / 255.f) : i / 255.f;
+  for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[px[i]];
+  stbi_image_free(px);
   return img;
 }
 

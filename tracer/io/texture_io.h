@@ -20,8 +20,8 @@ inline std::shared_ptr<const Texture> make_texture(const Image& linear, TextureW
 // The largest texture file read.
 inline constexpr size_t kMaxTextureFileBytes = size_t{1} << 30;
 
-// Decodes an image file's bytes (PNG, JPEG, BMP, TGA, … through stb_image) to linear RGB: 8- and 16-bit images
-// are colour (sRGB-decoded) when `srgb`, else taken as linear data; alpha is dropped. Throws ImageError naming
+// Decodes an image file's bytes (PNG, JPEG, BMP, TGA, … through stb_image, at 8 bits per channel: 16-bit files
+// are rounded) to linear RGB: colour (sRGB-decoded) when `srgb`, else taken as linear data; alpha is dropped. Throws ImageError naming
 // `what` and the reason (undecodable, empty, more than kMaxTextureTexels texels).
 Image decode_image(const std::string& bytes, bool srgb, const std::string& what);
 

@@ -7,8 +7,8 @@
 // Conventions (docs/scene-format.md, "Textures"): texture coordinates (u, v) have their origin at the image's
 // top-left corner and v growing downwards, glTF's convention (OBJ's vt, whose v grows upwards, is flipped when
 // read); texel (i, j) covers [i, i+1) × [j, j+1) in pixel units, its centre at (i + ½, j + ½). Colour images
-// (8 or 16 bits per channel) are decoded from sRGB to linear with the exact sRGB transfer function (IEC
-// 61966-2-1); float images (EXR, HDR, PFM) are linear already.
+// (8 bits per channel; 16-bit files are rounded) are decoded from sRGB to linear with the exact sRGB transfer
+// function (IEC 61966-2-1); float images (EXR, HDR, PFM) are linear already.
 #pragma once
 #include <array>
 #include <memory>
