@@ -23,11 +23,11 @@
 #include "scene/studio.h"
 
 // The parser's implementation lives in this translation unit alone. Images (embedded, data URIs or files beside
-// the model, all read through read_file_limited: the scene's safety rules) are decoded by decode_rgba8 below.
+// the model, all read through read_file_limited: the scene's safety rules) are kept encoded by keep_encoded
+// below and decoded where a material uses them.
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#include <stb_image.h>
 #include <tiny_gltf.h>
 
 namespace pt {
@@ -241,9 +241,7 @@ struct Reader {
       fail(tat + ".source", "image " + std::to_string(t.source) + " does not exist");
     const tg::Image& img = m.images[t.source];
     const std::string iat = "images[" + std::to_string(t.source) + "]";
-    if (img.image.empty() || img.component != 4 || img.width <= 0 || img.height <= 0 ||
-        img.image.size() != static_cast<size_t>(img.width) * img.height * 4)
-      fail(iat, (img.uri.empty() ? std::string("its data") : "'" + img.uri + "'") + " could not be read");
+    if (img.image.empty()) fail(iat, (img.uri.empty() ? std::string("its data") : "'" + img.uri + "'") + " could not be read");
     TextureWrap wrap_u = TextureWrap::Repeat, wrap_v = TextureWrap::Repeat;
     if (t.sampler >= 0) {
       if (static_cast<size_t>(t.sampler) >= m.samplers.size())
@@ -257,13 +255,11 @@ struct Reader {
       wrap_v = mode(m.samplers[t.sampler].wrapT);
     }
     Image linear;
-    linear.width = img.width;
-    linear.height = img.height;
-    linear.rgb.resize(3 * static_cast<size_t>(img.width) * img.height);
-    float table[256];
-    for (int i = 0; i < 256; ++i) table[i] = srgb ? srgb_to_linear(i / 255.f) : i / 255.f;
-    for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p)
-      for (int c = 0; c < 3; ++c) linear.rgb[3 * p + c] = table[img.image[4 * p + c]];
+    try {
+      linear = decode_image(std::string(img.image.begin(), img.image.end()), srgb, iat);
+    } catch (const ImageError& e) {
+      throw SceneError(path + ": " + e.what());
+    }
     const std::string name = std::filesystem::path(path).filename().string() + " " + iat +
                              (img.uri.empty() || img.uri.rfind("data:", 0) == 0 ? "" : " (" + img.uri + ")");
     auto tex = make_texture(linear, wrap_u, wrap_v, name);
@@ -545,35 +541,13 @@ bool write_nothing(std::string* err, const std::string&, const std::vector<unsig
   if (err) *err += "writing is not allowed";
   return false;
 }
-// tinygltf's image callback: the bytes of images[index] decoded by stb_image to 8-bit RGBA (16-bit images are
-// rounded to 8 bits); the reader turns them into textures where a material uses them.
-bool decode_rgba8(tg::Image* image, const int index, std::string* err, std::string*, int, int, const unsigned char* bytes,
+// tinygltf's image callback: keeps images[index]'s encoded bytes as they are (component 0 marks them so); the
+// reader decodes an image where a material uses it (io/texture_io.h: decode_image), as colour or as data.
+bool keep_encoded(tg::Image* image, const int, std::string*, std::string*, int, int, const unsigned char* bytes,
                   int size, void*) {
-  int w = 0, h = 0, n = 0;
-  const std::string where = "images[" + std::to_string(index) + "]";
-  if (!stbi_info_from_memory(bytes, size, &w, &h, &n)) {
-    const char* why = stbi_failure_reason();
-    if (err) *err += where + ": not a decodable image (" + (why ? why : "unknown format") + ")";
-    return false;
-  }
-  if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels) {
-    if (err) *err += where + ": " + std::to_string(w) + " x " + std::to_string(h) + " texels (at most " +
-                     std::to_string(kMaxTextureTexels) + ")";
-    return false;
-  }
-  stbi_uc* px = stbi_load_from_memory(bytes, size, &w, &h, &n, 4);
-  if (!px) {
-    const char* why = stbi_failure_reason();
-    if (err) *err += where + ": cannot decode (" + (why ? why : "?") + ")";
-    return false;
-  }
-  image->width = w;
-  image->height = h;
-  image->component = 4;
-  image->bits = 8;
-  image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
-  image->image.assign(px, px + static_cast<size_t>(w) * h * 4);
-  stbi_image_free(px);
+  image->width = image->height = 0;
+  image->component = 0;
+  image->image.assign(bytes, bytes + size);
   return true;
 }
 
@@ -594,7 +568,7 @@ GltfContents load_gltf(const std::string& path) {
   }
   tg::TinyGLTF parser;
   parser.SetFsCallbacks({&file_exists, &expand_path, &read_whole_file, &write_nothing, nullptr});
-  parser.SetImageLoader(&decode_rgba8, nullptr);
+  parser.SetImageLoader(&keep_encoded, nullptr);
   tg::Model model;
   std::string err, warn;
   const std::string base_dir = std::filesystem::path(path).parent_path().string();

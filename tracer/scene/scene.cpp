@@ -360,10 +360,6 @@ class ShadingCompiler {
         active_ = active_ || t.any();
         smooth_ = smooth_ || t.has_normals();
       }
-    if (!active_) return;
-    object_of_.assign(desc.shapes.size(), -1);
-    for (size_t i = 0; i < desc.objects.size(); ++i)
-      for (size_t k = 0; k < desc.objects[i].shape_count; ++k) object_of_[desc.objects[i].first_shape + k] = static_cast<int>(i);
   }
   bool active() const { return active_; }  // some shape has normals or uv: SceneGeometry::shading is filled
   bool smooth() const { return smooth_; }  // some shape has normals
@@ -379,8 +375,8 @@ class ShadingCompiler {
     const TriangleShading& t = (*desc.shading)[sh.shading];
     std::array<Vec3, 3> n = t.normal;
     std::array<Vec2, 3> uv = t.uv;
-    if (const int obj = object_of_[shape]; obj >= 0) {
-      const ObjectTransform& tr = desc.objects[static_cast<size_t>(obj)].transform;
+    if (const std::optional<size_t> obj = object_containing(desc, shape)) {
+      const ObjectTransform& tr = desc.objects[*obj].transform;
       if (t.has_normals())
         for (Vec3& v : n) v = Vec3(glm::normalize(normal_to_world(tr, DVec3(v))));
       if (mirrors(tr)) std::swap(n[1], n[2]), std::swap(uv[1], uv[2]);
@@ -391,7 +387,6 @@ class ShadingCompiler {
 
  private:
   bool active_ = false, smooth_ = false;
-  std::vector<int> object_of_;  // per shape, its object's index or −1
 };
 
 Material compile_material(const MaterialDesc& d) {
@@ -459,11 +454,14 @@ void note_material_features(Scene& s) {
                                     [](const Material& m) { return m.albedo_texture != nullptr; });
 }
 
-// Keeps the textures of `desc`'s materials alive as long as the scene (its materials point to them).
+// Keeps a material's texture alive as long as the scene (its compiled material points to it; a texture replaced
+// by an edit stays too, since a render may still read it).
+void keep_texture(const MaterialDesc& m, Scene& s) {
+  if (m.albedo_map && std::find(s.textures.begin(), s.textures.end(), m.albedo_map) == s.textures.end())
+    s.textures.push_back(m.albedo_map);
+}
 void keep_textures(const SceneDesc& desc, Scene& s) {
-  for (const MaterialDesc& m : desc.materials)
-    if (m.albedo_map && std::find(s.textures.begin(), s.textures.end(), m.albedo_map) == s.textures.end())
-      s.textures.push_back(m.albedo_map);
+  for (const MaterialDesc& m : desc.materials) keep_texture(m, s);
 }
 
 void compile_materials(const SceneDesc& desc, Scene& s) {
@@ -769,8 +767,7 @@ bool apply_edit(Scene& s, const SceneEdit& edit) {
   if (std::holds_alternative<FilmSize>(edit)) return false;  // needs the camera: set_scene_resolution
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
     s.materials.at(m->index) = compile_material(m->material);
-    if (m->material.albedo_map && std::find(s.textures.begin(), s.textures.end(), m->material.albedo_map) == s.textures.end())
-      s.textures.push_back(m->material.albedo_map);  // kept for the scene's life: a render may still read the old one
+    keep_texture(m->material, s);
     note_material_features(s);
   } else {
     compile_environment(std::get<EnvironmentDesc>(edit), s);
