@@ -45,6 +45,18 @@ TEST_CASE("auto estimator: bdpt where glass, a mirror or polished metal can focu
   CHECK(choose_estimator(floor_and_ball(MaterialType::Dielectric, 0.f)).estimator == Estimator::Bdpt);
   CHECK(choose_estimator(floor_and_ball(MaterialType::Conductor, kFocusingRoughness - 0.01f)).estimator == Estimator::Bdpt);
   CHECK(choose_estimator(floor_and_ball(MaterialType::Conductor, kFocusingRoughness)).estimator == Estimator::Mis);
+  // glTF's metallic-roughness: a polished mostly-metal ball focuses; a glossy dielectric one (4 %) does not, and
+  // its diffuse base receives.
+  SceneDesc gltf_metal = floor_and_ball(MaterialType::MetallicRoughness, 0.1f);
+  gltf_metal.materials[1].metallic = 0.9f;
+  CHECK(choose_estimator(gltf_metal).estimator == Estimator::Bdpt);
+  gltf_metal.materials[1].metallic = 0.2f;
+  CHECK(choose_estimator(gltf_metal).estimator == Estimator::Mis);
+  SceneDesc gltf_floor = floor_and_ball(MaterialType::Mirror, 0.f);
+  gltf_floor.materials[0].type = MaterialType::MetallicRoughness;  // metallic 0: its base receives the caustic
+  CHECK(choose_estimator(gltf_floor).estimator == Estimator::Bdpt);
+  gltf_floor.materials[0].metallic = 1.f;  // a metal floor has no diffuse part
+  CHECK(choose_estimator(gltf_floor).estimator == Estimator::Mis);
   const EstimatorChoice glass = choose_estimator(floor_and_ball(MaterialType::Dielectric, 0.1f));
   CHECK(glass.estimator == Estimator::Bdpt);
   CHECK(glass.reason.find("'ball'") != std::string::npos);  // it names the material

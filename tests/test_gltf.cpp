@@ -167,13 +167,14 @@ TEST_CASE("gltf: the first perspective camera gives position, view direction, fi
   check_vertex(framed.camera.look_at, DVec3(0.5, 0.5, 0));
 }
 
-TEST_CASE("gltf: materials map to the nearest project material and emitters decide the background") {
+TEST_CASE("gltf: materials map to the metallic-roughness BRDF or glass and emitters decide the background") {
   TempDir dir;
   const std::string materials =
       R"({"name": "gold", "pbrMetallicRoughness": {"baseColorFactor": [1, 0.8, 0.3, 1], "metallicFactor": 1, "roughnessFactor": 0.25}},
          {"name": "water", "pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 0},
           "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1}, "KHR_materials_ior": {"ior": 1.33}}},
-         {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1], "metallicFactor": 0, "roughnessFactor": 0.5}},
+         {"name": "paint", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1], "metallicFactor": 0.3, "roughnessFactor": 0.5},
+          "extensions": {"KHR_materials_ior": {"ior": 1.7}}},
          {"name": "lamp", "emissiveFactor": [1, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}},
           "pbrMetallicRoughness": {"metallicFactor": 0}})";
   for (int which = 0; which < 4; ++which) {
@@ -184,16 +185,20 @@ TEST_CASE("gltf: materials map to the nearest project material and emitters deci
     const MaterialDesc& d = g.materials[g.triangle_material[0]];
     INFO("material " << which << " " << d.name);
     if (which == 0) {
-      CHECK(d.type == MaterialType::Conductor);
+      CHECK(d.type == MaterialType::MetallicRoughness);
       CHECK(d.albedo == Rgb(1.f, 0.8f, 0.3f));
+      CHECK(d.metallic == 1.f);
       CHECK(d.roughness == 0.25f);
+      CHECK(d.ior == 1.5f);  // the specification's dielectric F0 = 0.04
     } else if (which == 1) {
       CHECK(d.type == MaterialType::Dielectric);
       CHECK(d.ior == 1.33f);
       CHECK(d.roughness == 0.f);
     } else if (which == 2) {
-      CHECK(d.type == MaterialType::Plastic);
-      CHECK(d.ior == 1.5f);
+      CHECK(d.type == MaterialType::MetallicRoughness);
+      CHECK(d.metallic == 0.3f);  // kept as it is, not rounded
+      CHECK(d.roughness == 0.5f);
+      CHECK(d.ior == 1.7f);
       CHECK(d.albedo == Rgb(0.2f, 0.4f, 0.6f));
     } else {
       CHECK(d.emission == Rgb(4.f, 2.f, 1.f));
@@ -203,7 +208,9 @@ TEST_CASE("gltf: materials map to the nearest project material and emitters deci
   // A primitive without a material: the specification's default (white, metallic 1, roughness 1).
   const GltfContents none = load_gltf(dir.write("none.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
   REQUIRE(none.materials.size() == 1);
-  CHECK(none.materials[0].type == MaterialType::Conductor);
+  CHECK(none.materials[0].type == MaterialType::MetallicRoughness);
+  CHECK(none.materials[0].metallic == 1.f);
+  CHECK(none.materials[0].albedo == Rgb(1.f));
   CHECK(none.materials[0].roughness == 1.f);
   CHECK_FALSE(none.emits);
   CHECK(gltf_scene(dir.path.string() + "/none.gltf").environment.type == EnvironmentType::Sky);  // daylight

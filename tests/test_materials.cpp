@@ -53,10 +53,19 @@ Material make_subsurface(Rgb albedo, float g, float ior) {
   return m;
 }
 
+// glTF's metallic–roughness material (materials/metallic_roughness.h).
+Material make_gltf(Rgb base, float metallic, float roughness, float ior = 1.5f) {
+  Material m = make_material(MaterialType::MetallicRoughness, roughness, base, ior);
+  m.metallic = metallic;
+  prepare_material(m);
+  return m;
+}
+
 std::string describe(const Material& m) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "%s roughness %.3g ior %.4g albedo (%.3g %.3g %.3g) g %.2g metal %s",
-                enum_name(m.type), m.roughness, m.ior, m.albedo.x, m.albedo.y, m.albedo.z, m.g, enum_name(m.metal));
+  char buf[192];
+  std::snprintf(buf, sizeof buf, "%s roughness %.3g ior %.4g albedo (%.3g %.3g %.3g) g %.2g metal %s metallic %.2g",
+                enum_name(m.type), m.roughness, m.ior, m.albedo.x, m.albedo.y, m.albedo.z, m.g, enum_name(m.metal),
+                m.metallic);
   return buf;
 }
 
@@ -212,7 +221,8 @@ Chi2Outcome run_chi2(const Chi2Case& c, uint64_t seed, int n_samples) {
 // (see specular_albedo).
 double quadrature_albedo(const Material& m, Vec3 wo, int n, int channel = 1) {
   const bool dielectric = is_dielectric(m);
-  const bool microfacet = (m.type == MaterialType::Conductor || m.type == MaterialType::Plastic || dielectric) &&
+  const bool microfacet = (m.type == MaterialType::Conductor || m.type == MaterialType::Plastic ||
+                           m.type == MaterialType::MetallicRoughness || dielectric) &&
                           !effectively_smooth(m.alpha);
   const bool below = wo.z < 0.f;
   const Vec3 wo_u = below ? Vec3(wo.x, wo.y, -wo.z) : wo;
@@ -278,6 +288,8 @@ double specular_albedo(const Material& m, Vec3 wo, int channel = 1) {
       return effectively_smooth(m.alpha) ? fresnel_dielectric(mu, m.ior) : 0.0;
     case MaterialType::Dielectric:
       return effectively_smooth(m.alpha) ? 1.0 : 0.0;
+    case MaterialType::MetallicRoughness:  // the Dirac lobe's weight F(cos θo), Schlick through the blended F0
+      return effectively_smooth(m.alpha) ? gltf_fresnel(gltf_f0(m), mu)[channel] : 0.0;
     default:
       return 0.0;
   }
@@ -426,7 +438,9 @@ TEST_CASE("bsdf: chi-square goodness of fit of bsdf_sample against bsdf_pdf, and
       cases.push_back({make_material(MaterialType::Plastic, r, Rgb(0.7f, 0.5f, 0.2f)), direction(t)});
       cases.push_back({make_material(MaterialType::Dielectric, r), direction(t)});
       cases.push_back({make_material(MaterialType::Dielectric, r), direction(180.f - t)});  // inside the glass
+      cases.push_back({make_gltf(Rgb(0.7f, 0.5f, 0.2f), 0.3f, r), direction(t)});
     }
+  for (float t : thetas) cases.push_back({make_gltf(Rgb(0.7f, 0.5f, 0.2f), 0.f, 0.f), direction(t)});
   // Bonferroni: each test at 0.01/N keeps the family-wise false-rejection probability of this test case below 1 %.
   const double significance = 0.01 / cases.size();
   const int n_samples = 100000;
@@ -489,6 +503,9 @@ TEST_CASE("bsdf: reciprocity f(wo, wi) = f(wi, wo) of the reflection lobes, and 
                               make_material(MaterialType::Plastic, 1.f, Rgb(0.7f, 0.5f, 0.2f)),
                               make_subsurface(Rgb(0.9f, 0.6f, 0.3f), -0.3f, 1.3f),
                               make_subsurface(Rgb(0.9f, 0.6f, 0.3f), 0.6f, 1.5f),
+                              make_gltf(Rgb(0.7f, 0.5f, 0.2f), 0.f, 0.f),
+                              make_gltf(Rgb(0.7f, 0.5f, 0.2f), 0.4f, 0.3f),
+                              make_gltf(Rgb(0.7f, 0.5f, 0.2f), 1.f, 0.8f),
                               make_material(MaterialType::Dielectric, 0.1f),
                               make_material(MaterialType::Dielectric, 0.3f),
                               make_material(MaterialType::Dielectric, 1.f)};
@@ -552,6 +569,13 @@ TEST_CASE("bsdf: energy: directional albedo ≤ 1 by deterministic quadrature, a
   ms.push_back({make_material(MaterialType::Plastic, 0.3f, Rgb(0.f)), 1});
   for (float g : {-0.5f, 0.f, 0.5f})
     for (float ior : {1.33f, 1.5f}) ms.push_back({make_subsurface(Rgb(1.f), g, ior), 1});
+  // glTF metallic–roughness: white dielectric (the case where the diffuse and specular shares could add past
+  // 1), white metal, a half-metal, a high index.
+  // A white dielectric reflects everything (the coupled base takes what the layer leaves).
+  for (float r : {0.f, 0.1f, 0.3f, 0.6f, 1.f}) ms.push_back({make_gltf(Rgb(1.f), 0.f, r), 1, 1.0});
+  for (float r : {0.f, 0.3f, 1.f}) ms.push_back({make_gltf(Rgb(1.f), 1.f, r), 1});
+  ms.push_back({make_gltf(Rgb(0.9f, 0.6f, 0.3f), 0.5f, 0.4f), 0});
+  ms.push_back({make_gltf(Rgb(1.f), 0.f, 0.2f, 3.f), 1, 1.0});
   int configs = 0;
   uint64_t seed = 100;
   for (const auto& [m, channel, expected] : ms) {
@@ -627,6 +651,58 @@ TEST_CASE("bsdf: Kulla–Conty colour term: albedo = E_ss(F) + (1 − E(μo)) F_
         }
     }
   }
+}
+
+TEST_CASE("bsdf: glTF metallic-roughness: the specification's specular lobe, and single scattering") {
+  // The specification's formulas (glTF 2.0 Appendix B.3.2-B.3.5) written out here in double, independently of
+  // microfacet.h: D = α²/(π((n·h)²(α² − 1) + 1)²), V = 0.5/(|n·l| √((n·v)²(1 − α²) + α²) + |n·v| √((n·l)²(1 −
+  // α²) + α²)), F = f0 + (1 − f0)(1 − |v·h|)⁵. A full metal has no base: f is F D V alone.
+  const Rgb base(0.9f, 0.6f, 0.3f);
+  Pcg32 rng(5, 9);
+  for (float r : {0.2f, 0.5f, 1.f}) {
+    const Material m = make_gltf(base, 1.f, r);
+    const double a = double(r) * r, a2 = a * a;
+    for (int k = 0; k < 50; ++k) {
+      const Vec3 wo = sample_uniform_hemisphere({rng.next_float(), rng.next_float()});
+      const Vec3 wi = sample_uniform_hemisphere({rng.next_float(), rng.next_float()});
+      const Vec3 h = glm::normalize(wo + wi);
+      const double nh = h.z, nv = wo.z, nl = wi.z, vh = glm::dot(wo, h);
+      const double d = a2 / (kPi * sqr(nh * nh * (a2 - 1) + 1));
+      const double v = 0.5 / (nl * std::sqrt(nv * nv * (1 - a2) + a2) + nv * std::sqrt(nl * nl * (1 - a2) + a2));
+      for (int c = 0; c < 3; ++c) {
+        const double F = base[c] + (1 - base[c]) * std::pow(1 - vh, 5);
+        INFO("roughness " << r << " wo (" << wo.x << " " << wo.y << " " << wo.z << ") wi (" << wi.x << " " << wi.y
+                          << " " << wi.z << ") channel " << c);
+        CHECK(bsdf_eval(m, wo, wi)[c] == doctest::Approx(F * d * v).epsilon(1e-4));
+      }
+    }
+    // A white metal (F = 1) reflects exactly the GGX lobe's single-scattering albedo (no compensation, as the
+    // specification has none): ~0.6 at roughness 1, unlike the project's energy-compensated conductor.
+    const Material white = make_gltf(Rgb(1.f), 1.f, r);
+    for (float theta : {0.f, 45.f, 80.f}) {
+      const float mu = std::cos(theta * kPi / 180.f);
+      INFO("white metal, roughness " << r << " theta " << theta);
+      CHECK(total_albedo(white, direction(theta), 128) ==
+            doctest::Approx(ggx_directional_albedo(mu, white.alpha, 0.f, 256)).epsilon(2e-3));
+    }
+  }
+  // The layer's albedo table at and between its rows against the reference quadrature: E = f0 E₁ + (1 − f0) E₅;
+  // f0 = 1 isolates E₁, the F = 1 albedo.
+  const SchlickAlbedoTable& t = ggx_schlick_albedo_table();
+  for (float r : {0.1f, 0.35f, 0.6f, 0.97f})
+    for (float mu : {0.05f, 0.3f, 0.7f, 1.f}) {
+      INFO("roughness " << r << " mu " << mu);
+      CHECK(t.e(1.f, r, mu) == doctest::Approx(ggx_directional_albedo(mu, r * r, 0.f, 256)).epsilon(5e-3));
+    }
+  // Smooth: the Dirac lobe's weight is Schlick's F at cos θo, and a black base leaves only it.
+  const Material smooth = make_gltf(Rgb(0.f), 0.f, 0.f);
+  BsdfSample s;
+  REQUIRE(bsdf_sample(smooth, direction(60.f), 0.f, Vec2(0.5f), s));
+  CHECK(is_specular(s.flags));
+  CHECK(s.f.x * s.wi.z / s.pdf == doctest::Approx(0.04 + 0.96 * std::pow(0.5, 5)).epsilon(1e-4));
+  CHECK(bsdf_flags(smooth) == (BsdfFlags::Reflection | BsdfFlags::Diffuse | BsdfFlags::Specular));
+  CHECK(bsdf_flags(make_gltf(Rgb(1.f), 1.f, 0.f)) == (BsdfFlags::Reflection | BsdfFlags::Specular));
+  CHECK(bsdf_flags(make_gltf(Rgb(1.f), 1.f, 0.5f)) == (BsdfFlags::Reflection | BsdfFlags::Glossy));
 }
 
 TEST_CASE("bsdf: energy lost by rough glass (R + T) and by plastic at albedo 1") {
@@ -882,6 +958,7 @@ TEST_CASE("bsdf: no NaN or inf at grazing angles, at the smooth threshold, and f
                              MaterialType::Dielectric, MaterialType::Plastic})
         ms.push_back(make_material(t, r, Rgb(0.8f), ior));
       ms.push_back(make_metal(MetalPreset::Aluminium, r));
+      for (float metallic : {0.f, 0.5f, 1.f}) ms.push_back(make_gltf(Rgb(0.8f), metallic, r, ior));
     }
   for (float ior : {1.0001f, 1.5f, 3.f})
     for (float g : {-0.99f, 0.f, 0.99f}) ms.push_back(make_subsurface(Rgb(1.f), g, ior));

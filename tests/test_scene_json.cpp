@@ -831,8 +831,9 @@ TEST_CASE("scene_json: each material type reads, writes and refuses exactly the 
       {MaterialType::Dielectric, {"ior", "roughness"}},
       {MaterialType::Plastic, {"albedo", "ior", "roughness"}},
       {MaterialType::Subsurface, {"albedo", "ior", "g"}},
+      {MaterialType::MetallicRoughness, {"albedo", "ior", "roughness", "metallic"}},
   };
-  const std::vector<std::string> all = {"albedo", "metal", "eta", "k", "ior", "roughness", "g"};
+  const std::vector<std::string> all = {"albedo", "metal", "eta", "k", "ior", "roughness", "g", "metallic"};
   const auto value_of = [](const std::string& key) -> std::string {
     if (key == "metal") return "\"gold\"";
     if (key == "albedo" || key == "eta" || key == "k") return "[0.5, 0.5, 0.5]";

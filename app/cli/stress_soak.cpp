@@ -63,6 +63,7 @@ MaterialDesc random_material(Rng& rng, const std::string& name) {
   m.ior = static_cast<float>(m.type == MaterialType::Dielectric ? uniform(rng, 0.3, 3.0) : uniform(rng, 1.0, 3.0));
   m.roughness = static_cast<float>(coin(rng, 0.2) ? 0.0 : uniform(rng, 0.0, 1.0));
   m.g = static_cast<float>(uniform(rng, -0.95, 0.95));
+  if (m.type == MaterialType::MetallicRoughness) m.metallic = static_cast<float>(uniform(rng, 0.0, 1.0));
   if (m.type == MaterialType::Conductor && coin(rng)) m.metal = any_of<MetalPreset>(rng);
   return m;
 }

@@ -579,6 +579,8 @@ void materials_section(ViewerModel& model, PanelState& state) {
                         return outcome(model.set_material(i, edited), model);
                       });
       };
+      if (takes(t, MaterialParam::Metallic))
+        property("metallic", &MaterialDesc::metallic, [](float* v) { return ImGui::SliderFloat("metallic", v, 0.f, 1.f, "%.3f"); });
       if (rough)
         property("roughness", &MaterialDesc::roughness, [](float* v) { return ImGui::SliderFloat("roughness", v, 0.f, 1.f, "%.3f"); });
       if (has_ior)

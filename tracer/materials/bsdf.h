@@ -26,6 +26,7 @@
 #include "materials/conductor.h"
 #include "materials/dielectric.h"
 #include "materials/diffuse.h"
+#include "materials/metallic_roughness.h"
 #include "materials/plastic.h"
 #include "materials/subsurface.h"
 
@@ -66,6 +67,9 @@ inline BsdfFlags bsdf_flags(const Material& m) {
       return BsdfFlags::Reflection | BsdfFlags::Diffuse | (smooth ? BsdfFlags::Specular : BsdfFlags::Glossy);
     case MaterialType::Subsurface:
       return BsdfFlags::Reflection | BsdfFlags::Diffuse;
+    case MaterialType::MetallicRoughness:  // a full metal has no diffuse part
+      return BsdfFlags::Reflection | (m.metallic < 1.f ? BsdfFlags::Diffuse : BsdfFlags::None) |
+             (smooth ? BsdfFlags::Specular : BsdfFlags::Glossy);
   }
   return BsdfFlags::None;
 }
@@ -89,6 +93,8 @@ inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
       return plastic_eval(m, wo, wi);
     case MaterialType::Subsurface:
       return subsurface_eval(m, wo, wi);
+    case MaterialType::MetallicRoughness:
+      return metallic_roughness_eval(m, wo, wi);
     case MaterialType::Dielectric:
       break;
   }
@@ -115,6 +121,8 @@ inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
       return plastic_pdf(m, wo, wi);
     case MaterialType::Subsurface:
       return subsurface_pdf(wo, wi);
+    case MaterialType::MetallicRoughness:
+      return metallic_roughness_pdf(m, wo, wi);
     case MaterialType::Dielectric:
       break;
   }
@@ -153,6 +161,9 @@ inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample
     case MaterialType::Subsurface:
       ok = subsurface_sample(m, wo, u, out);
       break;
+    case MaterialType::MetallicRoughness:
+      ok = metallic_roughness_sample(m, wo, uc, u, out);
+      break;
     case MaterialType::Dielectric:
       break;
   }
@@ -163,7 +174,8 @@ inline bool bsdf_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample
 // The denoising albedo (integrators/features.h): the colour a denoiser divides out and a compositor multiplies
 // back, after Cycles' and Open Image Denoise's convention: the diffuse reflectance of diffuse, plastic (its base)
 // and subsurface materials (R_d, the multiple-scattering reflectance); the hemispherical-average Fresnel
-// reflectance of conductors (m.f_avg, Kulla & Conty 2017) and the tint of mirrors; 1 for colourless glass.
+// reflectance of conductors (m.f_avg, Kulla & Conty 2017) and the tint of mirrors; 1 for colourless glass; the
+// base colour of glTF's metallic–roughness (its diffuse colour and its metal's F0 alike).
 template <MaterialSet S = MaterialSet::Any>
 inline Rgb bsdf_albedo(const Material& m) {
   if constexpr (S == MaterialSet::Lambert) return m.albedo;
@@ -171,6 +183,7 @@ inline Rgb bsdf_albedo(const Material& m) {
     case MaterialType::Diffuse:
     case MaterialType::Mirror:
     case MaterialType::Plastic:
+    case MaterialType::MetallicRoughness:
       return m.albedo;
     case MaterialType::Conductor:
       return m.f_avg;

@@ -50,10 +50,14 @@ const GaussLegendreRule& gauss_rule() {
   return rule;
 }
 
+// The Fresnel factor of a table's lobe: none (F = 1), the exact dielectric F(wo·wm, η), or Schlick's weight
+// (1 − wo·wm)⁵ (what multiplies 1 − f0 in Schlick's F).
+enum class LobeFresnel { One, Dielectric, SchlickWeight };
+
 // ∫ weight over the VNDF sampling square for wo = (sin θo, 0, cos θo) (energy_tables.h), Heitz 2018 listing 1
 // inlined with the per-wo basis hoisted out of the loop. n > 0 selects an n×n product midpoint grid in the
 // same variables instead of the lattice (for references).
-template <bool kFresnel>
+template <LobeFresnel kFresnel>
 float vndf_albedo(float cos_o, float alpha, float eta, int n) {
   const float mu = std::clamp(cos_o, 0.f, 1.f);
   const Vec3 wo(safe_sqrt(1.f - mu * mu), 0.f, mu);
@@ -72,7 +76,11 @@ float vndf_albedo(float cos_o, float alpha, float eta, int n) {
     if (!(mu_i > 0.f)) return 0.f;
     const float ri = ggx_smith_r(mu_i, std::max(0.f, 1.f - mu_i * mu_i), alpha);
     float w = mu_i * (mu + ro) / (mu_i * ro + mu * ri);  // G2/G1(wo) = (1 + Λo)/(1 + Λo + Λi)
-    if constexpr (kFresnel) w *= fresnel_dielectric(cos_om, eta);
+    if constexpr (kFresnel == LobeFresnel::Dielectric) w *= fresnel_dielectric(cos_om, eta);
+    if constexpr (kFresnel == LobeFresnel::SchlickWeight) {
+      const float c = 1.f - std::clamp(cos_om, 0.f, 1.f), c2 = c * c;
+      w *= c2 * c2 * c;
+    }
     return w * q.weight;
   };
   double sum = 0.0;
@@ -115,7 +123,8 @@ double cosine_average(G&& g) {
 }  // namespace
 
 float ggx_directional_albedo(float cos_o, float alpha, float eta, int n) {
-  return eta == 0.f ? vndf_albedo<false>(cos_o, alpha, 1.f, n) : vndf_albedo<true>(cos_o, alpha, eta, n);
+  return eta == 0.f ? vndf_albedo<LobeFresnel::One>(cos_o, alpha, 1.f, n)
+                    : vndf_albedo<LobeFresnel::Dielectric>(cos_o, alpha, eta, n);
 }
 
 float subsurface_single_albedo(float cos_o, float g, float eta) {
@@ -161,11 +170,11 @@ float energy_table_average(const EnergyTable& t) {
 }
 
 EnergyTable ggx_energy_table(float alpha) {
-  return tabulate([&](float mu) { return vndf_albedo<false>(mu, alpha, 1.f, 0); });
+  return tabulate([&](float mu) { return vndf_albedo<LobeFresnel::One>(mu, alpha, 1.f, 0); });
 }
 
 EnergyTable ggx_dielectric_energy_table(float alpha, float eta) {
-  return tabulate([&](float mu) { return vndf_albedo<true>(mu, alpha, eta, 0); });
+  return tabulate([&](float mu) { return vndf_albedo<LobeFresnel::Dielectric>(mu, alpha, eta, 0); });
 }
 
 EnergyTable fresnel_dielectric_table(float eta) {
@@ -176,6 +185,42 @@ EnergyTable fresnel_dielectric_table(float eta) {
 
 float fresnel_dielectric_avg(float eta) {
   return static_cast<float>(cosine_average([&](float mu) { return fresnel_dielectric(mu, eta); }));
+}
+
+const SchlickAlbedoTable& ggx_schlick_albedo_table() {
+  static const SchlickAlbedoTable table = [] {
+    SchlickAlbedoTable t;
+    for (int j = 0; j < SchlickAlbedoTable::kRows; ++j) {
+      const float r = static_cast<float>(j) / (SchlickAlbedoTable::kRows - 1), alpha = r * r;
+      if (effectively_smooth(alpha)) {  // the smooth limit: the lobe reflects F(μ) itself
+        t.one[j] = tabulate([](float) { return 1.f; });
+        t.schlick[j] = tabulate([](float mu) { return std::pow(1.f - mu, 5.f); });
+      } else {
+        t.one[j] = ggx_energy_table(alpha);
+        t.schlick[j] = tabulate([&](float mu) { return vndf_albedo<LobeFresnel::SchlickWeight>(mu, alpha, 1.f, 0); });
+      }
+    }
+    return t;
+  }();
+  return table;
+}
+
+SchlickAlbedoTable::Row SchlickAlbedoTable::row(float roughness) const {
+  const float x = std::clamp(roughness, 0.f, 1.f) * (kRows - 1);
+  const int j = std::min(static_cast<int>(x), kRows - 2);
+  return {j, x - static_cast<float>(j)};
+}
+
+float SchlickAlbedoTable::e(float f0, float roughness, float mu) const {
+  const Row r = row(roughness);
+  const auto at = [&](int j) { return f0 * one[j](mu) + (1.f - f0) * schlick[j](mu); };
+  return at(r.j) + r.t * (at(r.j + 1) - at(r.j));
+}
+
+float SchlickAlbedoTable::e_avg(float f0, float roughness) const {
+  const Row r = row(roughness);
+  const auto at = [&](int j) { return f0 * one[j].e_avg + (1.f - f0) * schlick[j].e_avg; };
+  return at(r.j) + r.t * (at(r.j + 1) - at(r.j));
 }
 
 Rgb fresnel_schlick_avg(Rgb f0) { return f0 + (Rgb(1.f) - f0) * (1.f / 21.f); }

@@ -22,6 +22,29 @@ EnergyTable ggx_dielectric_energy_table(float alpha, float eta);
 // smooth plastic evaluates F itself, so its average must not carry table interpolation error).
 EnergyTable fresnel_dielectric_table(float eta);
 
+// Directional albedo of the GGX reflection lobe with Schlick's Fresnel F = f0 + (1 − f0)(1 − wo·wm)⁵ (glTF's
+// dielectric layer, metallic_roughness.h), for any f0 and roughness from one table computed once: E is linear
+// in f0, E = f0·E₁(μ) + (1 − f0)·E₅(μ), with E₁ the albedo for F = 1 and E₅ for F = (1 − wo·wm)⁵, each an
+// EnergyTable per roughness row (kRows rows over roughness [0, 1], α = roughness²; row 0 the smooth limit,
+// E₁ = 1 and E₅ = (1 − μ)⁵) and interpolated linearly between rows. e_avg is the exact average of what e
+// returns (linear interpolation of the rows' exact averages), so a coupling through it conserves energy to
+// rounding.
+struct SchlickAlbedoTable {
+  static constexpr int kRows = 32;
+  std::array<EnergyTable, kRows> one, schlick;
+  float e(float f0, float roughness, float mu) const;
+  float e_avg(float f0, float roughness) const;
+
+ private:
+  struct Row {
+    int j;
+    float t;
+  };
+  Row row(float roughness) const;
+};
+// The table, computed on first use (~2·10⁶ lobe evaluations) and shared.
+const SchlickAlbedoTable& ggx_schlick_albedo_table();
+
 // Cosine-weighted average reflectance F_avg = 2∫F(μ)μ dμ.
 float fresnel_dielectric_avg(float eta);
 Rgb fresnel_schlick_avg(Rgb f0);  // analytic: F0 + (1 − F0)/21

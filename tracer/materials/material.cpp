@@ -52,6 +52,7 @@ void prepare_material(Material& m) {
     case MaterialType::Diffuse:
     case MaterialType::Mirror:
     case MaterialType::Dielectric:
+    case MaterialType::MetallicRoughness:  // evaluates its formulas directly: nothing to tabulate
       break;
   }
 }

@@ -12,17 +12,18 @@
 namespace pt {
 
 // Scattering models. The integrator never branches on these: it asks the BSDF for its flags (bsdf.h).
-enum class MaterialType { Diffuse, Mirror, Conductor, Dielectric, Plastic, Subsurface };
+enum class MaterialType { Diffuse, Mirror, Conductor, Dielectric, Plastic, Subsurface, MetallicRoughness };
 
 template <>
 struct EnumTable<MaterialType> {
-  static constexpr std::array<EnumEntry<MaterialType>, 6> kEntries{{
+  static constexpr std::array<EnumEntry<MaterialType>, 7> kEntries{{
       {MaterialType::Diffuse, "diffuse", "Diffuse (Lambert)"},
       {MaterialType::Mirror, "mirror", "Mirror (smooth, tinted)"},
       {MaterialType::Conductor, "conductor", "Metal (GGX conductor)"},
       {MaterialType::Dielectric, "dielectric", "Glass (GGX dielectric)"},
       {MaterialType::Plastic, "plastic", "Plastic (diffuse under a coat)"},
       {MaterialType::Subsurface, "subsurface", "Subsurface (Jensen 2001 BRDF)"},
+      {MaterialType::MetallicRoughness, "metallic_roughness", "glTF metallic-roughness"},
   }};
 };
 
@@ -35,6 +36,7 @@ enum class MaterialParam : uint8_t {
   Roughness = 4,  // "roughness"
   G = 8,          // "g": the subsurface phase function's asymmetry
   Metal = 16,     // "metal", or "eta" and "k": a conductor's measured or given complex index (instead of albedo)
+  Metallic = 32,  // "metallic": glTF's blend from the dielectric (0) to the metal (1)
 };
 constexpr uint8_t operator|(MaterialParam a, MaterialParam b) { return uint8_t(uint8_t(a) | uint8_t(b)); }
 constexpr uint8_t operator|(uint8_t a, MaterialParam b) { return uint8_t(a | uint8_t(b)); }
@@ -42,13 +44,15 @@ struct MaterialParams {
   MaterialType type;
   uint8_t params;  // MaterialParam bits
 };
-inline constexpr std::array<MaterialParams, 6> kMaterialParams{{
+inline constexpr std::array<MaterialParams, 7> kMaterialParams{{
     {MaterialType::Diffuse, uint8_t(MaterialParam::Albedo)},
     {MaterialType::Mirror, uint8_t(MaterialParam::Albedo)},
     {MaterialType::Conductor, MaterialParam::Albedo | MaterialParam::Metal | MaterialParam::Roughness},
     {MaterialType::Dielectric, MaterialParam::Ior | MaterialParam::Roughness},
     {MaterialType::Plastic, MaterialParam::Albedo | MaterialParam::Ior | MaterialParam::Roughness},
     {MaterialType::Subsurface, MaterialParam::Albedo | MaterialParam::Ior | MaterialParam::G},
+    {MaterialType::MetallicRoughness,
+     MaterialParam::Albedo | MaterialParam::Ior | MaterialParam::Roughness | MaterialParam::Metallic},
 }};
 constexpr bool takes(MaterialType type, MaterialParam p) {
   for (const MaterialParams& m : kMaterialParams)
@@ -89,12 +93,13 @@ struct Texture;
 
 struct Material {
   MaterialType type = MaterialType::Diffuse;
-  Rgb albedo{0.8f};      // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′
+  Rgb albedo{0.8f};      // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′; glTF base
   Rgb emission{0.f};     // emitted radiance
   bool two_sided = false;  // emission from both faces
   float roughness = 0.f; // [0, 1]; GGX α = roughness²; 0 = smooth (delta)
   float ior = 1.5f;      // dielectric / plastic coat / subsurface medium index (outside is 1)
   float g = 0.f;         // subsurface Henyey–Greenstein asymmetry in (−1, 1)
+  float metallic = 0.f;  // glTF metallic–roughness: [0, 1], the dielectric (0) to metal (1) blend
   MetalPreset metal = MetalPreset::None;
   bool complex_ior = false;  // conductor: Fresnel from eta/k instead of the Schlick curve through albedo
   Rgb eta{1.f}, k{0.f};      // conductor complex index (from the preset or the file)

@@ -7,20 +7,22 @@
 namespace pt {
 
 // A Dirac or narrow glossy lobe that sends light on: a mirror, clear or lightly frosted glass, polished metal.
-bool focuses_light(MaterialType type, float roughness) {
+bool focuses_light(MaterialType type, float roughness, float metallic) {
   switch (type) {
     case MaterialType::Mirror: return true;
     case MaterialType::Dielectric:
     case MaterialType::Conductor: return roughness < kFocusingRoughness;
+    case MaterialType::MetallicRoughness: return metallic >= 0.5f && roughness < kFocusingRoughness;
     default: return false;
   }
 }
 
 // A diffuse lobe that reflects something shows light arriving from anywhere: where a caustic becomes visible
 // (a black lamp, albedo 0, shows none).
-bool receives_diffusely(MaterialType type, Rgb albedo) {
-  return (type == MaterialType::Diffuse || type == MaterialType::Plastic || type == MaterialType::Subsurface) &&
-         max_component(albedo) > 0.f;
+bool receives_diffusely(MaterialType type, Rgb albedo, float metallic) {
+  const bool diffuse = type == MaterialType::Diffuse || type == MaterialType::Plastic ||
+                       type == MaterialType::Subsurface || (type == MaterialType::MetallicRoughness && metallic < 1.f);
+  return diffuse && max_component(albedo) > 0.f;
 }
 
 namespace {
@@ -37,8 +39,8 @@ Scan scan_materials(const Materials& materials, Used&& used) {
   for (size_t i = 0; i < materials.size(); ++i) {
     if (!used(i)) continue;
     const auto& m = materials[i];
-    if (scan.focusing < 0 && focuses_light(m.type, m.roughness)) scan.focusing = static_cast<int>(i);
-    scan.receiver = scan.receiver || receives_diffusely(m.type, m.albedo);
+    if (scan.focusing < 0 && focuses_light(m.type, m.roughness, m.metallic)) scan.focusing = static_cast<int>(i);
+    scan.receiver = scan.receiver || receives_diffusely(m.type, m.albedo, m.metallic);
   }
   return scan;
 }

@@ -26,9 +26,10 @@ struct EstimatorChoice {
   std::string reason;                    // one sentence, for the viewer's panel and render's summary line
 };
 
-// The rule's two questions about one material.
-bool focuses_light(MaterialType type, float roughness);
-bool receives_diffusely(MaterialType type, Rgb albedo);
+// The rule's two questions about one material (`metallic`: glTF's metallic–roughness blend, 0 for the others;
+// its mostly-metal smooth surfaces focus light, its dielectric part receives it).
+bool focuses_light(MaterialType type, float roughness, float metallic = 0.f);
+bool receives_diffusely(MaterialType type, Rgb albedo, float metallic = 0.f);
 
 // What `auto` picks for this scene (whatever its render.estimator says).
 EstimatorChoice choose_estimator(const SceneDesc& scene);

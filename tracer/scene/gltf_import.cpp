@@ -192,17 +192,21 @@ struct Reader {
     d.albedo = glm::clamp(base, Rgb(0.f), Rgb(1.f));
     d.roughness = static_cast<float>(std::clamp(roughness, 0.0, 1.0));
     const tg::Value* transmission = extension(g.extensions, "KHR_materials_transmission");
-    const tg::Value* ior = extension(g.extensions, "KHR_materials_ior");
-    if (transmission && number(*transmission, "transmissionFactor", 0.0) > 0.0) {
-      d.type = MaterialType::Dielectric;
-      d.ior = static_cast<float>(ior ? number(*ior, "ior", 1.5) : 1.5);
-    } else if (metallic >= 0.5) {
-      d.type = MaterialType::Conductor;
-    } else {
-      d.type = MaterialType::Plastic;
-      d.ior = 1.5f;  // F0 = 0.04, the specification's dielectric
+    if (const tg::Value* ior = extension(g.extensions, "KHR_materials_ior")) {
+      const double eta = number(*ior, "ior", 1.5);
+      // The extension allows 0 for "infinite" (a perfect reflector's F0 = 1) and any index ≥ 1; the materials
+      // here take [1, 4] (validate_material).
+      if (eta >= 1.0 && eta <= 4.0) d.ior = static_cast<float>(eta);
+      else warn(where + ".extensions.KHR_materials_ior.ior: " + std::to_string(eta) + " is outside [1, 4]: 1.5 is used");
     }
-    if (!(d.ior >= 1.f) || !std::isfinite(d.ior)) d.ior = 1.5f;  // KHR_materials_ior allows 0 (= infinite): unsupported
+    if (transmission && number(*transmission, "transmissionFactor", 0.0) > 0.0) {
+      d.type = MaterialType::Dielectric;  // clear (or frosted, by roughness) glass of the extension's index
+      if (number(*transmission, "transmissionFactor", 0.0) < 1.0)
+        warn("transmission factors between 0 and 1 are read as 1 (the project's dielectric transmits fully)");
+    } else {
+      d.type = MaterialType::MetallicRoughness;  // the specification's BRDF (materials/metallic_roughness.h)
+      d.metallic = static_cast<float>(std::clamp(metallic, 0.0, 1.0));
+    }
     Rgb emissive(0.f);
     if (g.emissiveFactor.size() >= 3) emissive = Rgb(g.emissiveFactor[0], g.emissiveFactor[1], g.emissiveFactor[2]);
     const tg::Value* strength = extension(g.extensions, "KHR_materials_emissive_strength");
@@ -224,7 +228,6 @@ struct Reader {
       warn("only base colour textures are read yet: metallic-roughness, normal, emissive and occlusion textures are "
            "left out");
     if (g.alphaMode != "OPAQUE") warn("alpha modes are not read yet: every surface is opaque");
-    if (metallic > 0.0 && metallic < 1.0) warn("metallic factors between 0 and 1 are rounded to 0 or 1 for now");
     return d;
   }
 
@@ -394,8 +397,9 @@ struct Reader {
     if (default_index < 0) {
       MaterialDesc d;  // the specification's default material: white, metallic 1, roughness 1
       d.name = "glTF default";
-      d.type = MaterialType::Conductor;
+      d.type = MaterialType::MetallicRoughness;
       d.albedo = Rgb(1.f);
+      d.metallic = 1.f;
       d.roughness = 1.f;
       default_index = static_cast<int>(m.materials.size());
       extra_materials.push_back(d);

@@ -7,10 +7,9 @@
 //   NORMAL attribute (mapped by the inverse transpose of the node's transform), flat without one; TEXCOORD_0
 //   gives texture coordinates;
 // - the first perspective camera met in the node graph (yfov; the aspect ratio sets the film's shape);
-// - materials mapped to the project's nearest material until the glTF metallic–roughness BSDF lands: metallic
-//   ≥ 0.5 → conductor (F0 = base colour, GGX α = roughness²), KHR_materials_transmission → smooth or rough
-//   dielectric (KHR_materials_ior, default 1.5), otherwise plastic (a Lambert base under a GGX coat of index 1.5,
-//   i.e. F0 = 0.04, the specification's dielectric); emission = emissiveFactor × KHR_materials_emissive_strength;
+// - materials: the specification's metallic–roughness BRDF (materials/metallic_roughness.h: base colour,
+//   metallic, roughness, KHR_materials_ior's index, default 1.5); KHR_materials_transmission → the project's
+//   smooth or rough dielectric of that index; emission = emissiveFactor × KHR_materials_emissive_strength;
 //   a primitive without a material gets the specification's default (white, metallic 1, roughness 1).
 // - base colour textures (baseColorTexture × baseColorFactor, on TEXCOORD_0, sRGB-decoded, the sampler's wrap
 //   modes, trilinear filtering by ray cones: materials/texture.h), images embedded, in data URIs or in files

@@ -117,10 +117,13 @@ std::string validate_material(const MaterialDesc& m) {
   if (std::string why = radiance_problem(m.emission); !why.empty()) return p + ".emission: " + why;
   if (m.type == MaterialType::Dielectric && !(std::isfinite(m.ior) && m.ior > 0.f))
     return p + ".ior: must be finite and > 0 (the index inside; outside is 1)";
-  if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface) && !(m.ior >= 1.f && m.ior <= 4.f))
+  if ((m.type == MaterialType::Plastic || m.type == MaterialType::Subsurface ||
+       m.type == MaterialType::MetallicRoughness) &&
+      !(m.ior >= 1.f && m.ior <= 4.f))
     return p + ".ior: must be in [1, 4] (the index inside; outside is 1)";
   if (!(m.roughness >= 0.f && m.roughness <= 1.f)) return p + ".roughness: must be in [0, 1]";
   if (!(m.g > -1.f && m.g < 1.f)) return p + ".g: must be in (-1, 1)";
+  if (!(m.metallic >= 0.f && m.metallic <= 1.f)) return p + ".metallic: must be in [0, 1]";
   if (m.complex_ior) {
     if (!finite3(m.eta) || !glm::all(glm::greaterThan(m.eta, Vec3(0.f)))) return p + ".eta: components must be finite and > 0";
     if (!finite3(m.k) || glm::any(glm::lessThan(m.k, Vec3(0.f)))) return p + ".k: components must be finite and >= 0";
@@ -398,6 +401,7 @@ Material compile_material(const MaterialDesc& d) {
   m.ior = d.ior;
   m.roughness = d.roughness;
   m.g = d.g;
+  m.metallic = d.metallic;
   m.metal = d.metal;
   m.complex_ior = d.complex_ior;
   m.eta = d.eta;

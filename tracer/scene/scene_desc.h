@@ -113,12 +113,13 @@ const char* to_string(E value) {
 struct MaterialDesc {
   std::string name;
   MaterialType type = MaterialType::Diffuse;
-  Rgb albedo{0.8f};         // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′
+  Rgb albedo{0.8f};         // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′; glTF base
   Rgb emission{0.f};        // emitted radiance (W·sr⁻¹·m⁻² in scene units), any material may emit
   bool two_sided = false;   // emission from both faces (default: front face only)
   float ior = 1.5f;         // dielectric / plastic coat / subsurface medium index inside (outside is 1)
   float roughness = 0.f;    // conductor, dielectric, plastic: [0, 1], GGX α = roughness², 0 = smooth
   float g = 0.f;            // subsurface Henyey–Greenstein asymmetry, (−1, 1)
+  float metallic = 0.f;     // metallic_roughness: [0, 1], glTF's dielectric (0) to metal (1) blend
   MetalPreset metal = MetalPreset::None;  // conductor: measured η, k instead of albedo
   bool complex_ior = false;               // conductor: eta/k given in the file
   Rgb eta{1.f}, k{0.f};

@@ -577,7 +577,7 @@ RenderSettings read_render(const Json& j, const std::string& path) {
 MaterialDesc read_material(const std::string& name, const Json& j, const std::string& path, const std::string& base_dir) {
   expect_object(j, path);
   check_known_keys(j, path, {"type", "albedo", "emission", "two_sided", "ior", "roughness", "g", "metal", "eta", "k",
-                             "albedo_texture"});
+                             "metallic", "albedo_texture"});
   MaterialDesc m;
   m.name = name;
   m.type = read_enum<MaterialType>(required_key(j, path, "type"), member(path, "type"), "material type");
@@ -589,6 +589,7 @@ MaterialDesc read_material(const std::string& name, const Json& j, const std::st
   if (takes(m.type, MaterialParam::Ior)) applicable.push_back("ior");
   if (takes(m.type, MaterialParam::Roughness)) applicable.push_back("roughness");
   if (takes(m.type, MaterialParam::G)) applicable.push_back("g");
+  if (takes(m.type, MaterialParam::Metallic)) applicable.push_back("metallic");
   check_applicable_keys(j, path, applicable, variant);
   if (m.type == MaterialType::Mirror) m.albedo = Rgb(1.f);     // a mirror's default tint: none
   if (m.type == MaterialType::Subsurface) m.ior = 1.3f;        // skin, wax, milk: ~1.3-1.4
@@ -608,6 +609,7 @@ MaterialDesc read_material(const std::string& name, const Json& j, const std::st
   if (const Json* v = optional_key(j, "ior")) m.ior = read_float(*v, member(path, "ior"));
   if (const Json* v = optional_key(j, "roughness")) m.roughness = read_float(*v, member(path, "roughness"));
   if (const Json* v = optional_key(j, "g")) m.g = read_float(*v, member(path, "g"));
+  if (const Json* v = optional_key(j, "metallic")) m.metallic = read_float(*v, member(path, "metallic"));
   if (const Json* v = optional_key(j, "emission")) m.emission = read_rgb(*v, member(path, "emission"));
   if (const Json* v = optional_key(j, "two_sided")) m.two_sided = read_bool(*v, member(path, "two_sided"));
   if (const Json* v = optional_key(j, "albedo_texture")) {
@@ -1134,6 +1136,7 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
     if (takes(t, MaterialParam::Ior)) j["ior"] = number(m.ior);
     if (takes(t, MaterialParam::Roughness)) j["roughness"] = number(m.roughness);
     if (takes(t, MaterialParam::G)) j["g"] = number(m.g);
+    if (takes(t, MaterialParam::Metallic)) j["metallic"] = number(m.metallic);
     if (!(positive_zero(m.emission.x) && positive_zero(m.emission.y) && positive_zero(m.emission.z)))
       j["emission"] = triple(m.emission);
     if (m.two_sided) j["two_sided"] = true;
