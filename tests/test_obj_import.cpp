@@ -188,3 +188,28 @@ TEST_CASE("obj materials: map_Kd is the albedo's texture (times Kd), with vt fli
   for (const std::string& w : lost.warnings) warned = warned || w.find("map_Kd") != std::string::npos;
   CHECK(warned);
 }
+
+TEST_CASE("obj materials: norm is a linear tangent-space normal map that stays with the material when saved") {
+  test::TempFolder f("obj");
+  std::filesystem::create_directories(f.dir / "model");
+  write_png_rgb8((f.dir / "model" / "n.png").string(), 1, 1, {191, 128, 221});
+  std::ofstream((f.dir / "model" / "bumpy.obj").string())
+      << "mtllib bumpy.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl bumpy\nf 1/1 2/2 3/3\n";
+  std::ofstream((f.dir / "model" / "bumpy.mtl").string()) << "newmtl bumpy\nKd 0.5 0.5 0.5\nnorm n.png\n";
+  const MeshTriangles mesh = load_obj_mesh((f.dir / "model" / "bumpy.obj").string(), ObjectTransform{});
+  REQUIRE(mesh.materials.size() == 1);
+  REQUIRE(mesh.materials[0].normal_map.texture);
+  CHECK(mesh.materials[0].normal_map.texture->levels[0].at(0, 0).x == doctest::Approx(191.f / 255.f));  // linear
+  for (const std::string& w : mesh.warnings) CHECK(w.find("norm") == std::string::npos);  // read, not warned about
+  // Saved (the material written among the scene's, overriding the file's) and read back: the map stays.
+  const SceneDesc s = parse_scene(scene_text(R"({"type": "mesh", "file": "model/bumpy.obj"})"), "s.json", f.dir.string());
+  const SceneDesc back = parse_scene(scene_to_json(s, f.dir.string()), "back.json", f.dir.string());
+  CHECK(back.materials[back.shapes[0].material].normal_map.texture);
+  // Unreadable: a warning, and a smooth surface.
+  std::filesystem::remove(f.dir / "model" / "n.png");
+  const MeshTriangles lost = load_obj_mesh((f.dir / "model" / "bumpy.obj").string(), ObjectTransform{});
+  CHECK(!lost.materials[0].normal_map.texture);
+  bool warned = false;
+  for (const std::string& w : lost.warnings) warned = warned || w.find("norm not read") != std::string::npos;
+  CHECK(warned);
+}

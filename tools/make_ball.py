@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Writes the textured ball of scenes/cornell-gltf.json: ball.obj (a UV sphere of radius 1 with vertex normals and
-texture coordinates), ball.mtl (a plastic-like material whose map_Kd is the texture) and ball.png (a beach ball's
-six coloured gores with white caps, 256 x 128, equirectangular: u runs around the equator, v from the top pole).
+texture coordinates), ball.mtl (a plastic-like material whose map_Kd is the texture and whose norm is the normal
+map), ball.png (a beach ball's six coloured gores with white caps, 256 x 128, equirectangular: u runs around the
+equator, v from the top pole) and ball_normal.png (welded seams: a shallow groove where two gores meet and around
+each cap, as a tangent-space normal map, +x along u, +y towards the image's top).
 
 Usage: tools/make_ball.py OUT_DIR   (the shipped files: tools/make_ball.py scenes)
 """
@@ -39,6 +41,35 @@ def texture():
     return png(WIDTH, HEIGHT, rows)
 
 
+def groove_slope(d, half_width=2.5, depth=0.6):
+    """The slope dh/dd of a groove h(d) = -depth * cos^2(pi d / (2 half_width)) at texel distance d from its line."""
+    if abs(d) >= half_width:
+        return 0.0
+    a = math.pi / (2 * half_width)
+    return depth * 2 * math.cos(a * d) * math.sin(a * d) * a
+
+
+def normal_map():
+    rows = []
+    gore = WIDTH / len(GORES)
+    caps = (0.08 * HEIGHT, 0.92 * HEIGHT)
+    for y in range(HEIGHT):
+        row = []
+        yc = y + 0.5
+        for x in range(WIDTH):
+            xc = x + 0.5
+            dx = xc - round(xc / gore) * gore  # signed distance to the nearest gore seam, along u
+            inside = caps[0] < yc < caps[1]
+            hx = groove_slope(dx) if inside else 0.0
+            dy = min((yc - c for c in caps), key=abs)
+            hy = -groove_slope(dy)  # the map's +y is the image's up, against the rows
+            n = (-hx, -hy, 1.0)
+            length = math.sqrt(sum(c * c for c in n))
+            row.extend(int(round((c / length * 0.5 + 0.5) * 255)) for c in n)
+        rows.append(row)
+    return png(WIDTH, HEIGHT, rows)
+
+
 def mesh():
     lines = ["# UV sphere, radius 1, made by tools/make_ball.py", "mtllib ball.mtl"]
     for j in range(RINGS + 1):
@@ -65,9 +96,10 @@ def mesh():
 def main():
     out = Path(sys.argv[1] if len(sys.argv) > 1 else ".")
     (out / "ball.png").write_bytes(texture())
+    (out / "ball_normal.png").write_bytes(normal_map())
     (out / "ball.obj").write_text(mesh())
     (out / "ball.mtl").write_text("# made by tools/make_ball.py\nnewmtl ball\nKd 1 1 1\nKs 0.04 0.04 0.04\nNs 300\n"
-                                  "map_Kd ball.png\n")
+                                  "map_Kd ball.png\nnorm ball_normal.png\n")
 
 
 if __name__ == "__main__":

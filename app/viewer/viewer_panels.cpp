@@ -518,6 +518,16 @@ void texture_fields(ViewerModel& model, size_t m, const MaterialDesc& material) 
     ImGui::SetTooltip("an image whose colour times the albedo is the albedo at each point (the model's texture coordinates)");
 }
 
+// The model file's data textures a material reads (metallic-roughness, normal map): shown, not edited.
+void model_texture_lines(const MaterialDesc& material) {
+  const auto line = [](const char* what, const Texture& t) {
+    ImGui::TextDisabled("%s: %s, %d x %d", what, t.source.c_str(), t.width(), t.height());
+  };
+  if (material.metallic_roughness_map.texture && material.type == MaterialType::MetallicRoughness)
+    line("metallic-roughness texture", *material.metallic_roughness_map.texture);
+  if (material.normal_map.texture) line("normal map", *material.normal_map.texture);
+}
+
 // True when `text` contains `filter` (case-insensitive); an empty filter matches everything.
 bool matches_filter(const std::string& text, const char* filter) {
   const std::string_view f(filter);
@@ -568,6 +578,7 @@ void materials_section(ViewerModel& model, PanelState& state) {
                                !(takes(t, MaterialParam::Metal) && (m.metal != MetalPreset::None || m.complex_ior));
       if (uses_albedo) changed |= ImGui::ColorEdit3(m.albedo_map ? "albedo (x texture)" : "albedo", &m.albedo.x, ImGuiColorEditFlags_Float);
       if (uses_albedo && t != MaterialType::Subsurface) texture_fields(model, i, m);
+      model_texture_lines(m);
       changed |= ImGui::Checkbox("two-sided emission", &m.two_sided);
       if (changed) model.set_material(i, m);
       // One numeric property: applied on the model's current material, so no other field is ever reverted.

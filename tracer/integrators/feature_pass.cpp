@@ -32,7 +32,7 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
       trace.escaped(L);
       return out;
     }
-    const Interaction it = make_interaction<F>(s, ray, hit);
+    Interaction it = make_interaction<F>(s, ray, hit);
     cone_width += spread * hit.t;
     integrator_detail::MaterialScratch scratch;
     const Material& m = integrator_detail::material_at<kM>(s, it, ray.d, cone_width, scratch);

@@ -31,6 +31,7 @@
 #include "geometry/scene_queries.h"
 #include "lights/light_sampling.h"
 #include "materials/bsdf.h"
+#include "materials/normal_map.h"
 #include "materials/texture.h"
 #include "sampling/sample_dimensions.h"
 
@@ -118,29 +119,43 @@ union MaterialScratch {
 };
 static_assert(std::is_trivially_destructible_v<Material>);
 
-// The material at a hit: the scene's, or for a textured one a copy whose albedo is its own (the factor) times
-// the texture at the hit's uv, filtered over the ray cone's footprint (materials/texture.h): where the cone of
-// width w meets the surface at cosine c, an ellipse w/c long along the ray's direction projected on the surface
-// and w wide across it (Akenine-Möller et al. 2021 take the long axis alone, which blurs grazing views; the
-// anisotropic lookup keeps them sharp), mapped into uv by the triangle's uv gradients.
+// The material at a hit: the scene's, or for a textured one a copy with what its images say there, each
+// filtered over the ray cone's footprint (materials/texture.h): where the cone of width w meets the surface at
+// cosine c, an ellipse w/c long along the ray's direction projected on the surface and w wide across it
+// (Akenine-Möller et al. 2021 take the long axis alone, which blurs grazing views; the anisotropic lookup keeps
+// them sharp), mapped into each image's uv by the triangle's uv gradients and the image's uv transform:
+// - the albedo: its own (the factor) times the albedo texture;
+// - glTF's metallic and roughness: the factors times the metallic–roughness texture's blue and green;
+// - the shading normal it.ns: bent by the normal map (materials/normal_map.h), which is why `it` is written.
 template <MaterialSet kM>
-[[gnu::always_inline]] inline const Material& material_at(const Scene& s, const Interaction& it, Vec3 d,
-                                                         float cone_width, MaterialScratch& scratch) {
+[[gnu::always_inline]] inline const Material& material_at(const Scene& s, Interaction& it, Vec3 d, float cone_width,
+                                                         MaterialScratch& scratch) {
   const Material& m = s.materials[it.material];
   if constexpr (kM == MaterialSet::Any) {
-    if (m.albedo_texture) [[unlikely]] {
+    if (has_textures(m)) [[unlikely]] {
       const float dn = glm::dot(d, it.ng);
       const float cos = std::max(std::abs(dn), 1e-4f);
       Vec3 along = d - dn * it.ng;  // the ray's direction in the surface
       const float len = glm::length(along);
       along = len > 1e-6f ? along / len : Frame::from_normal(it.ng).s;
       const Vec3 across = glm::cross(it.ng, along);
-      const glm::mat3& t = m.albedo_uv_transform;  // surface uv → texture uv (KHR_texture_transform)
-      const glm::mat2 linear(t);
-      const auto to_uv = [&](Vec3 w) { return linear * Vec2(glm::dot(it.du_dp, w), glm::dot(it.dv_dp, w)); };
-      const Vec2 major = to_uv(along * (cone_width / cos)), minor = to_uv(across * cone_width);
-      const Vec2 uv = Vec2(t * glm::vec3(it.uv, 1.f));
-      return *new (&scratch.m) Material(with_albedo(m, m.albedo * texture_lookup(*m.albedo_texture, uv, major, minor)));
+      const Vec3 major_p = along * (cone_width / cos), minor_p = across * cone_width;
+      const auto lookup = [&](const Texture& tex, const glm::mat3& t) {  // t: surface uv → texture uv
+        const glm::mat2 linear(t);
+        const auto to_uv = [&](Vec3 w) { return linear * Vec2(glm::dot(it.du_dp, w), glm::dot(it.dv_dp, w)); };
+        return texture_lookup(tex, Vec2(t * glm::vec3(it.uv, 1.f)), to_uv(major_p), to_uv(minor_p));
+      };
+      Material& out = *new (&scratch.m) Material(
+          m.albedo_texture ? with_albedo(m, m.albedo * lookup(*m.albedo_texture, m.albedo_uv_transform)) : m);
+      if (const TextureSlot& mr = m.metallic_roughness_map; mr.texture) {
+        const Rgb v = lookup(*mr.texture, mr.uv_transform);
+        out.roughness = std::clamp(m.roughness * v.y, 0.f, 1.f);
+        out.metallic = std::clamp(m.metallic * v.z, 0.f, 1.f);
+        out.alpha = out.roughness * out.roughness;  // all prepare_material derives for this type
+      }
+      if (const TextureSlot& nm = m.normal_map; nm.texture)
+        it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, lookup(*nm.texture, nm.uv_transform), m.normal_scale);
+      return out;
     }
   }
   return m;
@@ -173,7 +188,7 @@ template <class Sampler, uint32_t F>
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   VertexResult result;
   const int depth = p.depth;
-  const Interaction it = make_interaction<F>(s, p.ray, h);
+  Interaction it = make_interaction<F>(s, p.ray, h);
   p.cone_width += p.cone_spread * h.t;
   MaterialScratch scratch;
   const Material& m = material_at<kM>(s, it, p.ray.d, p.cone_width, scratch);

@@ -91,6 +91,13 @@ struct EnergyTable {
 
 struct Texture;
 
+// A data image a material reads at each hit (a glTF file's metallic–roughness or normal texture): the image,
+// owned by the scene (Scene::textures keeps it alive), and the map from surface uv to its uv.
+struct TextureSlot {
+  const Texture* texture = nullptr;
+  glm::mat3 uv_transform{1.f};
+};
+
 struct Material {
   MaterialType type = MaterialType::Diffuse;
   Rgb albedo{0.8f};      // diffuse reflectance; mirror tint; conductor F0; plastic base; subsurface α′; glTF base
@@ -106,6 +113,11 @@ struct Material {
   // The albedo's image (materials/texture.h), or null; owned by the scene (Scene::textures keeps it alive).
   const Texture* albedo_texture = nullptr;
   glm::mat3 albedo_uv_transform{1.f};  // surface uv → texture uv (MaterialDesc::albedo_uv_transform)
+  // metallic_roughness: glTF's metallicRoughnessTexture, linear: roughness × its green, metallic × its blue.
+  TextureSlot metallic_roughness_map;
+  // A tangent-space normal map (glTF's normalTexture, materials/normal_map.h) and its scale of x and y.
+  TextureSlot normal_map;
+  float normal_scale = 1.f;
 
   // Derived by prepare_material():
   float alpha = 0.f;     // GGX α = roughness² (roughness clamped to [0, 1]); α < kSmoothAlpha = 1e-3 is smooth
@@ -122,5 +134,10 @@ void prepare_material(Material& m);
 // prepare_material derives from the albedo (a conductor's Schlick F_avg) redone. Materials whose derived
 // tables depend on the albedo beyond that (subsurface) take no texture (validate_material).
 Material with_albedo(const Material& m, Rgb albedo);
+
+// Whether the material reads any image at a hit (the path loop then makes its per-hit copy: material_at).
+inline bool has_textures(const Material& m) {
+  return m.albedo_texture || m.metallic_roughness_map.texture || m.normal_map.texture;
+}
 
 }  // namespace pt

@@ -216,19 +216,34 @@ struct Reader {
     d.two_sided = g.doubleSided;
     if (pbr.baseColorTexture.index >= 0 && takes(d.type, MaterialParam::Albedo)) {
       // The base colour is the factor times the texture (the specification's rule): albedo holds the factor.
-      d.albedo_map = texture(pbr.baseColorTexture.index, where + ".pbrMetallicRoughness.baseColorTexture", true);
-      d.albedo = glm::clamp(base, Rgb(0.f), Rgb(1.f));
-      if (pbr.baseColorTexture.texCoord != 0)
-        warn("only TEXCOORD_0 is read: textures naming another set use TEXCOORD_0");
-      if (const tg::Value* tt = extension(pbr.baseColorTexture.extensions, "KHR_texture_transform"))
-        d.albedo_uv_transform = texture_transform(*tt, where + ".pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform");
+      const ModelTexture t = model_texture(pbr.baseColorTexture, where + ".pbrMetallicRoughness.baseColorTexture", true);
+      d.albedo_map = t.texture;
+      d.albedo_uv_transform = t.uv_transform;
     }
-    if (pbr.metallicRoughnessTexture.index >= 0 || g.normalTexture.index >= 0 || g.emissiveTexture.index >= 0 ||
-        g.occlusionTexture.index >= 0)
-      warn("only base colour textures are read yet: metallic-roughness, normal, emissive and occlusion textures are "
-           "left out");
+    if (pbr.metallicRoughnessTexture.index >= 0 && d.type == MaterialType::MetallicRoughness)
+      d.metallic_roughness_map =
+          model_texture(pbr.metallicRoughnessTexture, where + ".pbrMetallicRoughness.metallicRoughnessTexture", false);
+    if (g.normalTexture.index >= 0) {
+      d.normal_map = model_texture(g.normalTexture, where + ".normalTexture", false);
+      d.normal_scale = static_cast<float>(g.normalTexture.scale);
+      if (!std::isfinite(d.normal_scale)) fail(where + ".normalTexture.scale", "is not finite");
+    }
+    if (g.emissiveTexture.index >= 0 || g.occlusionTexture.index >= 0)
+      warn("emissive and occlusion textures are not read yet: left out");
     if (g.alphaMode != "OPAQUE") warn("alpha modes are not read yet: every surface is opaque");
     return d;
+  }
+
+  // A material's texture reference (baseColorTexture and the others: index, texCoord, extensions) as the image
+  // and its KHR_texture_transform.
+  template <class Info>
+  ModelTexture model_texture(const Info& info, const std::string& where, bool srgb) {
+    ModelTexture t;
+    t.texture = texture(info.index, where, srgb);
+    if (info.texCoord != 0) warn("only TEXCOORD_0 is read: textures naming another set use TEXCOORD_0");
+    if (const tg::Value* tt = extension(info.extensions, "KHR_texture_transform"))
+      t.uv_transform = texture_transform(*tt, where + ".extensions.KHR_texture_transform");
+    return t;
   }
 
   // textures[index] as a pyramid (materials/texture.h), shared by every material that names it: its image's

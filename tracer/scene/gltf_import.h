@@ -18,9 +18,11 @@
 // - KHR_lights_punctual: point, spot and directional lights at their nodes (position, −z axis), colour ×
 //   intensity read one to one as W/sr (point, spot) and W/m² (directional), never divided by 683; the spot's
 //   cone angles; `range` is passed over (the inverse-square law holds everywhere), said once as a warning.
-// Not read yet, each named once on the warnings list: other textures (metallic-roughness, normal, emissive,
-// occlusion), alpha modes, skins and morph targets, orthographic cameras (TANGENT is passed over: it serves
-// normal maps). Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// - metallicRoughnessTexture (roughness × green, metallic × blue, linear) and normalTexture with its scale
+//   (a tangent-space normal map: materials/normal_map.h, whose per-face tangents come from the uv mapping, so
+//   TANGENT is passed over), each with its own KHR_texture_transform.
+// Not read yet, each named once on the warnings list: emissive and occlusion textures, alpha modes, skins and
+// morph targets, orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)

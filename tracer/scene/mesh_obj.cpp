@@ -89,7 +89,7 @@ MtlParams mtl_params(const tinyobj::material_t& m) {
   const std::pair<const char*, const std::string*> maps[] = {
       {"map_Ks", &m.specular_texname}, {"map_Ns", &m.specular_highlight_texname},
       {"map_d", &m.alpha_texname},     {"bump", &m.bump_texname},       {"disp", &m.displacement_texname},
-      {"map_Ke", &m.emissive_texname}, {"norm", &m.normal_texname}};
+      {"map_Ke", &m.emissive_texname}};
   for (const auto& [keyword, name] : maps)
     if (!name->empty()) p.textures.push_back(keyword);
   for (float* c : {&p.kd.x, &p.kd.y, &p.kd.z, &p.ks.x, &p.ks.y, &p.ks.z, &p.ke.x, &p.ke.y, &p.ke.z, &p.ns, &p.ni})
@@ -112,6 +112,18 @@ void add_diffuse_map(const std::string& obj_path, const std::string& name, MeshT
     d.albedo_texture = d.resolved_albedo_texture = file;
   } catch (const ImageError& e) {
     out.warnings.push_back("material " + d.name + ": map_Kd not read (its Kd colour stands alone): " + e.what());
+  }
+}
+
+// norm: a tangent-space normal map (materials/normal_map.h; linear, the image's up is +y as in glTF), for the
+// material just added to out.materials. One that cannot be read is a warning (the surface stays smooth).
+void add_normal_map(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
+  MaterialDesc& d = out.materials.back();
+  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  try {
+    d.normal_map.texture = load_texture_file(file, false);
+  } catch (const ImageError& e) {
+    out.warnings.push_back("material " + d.name + ": norm not read (no normal map): " + e.what());
   }
 }
 
@@ -163,6 +175,7 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       index_of[i] = static_cast<int>(out.materials.size());
       out.materials.push_back(mtl_material(mtl_params(materials[i]), out.warnings));
       if (!materials[i].diffuse_texname.empty()) add_diffuse_map(path, materials[i].diffuse_texname, out);
+      if (!materials[i].normal_texname.empty()) add_normal_map(path, materials[i].normal_texname, out);
     }
   // The parser's own remarks (a usemtl name no library defines, …), a few lines at most.
   {

@@ -240,7 +240,7 @@ std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSetti
 }
 
 bool textured(const SceneDesc& s) {
-  return std::any_of(s.materials.begin(), s.materials.end(), [](const MaterialDesc& m) { return m.albedo_map != nullptr; });
+  return std::any_of(s.materials.begin(), s.materials.end(), [](const MaterialDesc& m) { return m.textured(); });
 }
 
 std::string validate_scene(const SceneDesc& s) {
@@ -408,6 +408,10 @@ Material compile_material(const MaterialDesc& d) {
   m.k = d.k;
   m.albedo_texture = d.albedo_map.get();  // kept alive by Scene::textures
   m.albedo_uv_transform = d.albedo_uv_transform;
+  if (d.type == MaterialType::MetallicRoughness)  // the others have no metallic or roughness to scale by it
+    m.metallic_roughness_map = {d.metallic_roughness_map.texture.get(), d.metallic_roughness_map.uv_transform};
+  m.normal_map = {d.normal_map.texture.get(), d.normal_map.uv_transform};
+  m.normal_scale = d.normal_scale;
   prepare_material(m);
   return m;
 }
@@ -454,15 +458,14 @@ void compile_environment(const EnvironmentDesc& e, Scene& s) {
 // The scene features that follow from its compiled materials.
 void note_material_features(Scene& s) {
   s.features.lambertian_only = std::all_of(s.materials.begin(), s.materials.end(), is_lambertian);
-  s.features.textures = std::any_of(s.materials.begin(), s.materials.end(),
-                                    [](const Material& m) { return m.albedo_texture != nullptr; });
+  s.features.textures = std::any_of(s.materials.begin(), s.materials.end(), has_textures);
 }
 
 // Keeps a material's texture alive as long as the scene (its compiled material points to it; a texture replaced
 // by an edit stays too, since a render may still read it).
 void keep_texture(const MaterialDesc& m, Scene& s) {
-  if (m.albedo_map && std::find(s.textures.begin(), s.textures.end(), m.albedo_map) == s.textures.end())
-    s.textures.push_back(m.albedo_map);
+  for (const std::shared_ptr<const Texture>& t : {m.albedo_map, m.metallic_roughness_map.texture, m.normal_map.texture})
+    if (t && std::find(s.textures.begin(), s.textures.end(), t) == s.textures.end()) s.textures.push_back(t);
 }
 void keep_textures(const SceneDesc& desc, Scene& s) {
   for (const MaterialDesc& m : desc.materials) keep_texture(m, s);

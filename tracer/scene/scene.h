@@ -68,7 +68,7 @@ struct SceneFeatures {
   bool lambertian_only = true;  // every material is the Lambert lobe alone (materials/bsdf.h: is_lambertian)
   bool emissive_spheres = false, environment = false;
   bool smooth_shading = false;  // some polygon has vertex normals (SceneGeometry::shading)
-  bool textures = false;        // some material has an albedo texture
+  bool textures = false;        // some material reads an image (albedo, metallic-roughness, normal map)
 };
 
 // The geometry (SceneGeometry, geometry/primitives.h: what the ray queries read) with the camera, materials and

@@ -110,6 +110,13 @@ const char* to_string(E value) {
   return enum_name(value);
 }
 
+// An image inside a model file and the map from surface uv to its uv (KHR_texture_transform; the identity
+// elsewhere).
+struct ModelTexture {
+  std::shared_ptr<const Texture> texture;
+  glm::mat3 uv_transform{1.f};
+};
+
 struct MaterialDesc {
   std::string name;
   MaterialType type = MaterialType::Diffuse;
@@ -134,6 +141,12 @@ struct MaterialDesc {
   // KHR_texture_transform (offset · rotation · scale); the identity elsewhere. Not written to scene files: it
   // comes with the model file's texture.
   glm::mat3 albedo_uv_transform{1.f};
+  // Data textures that come with a model file's material (glTF), not written to scene files (a material saved
+  // as an override keeps its model file's): metallic–roughness (read by metallic_roughness materials only:
+  // roughness × green, metallic × blue) and a tangent-space normal map (any material), with its scale.
+  ModelTexture metallic_roughness_map, normal_map;
+  float normal_scale = 1.f;
+  bool textured() const { return albedo_map || metallic_roughness_map.texture || normal_map.texture; }
 };
 
 // Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the

@@ -976,16 +976,21 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
   }
   // Model files' materials, unless the scene's materials already name them (an override, e.g. saved edits). A
   // texture that came inside the model file stays with its material: the override's own albedo_texture, when it
-  // names one, replaces it.
+  // names one, replaces the base colour's; the data textures (metallic-roughness, normal map) always stay.
   for (MaterialDesc& m : streamed.imported) {
     const auto [it, added] = material_index.emplace(m.name, static_cast<int>(s.materials.size()));
     if (added) {
       s.materials.push_back(std::move(m));
-    } else if (MaterialDesc& over = s.materials[static_cast<size_t>(it->second)];
-               !over.albedo_map && m.albedo_map && m.albedo_texture.empty() && takes(over.type, MaterialParam::Albedo) &&
-               over.type != MaterialType::Subsurface) {
-      over.albedo_map = m.albedo_map;
-      over.albedo_uv_transform = m.albedo_uv_transform;
+    } else {
+      MaterialDesc& over = s.materials[static_cast<size_t>(it->second)];
+      if (!over.albedo_map && m.albedo_map && m.albedo_texture.empty() && takes(over.type, MaterialParam::Albedo) &&
+          over.type != MaterialType::Subsurface) {
+        over.albedo_map = m.albedo_map;
+        over.albedo_uv_transform = m.albedo_uv_transform;
+      }
+      over.metallic_roughness_map = m.metallic_roughness_map;  // the model file's data textures stay with it
+      over.normal_map = m.normal_map;
+      over.normal_scale = m.normal_scale;
     }
   }
 
