@@ -518,7 +518,8 @@ void texture_fields(ViewerModel& model, size_t m, const MaterialDesc& material) 
     ImGui::SetTooltip("an image whose colour times the albedo is the albedo at each point (the model's texture coordinates)");
 }
 
-// The model file's data textures a material reads (metallic-roughness, normal map): shown, not edited.
+// The model file's data textures a material reads (metallic-roughness, normal map, cut-out mask): shown, not
+// edited.
 void model_texture_lines(const MaterialDesc& material) {
   const auto line = [](const char* what, const Texture& t) {
     ImGui::TextDisabled("%s: %s, %d x %d", what, t.source.c_str(), t.width(), t.height());
@@ -526,6 +527,10 @@ void model_texture_lines(const MaterialDesc& material) {
   if (material.metallic_roughness_map.texture && material.type == MaterialType::MetallicRoughness)
     line("metallic-roughness texture", *material.metallic_roughness_map.texture);
   if (material.normal_map.texture) line("normal map", *material.normal_map.texture);
+  if (const AlphaMask* cut = material.cutout.get()) {
+    if (cut->alpha) line("cut-out alpha", *cut->alpha);
+    ImGui::TextDisabled("cut-out: opaque where %.3g x alpha >= %.3g", cut->factor, cut->cutoff);
+  }
 }
 
 // True when `text` contains `filter` (case-insensitive); an empty filter matches everything.

@@ -14,6 +14,7 @@
 #pragma once
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "geometry/simd_polygons.h"
@@ -132,10 +133,31 @@ inline constexpr int kStackSize = kBvhMaxDepth * (kBvhWidth - 1) + 1;
 
 }  // namespace bvh_detail
 
-// Closest hit in (0, t_max) among the polygons, never reporting polygon `skip`; as closest_polygon().
-template <class ScalarTest>
+// The hit filter of the traversals below: `keep(p)` says whether a hit on polygon p counts (cut-outs:
+// geometry/alpha_mask.h). KeepEveryHit, the default, compiles the filter out.
+struct KeepEveryHit {
+  constexpr bool operator()(uint32_t) const { return true; }
+};
+
+namespace bvh_detail {
+// Drops the leaf's hits (closer than t_max) that `keep` refuses.
+template <class V, class Keep>
+[[gnu::always_inline]] inline void filter_hits(V& t, const PolygonBvh& bvh, uint32_t first, float t_max, const Keep& keep) {
+  if constexpr (!std::is_same_v<Keep, KeepEveryHit>) {
+    for (size_t lane = 0; lane < V::size(); ++lane) {
+      if (!(t[lane] < t_max)) continue;
+      const uint32_t p = bvh.lane_polygon[first + lane];
+      if (p != kNoLanePolygon && !keep(p)) t[lane] = kInfinity;
+    }
+  }
+}
+}  // namespace bvh_detail
+
+// Closest hit in (0, t_max) among the polygons, never reporting polygon `skip` nor one `keep` refuses; as
+// closest_polygon().
+template <class ScalarTest, class Keep = KeepEveryHit>
 inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShear& s, uint32_t skip,
-                                float& t_max, uint32_t& id, const ScalarTest& scalar_test) {
+                                float& t_max, uint32_t& id, const ScalarTest& scalar_test, const Keep& keep = {}) {
   using namespace bvh_detail;
   using namespace simd_detail;
   const RayLanes R(bvh.lanes, o, s);
@@ -157,13 +179,14 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
       using V = decltype(tag);
       BlockResult<V> r = test_block<V>(R, e.ref, t_max);
       mask_lane(r.t, skip_lane, e.ref);
+      filter_hits(r.t, bvh, e.ref, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         stdx::where(r.zero_edge, r.t) = kInfinity;
         for (size_t lane = 0; lane < V::size(); ++lane) {
           const uint32_t p = bvh.lane_polygon[e.ref + lane];
           if (!r.zero_edge[lane] || p == kNoLanePolygon || p == skip) continue;
           PolygonHit h{};
-          if (scalar_test(p, t_max, h) && h.t < t_max) {
+          if (scalar_test(p, t_max, h) && h.t < t_max && keep(p)) {
             t_max = h.t;
             id = p;
           }
@@ -184,10 +207,11 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
   return t_max < t_in;
 }
 
-// Any hit in (0, t_max) among the polygons, ignoring polygons skip_a and skip_b; as any_polygon().
-template <class ScalarTest>
+// Any hit in (0, t_max) among the polygons, ignoring polygons skip_a and skip_b and those `keep` refuses; as
+// any_polygon().
+template <class ScalarTest, class Keep = KeepEveryHit>
 inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShear& s, uint32_t skip_a,
-                            uint32_t skip_b, float t_max, const ScalarTest& scalar_test) {
+                            uint32_t skip_b, float t_max, const ScalarTest& scalar_test, const Keep& keep = {}) {
   using namespace bvh_detail;
   using namespace simd_detail;
   const RayLanes R(bvh.lanes, o, s);
@@ -216,13 +240,14 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
       BlockResult<V> r = test_block<V>(R, e.ref, t_max);
       mask_lane(r.t, skip_lane_a, e.ref);
       mask_lane(r.t, skip_lane_b, e.ref);
+      filter_hits(r.t, bvh, e.ref, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         for (size_t lane = 0; lane < V::size(); ++lane) {
           const uint32_t p = bvh.lane_polygon[e.ref + lane];
           if (!r.zero_edge[lane] || p == kNoLanePolygon || p == skip_a || p == skip_b) continue;
           r.t[lane] = kInfinity;
           PolygonHit h{};
-          if (scalar_test(p, t_max, h)) return true;
+          if (scalar_test(p, t_max, h) && keep(p)) return true;
         }
       }
       return stdx::any_of(r.t < t_max);

@@ -7,8 +7,10 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "geometry/alpha_mask.h"
 #include "geometry/geometry.h"
 #include "geometry/polygon_bvh.h"
 #include "geometry/simd_polygons.h"
@@ -91,11 +93,27 @@ struct SceneGeometry {
   SphereSoA spheres;
   PolygonLanes polygon_lanes;
   PolygonBvh polygon_bvh;
+  // Cut-outs (alpha_mask.h): per material, its mask or null; empty when no material has one (then the queries
+  // run without the test). A scene with cut-outs always has a hierarchy (its traversal applies them).
+  std::vector<std::shared_ptr<const AlphaMask>> material_mask;
 
   uint32_t sphere_begin() const { return static_cast<uint32_t>(polygons.size()); }
   uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
   uint32_t material_of(uint32_t prim) const {
     return prim < sphere_begin() ? polygons.material[prim] : spheres.material[prim - sphere_begin()];
+  }
+  bool has_cutouts() const { return !material_mask.empty(); }
+  // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away.
+  bool cut_away(uint32_t p, const PolygonHit& h) const {
+    const uint32_t m = polygons.material[p];
+    const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
+    if (!mask) return false;
+    Vec2 uv(0.f);
+    if (!shading.empty()) {
+      const std::array<Vec2, 3>& t = shading.uv[p];
+      uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
+    }
+    return !mask->opaque_at(uv);
   }
 };
 

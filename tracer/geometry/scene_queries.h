@@ -6,6 +6,19 @@
 
 namespace pt {
 
+namespace query_detail {
+// The traversal's hit filter for a scene with cut-outs (alpha_mask.h): a hit counts unless its polygon's mask
+// cuts the surface away there (the barycentrics recomputed by the scalar test, which does the SIMD test's
+// arithmetic).
+inline auto uncut(const SceneGeometry& s, Vec3 o, const RayShear& shear) {
+  return [&s, o, &shear](uint32_t p) {
+    PolygonHit h{};
+    if (!intersect_polygon(s.polygons, p, o, shear, kInfinity, h)) return true;
+    return !s.cut_away(p, h);
+  };
+}
+}  // namespace query_detail
+
 // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
 template <uint32_t F>
 inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip, Hit& hit) {
@@ -16,8 +29,12 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
     const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
       return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
     };
-    if (s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
-                              : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test)) {
+    const bool hit_polygon =
+        s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
+        : s.has_cutouts()     ? closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test,
+                                                    query_detail::uncut(s, ray.o, shear))
+                              : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
+    if (hit_polygon) {
       hit = {t_max, id};
       found = true;
     }
@@ -45,6 +62,8 @@ inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, 
       return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
     };
     if (s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
+        : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
+                                                query_detail::uncut(s, ray.o, shear))
                               : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
       return true;
   }

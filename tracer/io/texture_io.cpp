@@ -10,7 +10,17 @@
 
 namespace pt {
 
-Image decode_image(const std::string& bytes, bool srgb, const std::string& what) {
+namespace {
+
+// The image's texels at 8 bits per channel, `channels` of them per texel (stb converts), after checking its
+// announced size. 8 bits whatever the file holds (stb rounds 16-bit images): its 16-bit loader was found by
+// fuzzing to return an 8-bit buffer for some inputs it calls 16-bit (fuzz_texture), and textures gain nothing
+// visible from the extra bits. The decoded size must be the one announced.
+struct Decoded {
+  int width = 0, height = 0;
+  std::vector<stbi_uc> texels;
+};
+Decoded decode_texels(const std::string& bytes, int channels, const std::string& what) {
   const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
   if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) throw ImageError(what + ": the image is too large");
   const int len = static_cast<int>(bytes.size());
@@ -22,26 +32,44 @@ Image decode_image(const std::string& bytes, bool srgb, const std::string& what)
   if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels)
     throw ImageError(what + ": " + std::to_string(w) + " × " + std::to_string(h) + " texels (at most " +
                      std::to_string(kMaxTextureTexels) + ")");
-  Image img;
-  img.width = w;
-  img.height = h;
-  img.rgb.resize(3 * static_cast<size_t>(w) * h);
-  // 8 bits per channel whatever the file holds (stb rounds 16-bit images): its 16-bit loader was found by
-  // fuzzing to return an 8-bit buffer for some inputs it calls 16-bit (fuzz_texture), and colour textures gain
-  // nothing visible from the extra bits. The decoded size must be the one announced.
   int dw = 0, dh = 0, dn = 0;
-  stbi_uc* px = stbi_load_from_memory(data, len, &dw, &dh, &dn, 3);
+  stbi_uc* px = stbi_load_from_memory(data, len, &dw, &dh, &dn, channels);
   if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
   if (dw != w || dh != h) {
     stbi_image_free(px);
     throw ImageError(what + ": decoded as " + std::to_string(dw) + " x " + std::to_string(dh) + ", announced as " +
                      std::to_string(w) + " x " + std::to_string(h));
   }
+  Decoded d;
+  d.width = w;
+  d.height = h;
+  d.texels.assign(px, px + static_cast<size_t>(w) * h * channels);
+  stbi_image_free(px);
+  return d;
+}
+
+}  // namespace
+
+Image decode_image(const std::string& bytes, bool srgb, const std::string& what) {
+  const Decoded d = decode_texels(bytes, 3, what);
+  Image img;
+  img.width = d.width;
+  img.height = d.height;
+  img.rgb.resize(d.texels.size());
   float table[256];
   for (int i = 0; i < 256; ++i) table[i] = srgb ? srgb_to_linear(i / 255.f) : i / 255.f;
-  for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[px[i]];
-  stbi_image_free(px);
+  for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = table[d.texels[i]];
   return img;
+}
+
+AlphaImage decode_alpha(const std::string& bytes, const std::string& what) {
+  const Decoded d = decode_texels(bytes, 4, what);
+  AlphaImage a;
+  a.width = d.width;
+  a.height = d.height;
+  a.alpha.resize(static_cast<size_t>(d.width) * d.height);
+  for (size_t i = 0; i < a.alpha.size(); ++i) a.alpha[i] = d.texels[4 * i + 3] / 255.f;
+  return a;
 }
 
 std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb) {

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "io/image_io.h"
 #include "materials/texture.h"
@@ -24,6 +25,14 @@ inline constexpr size_t kMaxTextureFileBytes = size_t{1} << 30;
 // are rounded) to linear RGB: colour (sRGB-decoded) when `srgb`, else taken as linear data; alpha is dropped. Throws ImageError naming
 // `what` and the reason (undecodable, empty, more than kMaxTextureTexels texels).
 Image decode_image(const std::string& bytes, bool srgb, const std::string& what);
+
+// The alpha channel of an image file's bytes (decoded as decode_image does), linear in [0, 1]: 1 everywhere
+// for an image without one. For cut-outs (geometry/alpha_mask.h).
+struct AlphaImage {
+  int width = 0, height = 0;
+  std::vector<float> alpha;  // rows top first
+};
+AlphaImage decode_alpha(const std::string& bytes, const std::string& what);
 
 // An image file as a texture: .exr, .hdr and .pfm through read_hdr_image (linear), anything else through
 // decode_image (read under the scene's file rules). Throws ImageError naming the file.

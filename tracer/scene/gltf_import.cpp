@@ -216,30 +216,49 @@ struct Reader {
     d.two_sided = g.doubleSided;
     if (pbr.baseColorTexture.index >= 0 && takes(d.type, MaterialParam::Albedo)) {
       // The base colour is the factor times the texture (the specification's rule): albedo holds the factor.
-      const ModelTexture t = model_texture(pbr.baseColorTexture, where + ".pbrMetallicRoughness.baseColorTexture", true);
+      const ModelTexture t = model_texture(pbr.baseColorTexture, where + ".pbrMetallicRoughness.baseColorTexture", Texels::Colour);
       d.albedo_map = t.texture;
       d.albedo_uv_transform = t.uv_transform;
     }
     if (pbr.metallicRoughnessTexture.index >= 0 && d.type == MaterialType::MetallicRoughness)
       d.metallic_roughness_map =
-          model_texture(pbr.metallicRoughnessTexture, where + ".pbrMetallicRoughness.metallicRoughnessTexture", false);
+          model_texture(pbr.metallicRoughnessTexture, where + ".pbrMetallicRoughness.metallicRoughnessTexture",
+                        Texels::Data);
     if (g.normalTexture.index >= 0) {
-      d.normal_map = model_texture(g.normalTexture, where + ".normalTexture", false);
+      d.normal_map = model_texture(g.normalTexture, where + ".normalTexture", Texels::Data);
       d.normal_scale = static_cast<float>(g.normalTexture.scale);
       if (!std::isfinite(d.normal_scale)) fail(where + ".normalTexture.scale", "is not finite");
     }
     if (g.emissiveTexture.index >= 0 || g.occlusionTexture.index >= 0)
       warn("emissive and occlusion textures are not read yet: left out");
-    if (g.alphaMode != "OPAQUE") warn("alpha modes are not read yet: every surface is opaque");
+    if (g.alphaMode == "MASK") {
+      // Cut-outs: opaque where baseColorFactor's alpha × the base colour texture's alpha ≥ alphaCutoff.
+      auto mask = std::make_shared<AlphaMask>();
+      mask->factor = pbr.baseColorFactor.size() >= 4 ? static_cast<float>(pbr.baseColorFactor[3]) : 1.f;
+      mask->cutoff = static_cast<float>(g.alphaCutoff);
+      if (!std::isfinite(mask->factor) || !std::isfinite(mask->cutoff)) fail(where, "alpha factor or cutoff is not finite");
+      if (pbr.baseColorTexture.index >= 0) {
+        const ModelTexture t =
+            model_texture(pbr.baseColorTexture, where + ".pbrMetallicRoughness.baseColorTexture", Texels::Alpha);
+        mask->alpha = t.texture;
+        mask->uv_transform = t.uv_transform;
+      }
+      d.cutout = std::move(mask);
+    } else if (g.alphaMode == "BLEND") {
+      warn("alpha mode BLEND is not read yet (MASK is): those surfaces are opaque");
+    }
     return d;
   }
+
+  // How an image's texels are read: colour (sRGB-decoded), data (as stored), or its alpha channel.
+  enum class Texels { Colour, Data, Alpha };
 
   // A material's texture reference (baseColorTexture and the others: index, texCoord, extensions) as the image
   // and its KHR_texture_transform.
   template <class Info>
-  ModelTexture model_texture(const Info& info, const std::string& where, bool srgb) {
+  ModelTexture model_texture(const Info& info, const std::string& where, Texels kind) {
     ModelTexture t;
-    t.texture = texture(info.index, where, srgb);
+    t.texture = texture(info.index, where, kind);
     if (info.texCoord != 0) warn("only TEXCOORD_0 is read: textures naming another set use TEXCOORD_0");
     if (const tg::Value* tt = extension(info.extensions, "KHR_texture_transform"))
       t.uv_transform = texture_transform(*tt, where + ".extensions.KHR_texture_transform");
@@ -247,10 +266,11 @@ struct Reader {
   }
 
   // textures[index] as a pyramid (materials/texture.h), shared by every material that names it: its image's
-  // decoded texels (sRGB-decoded for colour) and its sampler's wrap modes.
-  std::map<std::pair<int, bool>, std::shared_ptr<const Texture>> textures;
-  std::shared_ptr<const Texture> texture(int index, const std::string& where, bool srgb) {
-    if (const auto it = textures.find({index, srgb}); it != textures.end()) return it->second;
+  // decoded texels (sRGB-decoded for colour, as stored for data, or the alpha channel in every channel) and its
+  // sampler's wrap modes.
+  std::map<std::pair<int, Texels>, std::shared_ptr<const Texture>> textures;
+  std::shared_ptr<const Texture> texture(int index, const std::string& where, Texels kind) {
+    if (const auto it = textures.find({index, kind}); it != textures.end()) return it->second;
     if (index < 0 || static_cast<size_t>(index) >= m.textures.size())
       fail(where + ".index", "texture " + std::to_string(index) + " does not exist");
     const tg::Texture& t = m.textures[index];
@@ -274,14 +294,22 @@ struct Reader {
     }
     Image linear;
     try {
-      linear = decode_image(std::string(img.image.begin(), img.image.end()), srgb, iat);
+      const std::string bytes(img.image.begin(), img.image.end());
+      if (kind == Texels::Alpha) {
+        const AlphaImage a = decode_alpha(bytes, iat);
+        linear.width = a.width;
+        linear.height = a.height;
+        for (float v : a.alpha) linear.rgb.insert(linear.rgb.end(), {v, v, v});
+      } else {
+        linear = decode_image(bytes, kind == Texels::Colour, iat);
+      }
     } catch (const ImageError& e) {
       throw SceneError(path + ": " + e.what());
     }
     const std::string name = std::filesystem::path(path).filename().string() + " " + iat +
                              (img.uri.empty() || img.uri.rfind("data:", 0) == 0 ? "" : " (" + img.uri + ")");
-    auto tex = make_texture(linear, wrap_u, wrap_v, name);
-    textures[{index, srgb}] = tex;
+    auto tex = make_texture(linear, wrap_u, wrap_v, name + (kind == Texels::Alpha ? " alpha" : ""));
+    textures[{index, kind}] = tex;
     return tex;
   }
 

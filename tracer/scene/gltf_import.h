@@ -21,8 +21,10 @@
 // - metallicRoughnessTexture (roughness × green, metallic × blue, linear) and normalTexture with its scale
 //   (a tangent-space normal map: materials/normal_map.h, whose per-face tangents come from the uv mapping, so
 //   TANGENT is passed over), each with its own KHR_texture_transform.
-// Not read yet, each named once on the warnings list: emissive and occlusion textures, alpha modes, skins and
-// morph targets, orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// - alpha mode MASK: cut-outs (geometry/alpha_mask.h) where baseColorFactor's alpha × the base colour
+//   texture's alpha falls below alphaCutoff.
+// Not read yet, each named once on the warnings list: emissive and occlusion textures, alpha mode BLEND
+// (opaque), skins and morph targets, orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)

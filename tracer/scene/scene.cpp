@@ -645,7 +645,10 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     if (shading.active()) shading.add(desc, shape, s.polygons, polygons_before, s.shading);
   }
   s.features.smooth_shading = shading.smooth();
-  if (s.polygons.size() >= kBvhMinPolygons)
+  // Cut-outs (geometry/alpha_mask.h): the hierarchy's traversal applies them, so a scene with one always has it.
+  if (std::any_of(desc.materials.begin(), desc.materials.end(), [](const MaterialDesc& m) { return m.cutout != nullptr; }))
+    for (const MaterialDesc& m : desc.materials) s.material_mask.push_back(m.cutout);
+  if (s.polygons.size() >= kBvhMinPolygons || s.has_cutouts())
     s.polygon_bvh = build_polygon_bvh(s.polygons.v, s.polygons.triangle);
   else
     s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);

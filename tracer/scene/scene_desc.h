@@ -10,6 +10,7 @@
 
 #include "core/enum_table.h"
 #include "core/math.h"
+#include "geometry/alpha_mask.h"
 #include "io/image_io.h"
 #include "materials/material.h"
 #include "materials/texture.h"
@@ -146,7 +147,10 @@ struct MaterialDesc {
   // roughness × green, metallic × blue) and a tangent-space normal map (any material), with its scale.
   ModelTexture metallic_roughness_map, normal_map;
   float normal_scale = 1.f;
-  bool textured() const { return albedo_map || metallic_roughness_map.texture || normal_map.texture; }
+  // glTF's alpha mode MASK: where the mask says so the surface is not there (geometry/alpha_mask.h); null for
+  // an opaque material. Like the data textures, it comes with a model file's material only.
+  std::shared_ptr<const AlphaMask> cutout;
+  bool textured() const { return albedo_map || metallic_roughness_map.texture || normal_map.texture || cutout; }
 };
 
 // Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the

@@ -991,6 +991,7 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
       over.metallic_roughness_map = m.metallic_roughness_map;  // the model file's data textures stay with it
       over.normal_map = m.normal_map;
       over.normal_scale = m.normal_scale;
+      over.cutout = m.cutout;
     }
   }
 
