@@ -213,3 +213,26 @@ TEST_CASE("obj materials: norm is a linear tangent-space normal map that stays w
   for (const std::string& w : lost.warnings) warned = warned || w.find("norm not read") != std::string::npos;
   CHECK(warned);
 }
+
+TEST_CASE("obj materials: map_d is a cut-out, by the image's alpha or else its grey level") {
+  test::TempFolder f("obj");
+  std::filesystem::create_directories(f.dir / "model");
+  // Grey 2 x 1 (written as RGB): left black (cut), right white (kept).
+  write_png_rgb8((f.dir / "model" / "leaf.png").string(), 2, 1, {0, 0, 0, 255, 255, 255});
+  std::ofstream((f.dir / "model" / "leaf.obj").string())
+      << "mtllib leaf.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl leaf\nf 1/1 2/2 3/3\n";
+  std::ofstream((f.dir / "model" / "leaf.mtl").string()) << "newmtl leaf\nKd 0.2 0.6 0.1\nmap_d leaf.png\n";
+  const MeshTriangles mesh = load_obj_mesh((f.dir / "model" / "leaf.obj").string(), ObjectTransform{});
+  REQUIRE(mesh.materials.size() == 1);
+  REQUIRE(mesh.materials[0].cutout);
+  CHECK_FALSE(mesh.materials[0].cutout->opaque_at(Vec2(0.1f, 0.5f)));
+  CHECK(mesh.materials[0].cutout->opaque_at(Vec2(0.9f, 0.5f)));
+  for (const std::string& w : mesh.warnings) CHECK(w.find("map_d") == std::string::npos);
+  // Unreadable: a warning, and an opaque surface.
+  std::filesystem::remove(f.dir / "model" / "leaf.png");
+  const MeshTriangles lost = load_obj_mesh((f.dir / "model" / "leaf.obj").string(), ObjectTransform{});
+  CHECK(!lost.materials[0].cutout);
+  bool warned = false;
+  for (const std::string& w : lost.warnings) warned = warned || w.find("map_d not read") != std::string::npos;
+  CHECK(warned);
+}

@@ -2,6 +2,7 @@
 
 #include <stb_image.h>
 
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <limits>
@@ -62,13 +63,19 @@ Image decode_image(const std::string& bytes, bool srgb, const std::string& what)
   return img;
 }
 
-AlphaImage decode_alpha(const std::string& bytes, const std::string& what) {
-  const Decoded d = decode_texels(bytes, 4, what);
+AlphaImage decode_alpha(const std::string& bytes, const std::string& what, bool grey_without_alpha) {
+  int w = 0, h = 0, n = 0;
+  const bool has_alpha = stbi_info_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()),
+                                               static_cast<int>(std::min<size_t>(bytes.size(), std::numeric_limits<int>::max())),
+                                               &w, &h, &n) &&
+                         (n == 2 || n == 4);
+  const bool grey = grey_without_alpha && !has_alpha;
+  const Decoded d = decode_texels(bytes, grey ? 1 : 4, what);
   AlphaImage a;
   a.width = d.width;
   a.height = d.height;
   a.alpha.resize(static_cast<size_t>(d.width) * d.height);
-  for (size_t i = 0; i < a.alpha.size(); ++i) a.alpha[i] = d.texels[4 * i + 3] / 255.f;
+  for (size_t i = 0; i < a.alpha.size(); ++i) a.alpha[i] = (grey ? d.texels[i] : d.texels[4 * i + 3]) / 255.f;
   return a;
 }
 

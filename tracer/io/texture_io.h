@@ -26,13 +26,14 @@ inline constexpr size_t kMaxTextureFileBytes = size_t{1} << 30;
 // `what` and the reason (undecodable, empty, more than kMaxTextureTexels texels).
 Image decode_image(const std::string& bytes, bool srgb, const std::string& what);
 
-// The alpha channel of an image file's bytes (decoded as decode_image does), linear in [0, 1]: 1 everywhere
-// for an image without one. For cut-outs (geometry/alpha_mask.h).
+// The alpha channel of an image file's bytes (decoded as decode_image does), linear in [0, 1]: for an image
+// without one, 1 everywhere, or with `grey_without_alpha` its grey level (stb's luminance of a colour image),
+// as an .mtl map_d's scalar image is read. For cut-outs (geometry/alpha_mask.h).
 struct AlphaImage {
   int width = 0, height = 0;
   std::vector<float> alpha;  // rows top first
 };
-AlphaImage decode_alpha(const std::string& bytes, const std::string& what);
+AlphaImage decode_alpha(const std::string& bytes, const std::string& what, bool grey_without_alpha = false);
 
 // An image file as a texture: .exr, .hdr and .pfm through read_hdr_image (linear), anything else through
 // decode_image (read under the scene's file rules). Throws ImageError naming the file.

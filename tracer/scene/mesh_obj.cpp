@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <new>
 #include <set>
 #include <stdexcept>
 #include <utility>
@@ -88,7 +89,7 @@ MtlParams mtl_params(const tinyobj::material_t& m) {
   p.illum = m.illum;
   const std::pair<const char*, const std::string*> maps[] = {
       {"map_Ks", &m.specular_texname}, {"map_Ns", &m.specular_highlight_texname},
-      {"map_d", &m.alpha_texname},     {"bump", &m.bump_texname},       {"disp", &m.displacement_texname},
+      {"bump", &m.bump_texname},       {"disp", &m.displacement_texname},
       {"map_Ke", &m.emissive_texname}};
   for (const auto& [keyword, name] : maps)
     if (!name->empty()) p.textures.push_back(keyword);
@@ -124,6 +125,28 @@ void add_normal_map(const std::string& obj_path, const std::string& name, MeshTr
     d.normal_map.texture = load_texture_file(file, false);
   } catch (const ImageError& e) {
     out.warnings.push_back("material " + d.name + ": norm not read (no normal map): " + e.what());
+  }
+}
+
+// map_d: the dissolve image as a cut-out (geometry/alpha_mask.h): opaque where its value (its alpha channel,
+// or its grey level for an image without one) is at least ½, for the material just added to out.materials.
+// One that cannot be read is a warning (the surface stays opaque).
+void add_cutout(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
+  MaterialDesc& d = out.materials.back();
+  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  try {
+    const AlphaImage a = decode_alpha(read_file_limited(file, kMaxTextureFileBytes), file, true);
+    std::vector<float> rgb;
+    rgb.reserve(3 * a.alpha.size());
+    for (float v : a.alpha) rgb.insert(rgb.end(), {v, v, v});
+    auto mask = std::make_shared<AlphaMask>();
+    mask->alpha = make_texture(a.width, a.height, rgb, TextureWrap::Repeat, TextureWrap::Repeat,
+                               std::filesystem::path(file).filename().string() + " (map_d)");
+    d.cutout = std::move(mask);
+  } catch (const std::bad_alloc&) {
+    throw;  // out of memory is not a broken file (exit status 3, docs/reliability.md)
+  } catch (const std::exception& e) {
+    out.warnings.push_back("material " + d.name + ": map_d not read (the surface stays opaque): " + e.what());
   }
 }
 
@@ -176,6 +199,7 @@ MeshTriangles load_obj_mesh(const std::string& path, const ObjectTransform& t) {
       out.materials.push_back(mtl_material(mtl_params(materials[i]), out.warnings));
       if (!materials[i].diffuse_texname.empty()) add_diffuse_map(path, materials[i].diffuse_texname, out);
       if (!materials[i].normal_texname.empty()) add_normal_map(path, materials[i].normal_texname, out);
+      if (!materials[i].alpha_texname.empty()) add_cutout(path, materials[i].alpha_texname, out);
     }
   // The parser's own remarks (a usemtl name no library defines, …), a few lines at most.
   {

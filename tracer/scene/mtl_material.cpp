@@ -47,7 +47,8 @@ MaterialDesc mtl_material(const MtlParams& p, std::vector<std::string>& warnings
   for (const std::string& t : p.textures)
     warnings.push_back("material " + d.name + ": " + t + " is not read yet (textures): its colours stand alone");
   if (p.dissolve < 1.f && !refracts)
-    warnings.push_back("material " + d.name + ": d < 1 (transparency) is not read yet: the surface is opaque");
+    warnings.push_back("material " + d.name + ": d < 1 (partial transparency) is not read yet: the surface is opaque "
+                       "(map_d cut-outs are)");
   return d;
 }
 
