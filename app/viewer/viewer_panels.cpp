@@ -527,6 +527,7 @@ void model_texture_lines(const MaterialDesc& material) {
   if (material.metallic_roughness_map.texture && material.type == MaterialType::MetallicRoughness)
     line("metallic-roughness texture", *material.metallic_roughness_map.texture);
   if (material.normal_map.texture) line("normal map", *material.normal_map.texture);
+  if (material.emission_map.texture) line("emission texture", *material.emission_map.texture);
   if (const AlphaMask* cut = material.cutout.get()) {
     if (cut->alpha) line("cut-out alpha", *cut->alpha);
     ImGui::TextDisabled("cut-out: opaque where %.3g x alpha >= %.3g", cut->factor, cut->cutoff);

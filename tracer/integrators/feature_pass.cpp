@@ -37,7 +37,10 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
     integrator_detail::MaterialScratch scratch;
     const Material& m = integrator_detail::material_at<kM>(s, it, ray.d, cone_width, scratch);
     const Vec3 wo = -ray.d;
-    if (!is_black(m.emission)) L += beta * area_light_emission(s.lights[s.light_of_prim[it.prim]], it.ng, wo);
+    if (!is_black(m.emission)) {
+      const Light& light = s.lights[s.light_of_prim[it.prim]];
+      L += beta * area_light_emission(light, it.ng, wo) * (light.emission_map.texture ? emission_texel(light, it.uv) : Rgb(1.f));
+    }
     trace.at_vertex<kM>(depth, ray.o, it, wo, m, depth >= settings.max_bounces, L);
     if (!trace.out) return out;
     // A specular vertex: continue along the lobe a path would draw here.

@@ -126,6 +126,7 @@ static_assert(std::is_trivially_destructible_v<Material>);
 // them sharp), mapped into each image's uv by the triangle's uv gradients and the image's uv transform:
 // - the albedo: its own (the factor) times the albedo texture;
 // - glTF's metallic and roughness: the factors times the metallic–roughness texture's blue and green;
+// - the emission: the factor times the emission texture (unfiltered, as lights/light_sampling.h reads it);
 // - the shading normal it.ns: bent by the normal map (materials/normal_map.h), which is why `it` is written.
 template <MaterialSet kM>
 [[gnu::always_inline]] inline const Material& material_at(const Scene& s, Interaction& it, Vec3 d, float cone_width,
@@ -153,6 +154,8 @@ template <MaterialSet kM>
         out.metallic = std::clamp(m.metallic * v.z, 0.f, 1.f);
         out.alpha = out.roughness * out.roughness;  // all prepare_material derives for this type
       }
+      if (const TextureSlot& em = m.emission_map; em.texture)  // as the light reads it (emission_texel)
+        out.emission = m.emission * texture_lookup(*em.texture, Vec2(em.uv_transform * glm::vec3(it.uv, 1.f)), 0.f);
       if (const TextureSlot& nm = m.normal_map; nm.texture)
         it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, lookup(*nm.texture, nm.uv_transform), m.normal_scale);
       return out;
@@ -197,7 +200,8 @@ template <class Sampler, uint32_t F>
   if (!is_black(m.emission)) {
     const int li = s.light_of_prim[it.prim];
     const Light& light = s.lights[li];
-    const Rgb Le = area_light_emission(light, it.ng, wo);
+    Rgb Le = area_light_emission(light, it.ng, wo);
+    if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, it.uv);
     if (!o.light_sampling || p.count_emission) {
       p.L += p.beta * Le;
     } else if (o.mis && !is_black(Le)) {

@@ -51,6 +51,26 @@ inline Rgb area_light_emission(const Light& l, Vec3 n, Vec3 w) {
   return (c > 0.f || (l.two_sided && c < 0.f)) ? l.emission : Rgb(0.f);
 }
 
+// A textured area light's image at texture coordinates uv: bilinear at full resolution (level 0), the same
+// function wherever it is read (a ray hitting the light, a light sample landing on it), as MIS's two
+// strategies must estimate the same integrand.
+inline Rgb emission_texel(const Light& l, Vec2 uv) {
+  const TextureSlot& t = l.emission_map;
+  return texture_lookup(*t.texture, Vec2(t.uv_transform * glm::vec3(uv, 1.f)), 0.f);
+}
+
+// The texture coordinates of point p on triangle `prim` (its barycentrics by areas; Ericson 2005, §3.4).
+inline Vec2 polygon_uv_at(const SceneGeometry& s, uint32_t prim, Vec3 p) {
+  if (s.shading.empty() || !s.polygons.triangle[prim]) return Vec2(0.f);
+  const Vec3 a = s.polygons.v[0][prim], e1 = s.polygons.v[1][prim] - a, e2 = s.polygons.v[2][prim] - a, q = p - a;
+  const float d11 = glm::dot(e1, e1), d12 = glm::dot(e1, e2), d22 = glm::dot(e2, e2);
+  const float q1 = glm::dot(q, e1), q2 = glm::dot(q, e2), det = d11 * d22 - d12 * d12;
+  if (!(det > 0.f)) return s.shading.uv[prim][0];
+  const float b1 = (d22 * q1 - d12 * q2) / det, b2 = (d11 * q2 - d12 * q1) / det;
+  const std::array<Vec2, 3>& uv = s.shading.uv[prim];
+  return (1.f - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2];
+}
+
 // Cone of a sphere seen from a point at squared distance d2 > r2 from its centre: 1 − cos θmax, computed as
 // sin²/(1 + cos) to keep its precision for small cones.
 inline float sphere_one_minus_cos_max(double r2, double d2) {
@@ -269,6 +289,7 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
   const float cos_l = std::abs(glm::dot(n, ls.wi));
   if (cos_l == 0.f) return false;
   ls.Le = area_light_emission(l, n, -ls.wi);
+  if (l.emission_map.texture) [[unlikely]] ls.Le *= emission_texel(l, polygon_uv_at(s, l.prim, ls.p));
   ls.pdf = dist2 / (cos_l * l.area);
   return std::isfinite(ls.pdf);
 }

@@ -118,6 +118,9 @@ struct Material {
   // A tangent-space normal map (glTF's normalTexture, materials/normal_map.h) and its scale of x and y.
   TextureSlot normal_map;
   float normal_scale = 1.f;
+  // glTF's emissiveTexture (sRGB colour): the emission is `emission` (the factor) times it. Read where a ray
+  // hits the surface and where a light sample lands on it (lights/light_sampling.h: textured_emission).
+  TextureSlot emission_map;
 
   // Derived by prepare_material():
   float alpha = 0.f;     // GGX α = roughness² (roughness clamped to [0, 1]); α < kSmoothAlpha = 1e-3 is smooth
@@ -137,7 +140,7 @@ Material with_albedo(const Material& m, Rgb albedo);
 
 // Whether the material reads any image at a hit (the path loop then makes its per-hit copy: material_at).
 inline bool has_textures(const Material& m) {
-  return m.albedo_texture || m.metallic_roughness_map.texture || m.normal_map.texture;
+  return m.albedo_texture || m.metallic_roughness_map.texture || m.normal_map.texture || m.emission_map.texture;
 }
 
 }  // namespace pt

@@ -229,8 +229,9 @@ struct Reader {
       d.normal_scale = static_cast<float>(g.normalTexture.scale);
       if (!std::isfinite(d.normal_scale)) fail(where + ".normalTexture.scale", "is not finite");
     }
-    if (g.emissiveTexture.index >= 0 || g.occlusionTexture.index >= 0)
-      warn("emissive and occlusion textures are not read yet: left out");
+    if (g.emissiveTexture.index >= 0 && !is_black(d.emission))  // the emission is the factor times the image
+      d.emission_map = model_texture(g.emissiveTexture, where + ".emissiveTexture", Texels::Colour);
+    if (g.occlusionTexture.index >= 0) warn("occlusion textures are not read (a path tracer finds occlusion itself)");
     if (g.alphaMode == "MASK") {
       // Cut-outs: opaque where baseColorFactor's alpha × the base colour texture's alpha ≥ alphaCutoff.
       auto mask = std::make_shared<AlphaMask>();

@@ -23,8 +23,11 @@
 //   TANGENT is passed over), each with its own KHR_texture_transform.
 // - alpha mode MASK: cut-outs (geometry/alpha_mask.h) where baseColorFactor's alpha × the base colour
 //   texture's alpha falls below alphaCutoff.
-// Not read yet, each named once on the warnings list: emissive and occlusion textures, alpha mode BLEND
-// (opaque), skins and morph targets, orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
+// - emissiveTexture: the emission is emissiveFactor × strength × the image (sRGB), where rays hit the surface
+//   and where light samples land on it.
+// Not read, each named once on the warnings list: occlusion textures (ambient occlusion baked for
+// rasterisers: a path tracer computes occlusion), alpha mode BLEND (opaque), skins and morph targets,
+// orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //
 // Every failure throws SceneError naming the file, the glTF path (`meshes[2].primitives[0].attributes.POSITION`)

@@ -411,6 +411,7 @@ Material compile_material(const MaterialDesc& d) {
   if (d.type == MaterialType::MetallicRoughness)  // the others have no metallic or roughness to scale by it
     m.metallic_roughness_map = {d.metallic_roughness_map.texture.get(), d.metallic_roughness_map.uv_transform};
   m.normal_map = {d.normal_map.texture.get(), d.normal_map.uv_transform};
+  m.emission_map = {d.emission_map.texture.get(), d.emission_map.uv_transform};
   m.normal_scale = d.normal_scale;
   prepare_material(m);
   return m;
@@ -464,7 +465,8 @@ void note_material_features(Scene& s) {
 // Keeps a material's texture alive as long as the scene (its compiled material points to it; a texture replaced
 // by an edit stays too, since a render may still read it).
 void keep_texture(const MaterialDesc& m, Scene& s) {
-  for (const std::shared_ptr<const Texture>& t : {m.albedo_map, m.metallic_roughness_map.texture, m.normal_map.texture})
+  for (const std::shared_ptr<const Texture>& t :
+       {m.albedo_map, m.metallic_roughness_map.texture, m.normal_map.texture, m.emission_map.texture})
     if (t && std::find(s.textures.begin(), s.textures.end(), t) == s.textures.end()) s.textures.push_back(t);
 }
 void keep_textures(const SceneDesc& desc, Scene& s) {
@@ -541,11 +543,19 @@ void compile_lights(Scene& s) {
     l.prim = prim;
     l.emission = m.emission;
     l.two_sided = m.two_sided;
+    // A textured emitter (a model's triangles) reads its image where it is sampled; its power counts the
+    // image's mean (the pyramid's last level), which only steers the choice among lights.
+    double texture_mean = 1.0;
+    if (m.emission_map.texture && prim < s.sphere_begin() && !s.shading.empty()) {
+      l.emission_map = m.emission_map;
+      const Rgb mean = m.emission_map.texture->levels.back().at(0, 0);
+      texture_mean = std::max(1e-3, double(mean.x + mean.y + mean.z) / 3.0);
+    }
     if (prim < s.sphere_begin()) {
       l.area = s.polygons.area[prim];
       l.kind = LightKind::Polygon;
       const PolygonSoA& P = s.polygons;
-      if (P.parallelogram[prim]) {
+      if (P.parallelogram[prim] && !l.emission_map.texture) {
         // A rectangle (perpendicular edges) is sampled in solid angle: far less noise near the light.
         const Vec3 ex = P.v[1][prim] - P.v[0][prim], ey = P.v[3][prim] - P.v[0][prim];
         if (std::abs(glm::dot(ex, ey)) <= 1e-5f * glm::length(ex) * glm::length(ey)) {
@@ -563,7 +573,8 @@ void compile_lights(Scene& s) {
     }
     s.light_of_prim[prim] = static_cast<int32_t>(s.lights.size());
     s.lights.push_back(l);
-    power.push_back(double(l.area) * (m.emission.x + m.emission.y + m.emission.z) * (m.two_sided ? 2.0 : 1.0));
+    power.push_back(double(l.area) * (m.emission.x + m.emission.y + m.emission.z) * (m.two_sided ? 2.0 : 1.0) *
+                    texture_mean);
   }
   // Infinite lights' power is counted as pbrt-v4 counts it, Φ = π R²·∫Le dω for the scene's bounding radius R
   // (camera-centred); only its ratio to the other lights matters, and any positive choice keeps the estimate

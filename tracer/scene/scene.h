@@ -47,6 +47,7 @@ struct Light {
   float one_minus_cos_max = 0.f; // Sun: angular radius as 1 − cos
   Vec3 position{0.f};            // Point, Spot (camera-relative)
   float cos_inner = 1.f, cos_outer = 0.f;  // Spot
+  TextureSlot emission_map;      // a textured area light (its material's emission_map; kind Polygon): emission × it
   bool infinite() const { return kind == LightKind::Environment || kind == LightKind::Sun; }
   bool delta() const { return kind == LightKind::Point || kind == LightKind::Spot || kind == LightKind::Directional; }
   bool polygon() const { return kind == LightKind::Polygon || kind == LightKind::Rectangle; }  // a triangle or quad

@@ -147,10 +147,14 @@ struct MaterialDesc {
   // roughness × green, metallic × blue) and a tangent-space normal map (any material), with its scale.
   ModelTexture metallic_roughness_map, normal_map;
   float normal_scale = 1.f;
+  // A model file's emission image (glTF's emissiveTexture, colour): the emission is `emission` times it.
+  ModelTexture emission_map;
   // glTF's alpha mode MASK: where the mask says so the surface is not there (geometry/alpha_mask.h); null for
   // an opaque material. Like the data textures, it comes with a model file's material only.
   std::shared_ptr<const AlphaMask> cutout;
-  bool textured() const { return albedo_map || metallic_roughness_map.texture || normal_map.texture || cutout; }
+  bool textured() const {
+    return albedo_map || metallic_roughness_map.texture || normal_map.texture || emission_map.texture || cutout;
+  }
 };
 
 // Per-vertex shading data of one triangle read from a model file (OBJ vn/vt, glTF NORMAL/TEXCOORD_0), in the

@@ -992,6 +992,7 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
       over.normal_map = m.normal_map;
       over.normal_scale = m.normal_scale;
       over.cutout = m.cutout;
+      over.emission_map = m.emission_map;
     }
   }
 
