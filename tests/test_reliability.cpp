@@ -118,6 +118,27 @@ TEST_CASE("safe writes: a failure mid-write (full disk) leaves the earlier file 
   CHECK(dir.names() == std::vector<std::string>{"out.pfm", "out.pfm.tmp"});
 }
 
+TEST_CASE("safe writes: a hard-linked output on a full disk fails before its first byte") {
+  // docs/reliability.md: a file with several hard links is written in place (every name sees the new image),
+  // after checking that the file system has room, so a full disk fails before the first byte. The simulated
+  // disk has 10 bytes of room: writing in place without the check would overwrite the file's start and then
+  // fail, leaving both names a broken image.
+  TempDir dir("linkfull");
+  const std::string a = dir / "a.pfm", b = dir / "b.pfm";
+  put(a, "the earlier render, long enough to be visibly damaged");
+  fs::create_hard_link(a, b);
+  testing::fail_writes_after(10, ENOSPC);
+  CHECK_THROWS_WITH_AS(write_pfm(a, small_image()), (a + ": cannot write (No space left on device)").c_str(), ImageError);
+  CHECK(slurp(a) == "the earlier render, long enough to be visibly damaged");
+  CHECK(fs::hard_link_count(a) == 2);
+  CHECK(dir.names() == std::vector<std::string>{"a.pfm", "b.pfm"});
+  // With room enough, the same write goes through in place and both names see it.
+  testing::fail_writes_after(size_t{1} << 20, ENOSPC);
+  write_pfm(a, small_image());
+  CHECK(read_pfm(b).rgb == small_image().rgb);
+  CHECK(fs::hard_link_count(a) == 2);
+}
+
 TEST_CASE("safe writes: links, permissions and special files are respected") {
   TempDir dir("special");
   SUBCASE("a symbolic link is followed, and stays a link") {

@@ -48,7 +48,8 @@ std::string read_file_limited(const std::string& path, size_t max_bytes);
 
 namespace testing {
 // Fault injection for tests: the next write_file_safely() fails its data writes with `error` (an errno value)
-// once `after_bytes` bytes have been written, as a full disk would. An error of 0 disarms it.
+// once `after_bytes` bytes have been written, as a full disk would; with ENOSPC the disk also reports
+// `after_bytes` bytes of room to the in-place writer's check. An error of 0 disarms it.
 void fail_writes_after(size_t after_bytes, int error);
 }  // namespace testing
 
