@@ -16,6 +16,7 @@
 #include "scene/scene.h"
 #include "temp_folder.h"
 #include "test_helpers.h"
+#include "uv_scenes.h"
 
 using namespace pt;
 
@@ -27,24 +28,6 @@ std::shared_ptr<const AlphaMask> left_half_cut() {
   m->alpha = make_texture(2, 1, {0, 0, 0, 1, 1, 1}, TextureWrap::Clamp, TextureWrap::Clamp, "half");
   m->cutoff = 0.5f;
   return m;
-}
-
-// A square (x, z) ∈ [−1, 1]² at height y, facing up, u along +x, v along +z, made of two triangles with uv.
-void add_square(SceneDesc& s, std::vector<TriangleShading>& shading, double y, double half, int material) {
-  const DVec3 a(-half, y, half), b(half, y, half), c(half, y, -half), d(-half, y, -half);
-  const Vec2 ua(0, 1), ub(1, 1), uc(1, 0), ud(0, 0);
-  for (const auto& [v, uv] : {std::pair{std::array<DVec3, 3>{a, b, c}, std::array<Vec2, 3>{ua, ub, uc}},
-                              std::pair{std::array<DVec3, 3>{a, c, d}, std::array<Vec2, 3>{ua, uc, ud}}}) {
-    ShapeDesc tri;
-    tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
-    tri.material = material;
-    TriangleShading sh;
-    sh.uv = uv;
-    sh.has_uv = true;
-    tri.shading = static_cast<uint32_t>(shading.size());
-    shading.push_back(sh);
-    s.shapes.push_back(tri);
-  }
 }
 
 // Seen straight down from y = 4 (image up = −z, so image left = −x = u < 0.5), 8 × 8 pixels over x ∈ ±0.9.
@@ -97,7 +80,7 @@ TEST_CASE("cut-outs: a black square cut in its left half shows the bright backgr
   black.cutout = left_half_cut();
   s.materials = {black};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  add_square(s, *shading, 0.0, 1.0, 0);
+  test::add_uv_square(s, *shading, 0.0, 1.0, 0);
   s.shading = shading;
   for (Estimator est : {Estimator::Cosine, Estimator::Mis}) {
     s.render.estimator = est;
@@ -123,8 +106,8 @@ TEST_CASE("cut-outs: light passes through the cut part of a blocker and not thro
   blocker.cutout = left_half_cut();
   s.materials = {floor, blocker};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  add_square(s, *shading, 0.0, 10.0, 0);
-  add_square(s, *shading, 6.0, 10.0, 1);
+  test::add_uv_square(s, *shading, 0.0, 10.0, 0);
+  test::add_uv_square(s, *shading, 6.0, 10.0, 1);
   s.shading = shading;
   PunctualLightDesc sun;
   sun.kind = PunctualKind::Directional;
@@ -141,24 +124,12 @@ TEST_CASE("cut-outs: glTF alphaMode MASK reads alphaCutoff, the factor's alpha a
   // 2 × 1 RGBA: left transparent, right opaque.
   const unsigned char rgba[] = {255, 255, 255, 0, 255, 255, 255, 255};
   REQUIRE(stbi_write_png(f.path("leaf.png").c_str(), 2, 1, 4, rgba, 8));
-  std::string buf;
-  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0}, uv{0, 0, 1, 0, 0, 1};
-  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
-  buf.append(reinterpret_cast<const char*>(uv.data()), 24);
-  f.write("tri.bin", buf);
-  const auto gltf = [&](const std::string& material) {
-    return R"({"asset": {"version": "2.0"},
-    "buffers": [{"byteLength": 60, "uri": "tri.bin"}],
-    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}],
-    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
-                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
-    "images": [{"uri": "leaf.png"}], "textures": [{"source": 0}],
-    "materials": [)" + material + R"(],
-    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
-    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})";
+  const auto gltf = [&](const std::string& name, const std::string& material) {
+    return test::one_triangle_gltf(f, name, R"("images": [{"uri": "leaf.png"}], "textures": [{"source": 0}],
+    "materials": [)" + material + "]");
   };
-  f.write("mask.gltf", gltf(R"({"name": "leaf", "alphaMode": "MASK", "alphaCutoff": 0.3,
-      "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.8], "baseColorTexture": {"index": 0}}})"));
+  gltf("mask.gltf", R"({"name": "leaf", "alphaMode": "MASK", "alphaCutoff": 0.3,
+      "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.8], "baseColorTexture": {"index": 0}}})");
   const GltfContents g = load_gltf(f.path("mask.gltf"));
   REQUIRE(g.materials[0].cutout);
   const AlphaMask& m = *g.materials[0].cutout;
@@ -171,9 +142,9 @@ TEST_CASE("cut-outs: glTF alphaMode MASK reads alphaCutoff, the factor's alpha a
   REQUIRE(g.materials[0].albedo_map);
   CHECK(texture_lookup(*g.materials[0].albedo_map, Vec2(0.1f, 0.5f), 0.f) == Rgb(1.f));
   // OPAQUE (the default) has no mask; BLEND is opaque, with a warning.
-  f.write("opaque.gltf", gltf(R"({"name": "plain", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})"));
+  gltf("opaque.gltf", R"({"name": "plain", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})");
   CHECK_FALSE(load_gltf(f.path("opaque.gltf")).materials[0].cutout);
-  f.write("blend.gltf", gltf(R"({"name": "glassy", "alphaMode": "BLEND", "pbrMetallicRoughness": {}})"));
+  gltf("blend.gltf", R"({"name": "glassy", "alphaMode": "BLEND", "pbrMetallicRoughness": {}})");
   const GltfContents blend = load_gltf(f.path("blend.gltf"));
   CHECK_FALSE(blend.materials[0].cutout);
   bool warned = false;

@@ -15,6 +15,7 @@
 #include "scene/scene.h"
 #include "temp_folder.h"
 #include "test_helpers.h"
+#include "uv_scenes.h"
 
 using namespace pt;
 
@@ -24,28 +25,6 @@ namespace {
 std::shared_ptr<const Texture> two_tone(float left, float right) {
   return make_texture(4, 1, {left, left, left, left, left, left, right, right, right, right, right, right},
                       TextureWrap::Clamp, TextureWrap::Clamp, "two-tone");
-}
-
-// A square in the plane y = height, ±half in x and z, u along +x and v along +z; facing up, or down.
-void add_square(SceneDesc& s, std::vector<TriangleShading>& shading, double y, double half, int material, bool down) {
-  const DVec3 a(-half, y, half), b(half, y, half), c(half, y, -half), d(-half, y, -half);
-  const Vec2 ua(0, 1), ub(1, 1), uc(1, 0), ud(0, 0);
-  for (auto [v, uv] : {std::pair{std::array<DVec3, 3>{a, b, c}, std::array<Vec2, 3>{ua, ub, uc}},
-                       std::pair{std::array<DVec3, 3>{a, c, d}, std::array<Vec2, 3>{ua, uc, ud}}}) {
-    if (down) {
-      std::swap(v[1], v[2]);
-      std::swap(uv[1], uv[2]);
-    }
-    ShapeDesc tri;
-    tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
-    tri.material = material;
-    TriangleShading sh;
-    sh.uv = uv;
-    sh.has_uv = true;
-    tri.shading = static_cast<uint32_t>(shading.size());
-    shading.push_back(sh);
-    s.shapes.push_back(tri);
-  }
 }
 
 }  // namespace
@@ -65,7 +44,7 @@ TEST_CASE("emission textures: an emitter seen directly shows its factor times it
   lamp.emission_map.texture = two_tone(0.25f, 1.f);
   s.materials = {lamp};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  add_square(s, *shading, 0.0, 1.0, 0, false);
+  test::add_uv_square(s, *shading, 0.0, 1.0, 0);
   s.shading = shading;
   const Film f = test::render_film(s, 4, 2);
   // The outer pixel columns see u in [0.05, 0.16] and [0.84, 0.95]: texels of one tone only.
@@ -97,8 +76,8 @@ TEST_CASE("emission textures: light samples read the texture as hits do: cosine 
   lamp.emission_map.texture = two_tone(1.f, 0.1f);
   s.materials = {floor, lamp};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  add_square(s, *shading, 0.0, 4.0, 0, false);
-  add_square(s, *shading, 1.0, 0.6, 1, true);
+  test::add_uv_square(s, *shading, 0.0, 4.0, 0);
+  test::add_uv_square(s, *shading, 1.0, 0.6, 1, 1.f, true);
   s.shading = shading;
   // The pixels of a half differ by the real falloff across the floor, so the comparison takes the difference of
   // the two estimators pixel by pixel (same pixels, independent noise) and its spread over the half.
@@ -132,21 +111,9 @@ TEST_CASE("emission textures: light samples read the texture as hits do: cosine 
 TEST_CASE("emission textures: glTF's emissiveTexture times the factor and strength") {
   test::TempFolder f("emit");
   write_png_rgb8(f.path("glow.png"), 1, 1, {255, 128, 0});
-  std::string buf;
-  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0}, uv{0, 0, 1, 0, 0, 1};
-  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
-  buf.append(reinterpret_cast<const char*>(uv.data()), 24);
-  f.write("tri.bin", buf);
-  f.write("tri.gltf", R"({"asset": {"version": "2.0"},
-    "buffers": [{"byteLength": 60, "uri": "tri.bin"}],
-    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}],
-    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
-                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
-    "images": [{"uri": "glow.png"}], "textures": [{"source": 0}],
+  test::one_triangle_gltf(f, "tri.gltf", R"("images": [{"uri": "glow.png"}], "textures": [{"source": 0}],
     "materials": [{"name": "sign", "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0},
-                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}}],
-    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
-    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}}])");
   const GltfContents g = load_gltf(f.path("tri.gltf"));
   REQUIRE(g.materials.size() == 1);
   const MaterialDesc& m = g.materials[0];

@@ -17,6 +17,7 @@
 #include "scene/scene.h"
 #include "temp_folder.h"
 #include "test_helpers.h"
+#include "uv_scenes.h"
 
 using namespace pt;
 
@@ -46,19 +47,7 @@ SceneDesc mapped_floor(const MaterialDesc& material, bool furnace) {
   if (furnace) s.environment.radiance = Rgb(1.f);
   s.materials = {material};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  const DVec3 a(-10, 0, 10), b(10, 0, 10), c(10, 0, -10), d(-10, 0, -10);  // counter-clockwise from above
-  const Vec2 ua(0, 1), ub(1, 1), uc(1, 0), ud(0, 0);
-  for (const auto& [v, uv] : {std::pair{std::array<DVec3, 3>{a, b, c}, std::array<Vec2, 3>{ua, ub, uc}},
-                              std::pair{std::array<DVec3, 3>{a, c, d}, std::array<Vec2, 3>{ua, uc, ud}}}) {
-    ShapeDesc tri;
-    tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
-    TriangleShading sh;
-    sh.uv = uv;
-    sh.has_uv = true;
-    tri.shading = static_cast<uint32_t>(shading->size());
-    shading->push_back(sh);
-    s.shapes.push_back(tri);
-  }
+  test::add_uv_square(s, *shading, 0.0, 10.0, 0);
   s.shading = shading;
   return s;
 }
@@ -157,23 +146,11 @@ TEST_CASE("normal maps: glTF's normalTexture and metallicRoughnessTexture are re
   // A 1 × 1 normal map tilted towards +u, and a metallic-roughness texel (r unused, g roughness 0.5, b metallic 0).
   write_png_rgb8(f.path("n.png"), 1, 1, {191, 128, 221});
   write_png_rgb8(f.path("mr.png"), 1, 1, {0, 128, 0});
-  std::string buf;
-  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0}, uv{0, 0, 1, 0, 0, 1};
-  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
-  buf.append(reinterpret_cast<const char*>(uv.data()), 24);
-  f.write("tri.bin", buf);
-  f.write("tri.gltf", R"({"asset": {"version": "2.0"},
-    "buffers": [{"byteLength": 60, "uri": "tri.bin"}],
-    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}],
-    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
-                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
-    "images": [{"uri": "n.png"}, {"uri": "mr.png"}],
+  test::one_triangle_gltf(f, "tri.gltf", R"("images": [{"uri": "n.png"}, {"uri": "mr.png"}],
     "textures": [{"source": 0}, {"source": 1}],
     "materials": [{"name": "bumpy", "normalTexture": {"index": 0, "scale": 0.5},
                    "pbrMetallicRoughness": {"metallicFactor": 1, "roughnessFactor": 1,
-                                            "metallicRoughnessTexture": {"index": 1}}}],
-    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
-    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+                                            "metallicRoughnessTexture": {"index": 1}}}])");
   const GltfContents g = load_gltf(f.path("tri.gltf"));
   REQUIRE(g.materials.size() == 1);
   const MaterialDesc& m = g.materials[0];

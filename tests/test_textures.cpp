@@ -27,6 +27,7 @@
 #include "skip.h"
 #include "temp_folder.h"
 #include "test_helpers.h"
+#include "uv_scenes.h"
 
 using namespace pt;
 
@@ -165,20 +166,7 @@ SceneDesc checker_floor_scene(const std::shared_ptr<const Texture>& checker, flo
   floor.albedo_map = checker;
   s.materials = {floor};
   auto shading = std::make_shared<std::vector<TriangleShading>>();
-  const DVec3 a(-100, 0, 100), b(100, 0, 100), c(100, 0, -100), d(-100, 0, -100);
-  const Vec2 ua(0, repeats), ub(repeats, repeats), uc(repeats, 0), ud(0, 0);
-  for (const auto& [v, uv] : {std::pair{std::array<DVec3, 3>{a, b, c}, std::array<Vec2, 3>{ua, ub, uc}},
-                              std::pair{std::array<DVec3, 3>{a, c, d}, std::array<Vec2, 3>{ua, uc, ud}}}) {
-    ShapeDesc tri;
-    tri.type = ShapeType::Triangle;
-    tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
-    TriangleShading sh;
-    sh.uv = uv;
-    sh.has_uv = true;
-    tri.shading = static_cast<uint32_t>(shading->size());
-    shading->push_back(sh);
-    s.shapes.push_back(tri);
-  }
+  test::add_uv_square(s, *shading, 0.0, 100.0, 0, repeats);
   s.shading = shading;
   return s;
 }
@@ -296,23 +284,11 @@ TEST_CASE("textures: a glTF base colour texture from a file beside the model, it
   test::TempFolder f("tex");
   // 2 × 2: top-left red, top-right green, bottom-left blue, bottom-right white (rows top first).
   write_png_rgb8(f.path("four.png"), 2, 2, {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255});
-  std::string buf;
-  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0}, uv{0, 0, 1, 0, 0, 1};
-  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
-  buf.append(reinterpret_cast<const char*>(uv.data()), 24);
-  f.write("tri.bin", buf);
-  f.write("tri.gltf", R"({"asset": {"version": "2.0"},
-    "buffers": [{"byteLength": 60, "uri": "tri.bin"}],
-    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}],
-    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
-                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
-    "images": [{"uri": "four.png"}],
+  test::one_triangle_gltf(f, "tri.gltf", R"("images": [{"uri": "four.png"}],
     "samplers": [{"wrapS": 33071, "wrapT": 33648}],
     "textures": [{"source": 0, "sampler": 0}],
     "materials": [{"name": "painted", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 1, 1, 1],
-                   "baseColorTexture": {"index": 0}, "metallicFactor": 0}}],
-    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
-    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+                   "baseColorTexture": {"index": 0}, "metallicFactor": 0}}])");
   const GltfContents g = load_gltf(f.path("tri.gltf"));
   REQUIRE(g.materials.size() == 1);
   const MaterialDesc& m = g.materials[0];
