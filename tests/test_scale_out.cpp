@@ -351,9 +351,11 @@ TEST_CASE("scale-out mpi: a state resumed by 2 ranks gives the single process's 
 TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, and the last checkpoint stays readable") {
   if (skip_without_mpirun()) return;
   TempDir dir("mpi_death");
-  // Two ranks render for up to 60 s with a checkpoint every 0.5 s; after 4 s one rank is killed.
-  const std::string script = mpirun(2) + " \"$0\" \"$@\" & job=$!; sleep 4; "
-                             "pkill -KILL -n -f \"render --mpi -q --scene cornell --seed 3\"; wait $job";
+  // Two ranks render for up to 60 s with a checkpoint every 0.5 s; once the first checkpoint is on disk (polled,
+  // not a fixed delay that a loaded machine could outrun), one rank is killed.
+  const std::string script = mpirun(2) + " \"$0\" \"$@\" & job=$!; for i in $(seq 300); do [ -s " + dir / "ck.ptstate" +
+                             " ] && break; sleep 0.1; done; pkill -KILL -n -f \"render --mpi -q --scene cornell --seed 3\"; "
+                             "wait $job";
   const auto start = std::chrono::steady_clock::now();
   const Run r = pt::test::run_pathtracer(
       "sh -c '" + script + "'",
@@ -370,11 +372,14 @@ TEST_CASE("scale-out mpi: a rank that dies ends the job with an error, no hang, 
 
 TEST_CASE("scale-out cli: Ctrl-C writes the state with the images, and the state resumes") {
   TempDir dir("sigint");
-  // A render of 10^6 spp is interrupted after 2 s: the state must be there, whole, with the samples so far.
-  const std::string script = "\"$0\" \"$@\" & pid=$!; sleep 2; kill -INT $pid; wait $pid";
+  // A render of 10^6 spp is interrupted once its first checkpoint (0.5 s of render time) is on disk (polled, not a
+  // fixed delay that a loaded machine could outrun): the state must be there, whole, with the samples so far.
+  const std::string script = "\"$0\" \"$@\" & pid=$!; for i in $(seq 300); do [ -s " + dir / "s.ptstate" +
+                             " ] && break; sleep 0.1; done; kill -INT $pid; wait $pid";
   const Run r = pt::test::run_pathtracer("sh -c '" + script + "'",
                                          "render -q --scene cornell --seed 1 --width 48 --height 48 --threads 2 "
-                                         "--spp 1000000 --save-state " + dir / "s.ptstate --pfm " + dir / "s.pfm");
+                                         "--spp 1000000 --checkpoint 0.5 --save-state " + dir / "s.ptstate --pfm " +
+                                             dir / "s.pfm");
   INFO(r.out << r.err);
   CHECK(r.status == 0);
   CHECK(r.err.find("interrupted by SIGINT") != std::string::npos);

@@ -203,17 +203,19 @@ TEST_CASE("view cli: a window unmapped and mapped again (restored) after the ren
     return;
   }
   // Before, a finished (or paused) render drew nothing more, and a window whose pixels the X server had dropped
-  // (minimised and restored, uncovered) stayed black. The render stops at 4 spp; 7 s later the window is
-  // unmapped and mapped again, and dumped before and after.
+  // (minimised and restored, uncovered) stayed black. The render stops at 4 spp; once the title says it is done
+  // (polled: no fixed delay for a loaded machine to outrun) the window is dumped, unmapped and mapped again, and
+  // dumped again; then SIGINT quits it.
   const std::string dir = "view_expose_" + std::to_string(getpid());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directory(dir);
   const std::string script =
-      "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 7; wid=$(xdotool search --name pathtracer | head -1); "
+      "exe=$0; \"$exe\" \"$@\" & pid=$!; wid=$(xdotool search --sync --name pathtracer | head -1); "
+      "for i in $(seq 600); do xdotool getwindowname $wid | grep -q \", done\" && break; sleep 0.1; done; sleep 0.5; "
       "xwd -id $wid -silent > " + dir + "/before.xwd; xdotool windowunmap --sync $wid; sleep 0.5; "
-      "xdotool windowmap --sync $wid; sleep 1.5; xwd -id $wid -silent > " + dir + "/after.xwd; wait $pid";
+      "xdotool windowmap --sync $wid; sleep 1.5; xwd -id $wid -silent > " + dir + "/after.xwd; kill -INT $pid; wait $pid";
   const Run r = run("timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" + script + "'",
-                    "view --spp 4 --threads 2 --seconds 11");
+                    "view --spp 4 --threads 2 --output-dir " + dir);
   INFO(r.out << r.err);
   CHECK(r.status == 0);
   const long before = red_pixels_in_xwd(dir + "/before.xwd", 512), after = red_pixels_in_xwd(dir + "/after.xwd", 512);
