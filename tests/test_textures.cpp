@@ -89,6 +89,22 @@ TEST_CASE("textures: a 16-bit PGM that stb decodes at 8 bits is read within its 
   }
 }
 
+TEST_CASE("textures: a binary PNM shorter than its header announces is refused before stb reads it") {
+  // Found by fuzz_texture: "P5 56 556 5660" and one byte of data (a 16-bit PGM of 56 × 556 texels) made Debian's
+  // stb_image read far outside the buffer (AddressSanitizer: SEGV in stbi_load_from_memory). Refused by size.
+  std::ifstream in(std::string(PT_TEST_DATA_DIR) + "/pgm_16bit_short.pgm", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() == 14);
+  CHECK_THROWS_WITH_AS(decode_image(bytes, true, "short.pgm"), doctest::Contains("short.pgm: truncated"), ImageError);
+  CHECK_THROWS_WITH_AS(decode_alpha(bytes, "short.pgm", true), doctest::Contains("short.pgm: truncated"), ImageError);
+  // A whole one of the same kind decodes: 2 × 1, 16 bits, maxval 65535.
+  const std::string whole = std::string("P5 2 1 65535\n") + std::string("\xff\xff\x00\x00", 4);
+  const Image img = decode_image(whole, false, "whole.pgm");
+  CHECK(img.width == 2);
+  CHECK(img.rgb[0] == 1.f);
+  CHECK(img.rgb[3] == 0.f);
+}
+
 TEST_CASE("textures: texel centres, bilinear weights and the three wrap modes") {
   // Four texels in a row with values 0, 1, 2, 3 (red), one texel high.
   const Image row = image(4, 1, {0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0});

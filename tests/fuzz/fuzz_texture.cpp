@@ -1,5 +1,5 @@
-// libFuzzer target: the texture decoders (materials/texture.h: decode_image, stb_image's PNG, JPEG, BMP, TGA, GIF,
-// PSD, PNM readers) and the pyramid built from what they give. The first byte picks sRGB or data decoding and the
+// libFuzzer target: the texture decoders (io/texture_io.h: decode_image and decode_alpha, stb_image's PNG, JPEG,
+// BMP, TGA, GIF, PSD, PNM readers) and the pyramid built from what they give. The first byte picks sRGB or data decoding and the
 // wrap modes; the rest is the file. Any input must give either an image whose size is consistent and whose
 // texels are finite and in [0, 1], with a pyramid whose lookups are finite, or an error naming the input; a
 // crash, a sanitizer report, a hang or an oversized allocation is a finding.
@@ -41,6 +41,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     finding("inconsistent image size", std::to_string(img.width) + "x" + std::to_string(img.height));
   for (float v : img.rgb)
     if (!(v >= 0.f && v <= 1.f)) finding("texel outside [0, 1]", std::to_string(v));
+  // The alpha channel (cut-outs), or the grey level where there is none (.mtl map_d).
+  try {
+    const pt::AlphaImage a = pt::decode_alpha(bytes, "input", (data[0] & 32) != 0);
+    if (a.width != img.width || a.height != img.height || a.alpha.size() != static_cast<size_t>(a.width) * a.height)
+      finding("alpha size differs from the image's", std::to_string(a.width) + "x" + std::to_string(a.height));
+    for (float v : a.alpha)
+      if (!(v >= 0.f && v <= 1.f)) finding("alpha outside [0, 1]", std::to_string(v));
+  } catch (const pt::ImageError& e) {
+    finding("the alpha of a decodable image failed", e.what());
+  }
   const auto t = pt::make_texture(img, wrap(data[0] >> 1), wrap(data[0] >> 3), "input");
   for (int k = 0; k < 8; ++k) {
     const pt::Vec2 uv(0.37f * k - 1.1f, 0.91f - 0.29f * k);

@@ -33,6 +33,14 @@ Decoded decode_texels(const std::string& bytes, int channels, const std::string&
   if (w <= 0 || h <= 0 || static_cast<long long>(w) * h > kMaxTextureTexels)
     throw ImageError(what + ": " + std::to_string(w) + " × " + std::to_string(h) + " texels (at most " +
                      std::to_string(kMaxTextureTexels) + ")");
+  // stb's binary PNM reader trusts its header: a P5/P6 file shorter than the texels it announces made Debian's
+  // stb read far outside the buffer (fuzz_texture, tests/data/pgm_16bit_short.pgm). Such a file is refused here.
+  if (bytes.size() >= 2 && bytes[0] == 'P' && (bytes[1] == '5' || bytes[1] == '6')) {
+    const long long sample_bytes = stbi_is_16_bit_from_memory(data, len) ? 2 : 1;
+    if (static_cast<long long>(w) * h * n * sample_bytes > static_cast<long long>(bytes.size()))
+      throw ImageError(what + ": truncated (its header announces " + std::to_string(w) + " x " + std::to_string(h) +
+                       " texels, more than the file holds)");
+  }
   int dw = 0, dh = 0, dn = 0;
   stbi_uc* px = stbi_load_from_memory(data, len, &dw, &dh, &dn, channels);
   if (!px) throw ImageError(what + ": cannot decode (" + std::string(stbi_failure_reason() ? stbi_failure_reason() : "?") + ")");
