@@ -123,3 +123,27 @@ TEST_CASE("emission textures: glTF's emissiveTexture times the factor and streng
   CHECK(texture_lookup(*m.emission_map.texture, Vec2(0.5f), 0.f).y == doctest::Approx(srgb_to_linear(128.f / 255.f)));
   CHECK(g.emits);
 }
+
+TEST_CASE("emission textures: an emitter without texture coordinates emits its factor, seen and sampled alike") {
+  // A scene-file quad has no uv: its light reads no texture, and a hit on it must not either (a texel at uv
+  // (0, 0), black here, would make the lamp black where rays hit it and bright where light samples land).
+  SceneDesc s;
+  s.camera.position = DVec3(0, 4, 0);
+  s.camera.look_at = DVec3(0, 0, 0);
+  s.camera.up = DVec3(0, 0, -1);
+  s.camera.fov_deg = 10;
+  s.width = s.height = 4;
+  s.render.max_bounces = 1;
+  MaterialDesc lamp;
+  lamp.name = "lamp";
+  lamp.albedo = Rgb(0.f);
+  lamp.emission = Rgb(2.f);
+  lamp.emission_map.texture = two_tone(0.f, 1.f);
+  s.materials = {lamp};
+  ShapeDesc q;
+  q.type = ShapeType::Quad;
+  q.vertices = {DVec3(-1, 0, 1), DVec3(1, 0, 1), DVec3(1, 0, -1), DVec3(-1, 0, -1)};
+  s.shapes = {q};
+  const Film f = test::render_film(s, 2, 2);
+  for (size_t i = 0; i < f.pixel_count(); ++i) CHECK(f.mean(i).x == doctest::Approx(2.0));
+}

@@ -154,7 +154,8 @@ template <MaterialSet kM>
         out.metallic = std::clamp(m.metallic * v.z, 0.f, 1.f);
         out.alpha = out.roughness * out.roughness;  // all prepare_material derives for this type
       }
-      if (const TextureSlot& em = m.emission_map; em.texture)  // as the light reads it (emission_texel)
+      // The emission as the light reads it (emission_texel), where it does: a model's triangles with uv.
+      if (const TextureSlot& em = m.emission_map; em.texture && !s.shading.empty() && it.prim < s.sphere_begin())
         out.emission = m.emission * texture_lookup(*em.texture, Vec2(em.uv_transform * glm::vec3(it.uv, 1.f)), 0.f);
       if (const TextureSlot& nm = m.normal_map; nm.texture)
         it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, lookup(*nm.texture, nm.uv_transform), m.normal_scale);
