@@ -33,6 +33,16 @@ SessionSettings settings_with(uint64_t spp, int preview_divisor = 1) {
   return s;
 }
 
+// A scene whose every 1-spp pass takes seconds: a closed furnace sphere (albedo 0.99) around the camera, every
+// path running its 300 bounces (no roulette), 512²: ~3.5 s a pass on this machine. Waiting for such a pass to
+// end takes seconds, stopping it within a tile milliseconds: latency bounds of 1 s between the two leave a loaded
+// machine room without letting a wait pass.
+SceneDesc slow_pass_scene() {
+  SceneDesc d = test::furnace_scene(Rgb(0.1f), Rgb(0.99f), 300, -1, Estimator::Cosine);
+  d.width = d.height = 512;
+  return d;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -175,15 +185,14 @@ TEST_CASE("session: typed edits and render settings apply in place, the image is
 }
 
 TEST_CASE("session: pause stops within a tile and uses no CPU, resume continues the same accumulation") {
-  SceneDesc desc = small_cornell(256, 16);
-  RenderSession session(desc, settings_with(0));
+  RenderSession session(slow_pass_scene(), settings_with(0));
   REQUIRE(session.wait_for([](const SessionStats& s) { return s.spp >= 1 && s.rendering; }, 60.0));
   const auto t = std::chrono::steady_clock::now();
   session.set_paused(true);
   REQUIRE(session.wait_for([](const SessionStats& s) { return !s.rendering; }, 5.0));
   const double stop_latency = seconds_since(t);
-  MESSAGE("pause took effect in " << stop_latency * 1e3 << " ms");
-  CHECK(stop_latency < 0.25);
+  MESSAGE("pause took effect in " << stop_latency * 1e3 << " ms, in a pass of " << session.stats().seconds << " s so far");
+  CHECK(stop_latency < 1.0);
   const SessionStats paused = session.stats();
   CHECK(paused.paused);
   const double cpu0 = process_cpu_seconds();
@@ -301,12 +310,9 @@ TEST_CASE("session: time and relMSE stop conditions") {
 }
 
 TEST_CASE("session: a slow pass is cancelled promptly by an edit") {
-  SceneDesc desc = small_cornell(512, 64);
-  desc.render.estimator = Estimator::Uniform;
-  desc.render.russian_roulette_depth = -1;
-  RenderSession session(desc, settings_with(0));
+  RenderSession session(slow_pass_scene(), settings_with(0));
   REQUIRE(session.wait_for([](const SessionStats& s) { return s.rendering; }, 30.0));
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // well inside the first (≈1 s) pass
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // well inside the first (several seconds) pass
   SceneDesc tiny = small_cornell(8, 1);
   const auto t = std::chrono::steady_clock::now();
   const uint64_t g = session.set_scene(tiny);
@@ -314,7 +320,7 @@ TEST_CASE("session: a slow pass is cancelled promptly by an edit") {
   REQUIRE(wait_frame(session, f, [&](const DisplayFrame& fr) { return fr.generation == g; }, 30.0));
   const double latency = seconds_since(t);
   MESSAGE("edit to first image of the new scene: " << latency * 1e3 << " ms");
-  CHECK(latency < 0.3);
+  CHECK(latency < 1.0);
   CHECK(f.width == 8);
 }
 
