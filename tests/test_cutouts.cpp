@@ -33,10 +33,7 @@ std::shared_ptr<const AlphaMask> left_half_cut() {
 // Seen straight down from y = 4 (image up = −z, so image left = −x = u < 0.5), 8 × 8 pixels over x ∈ ±0.9.
 SceneDesc looking_down() {
   SceneDesc s;
-  s.camera.position = DVec3(0, 4, 0);
-  s.camera.look_at = DVec3(0, 0, 0);
-  s.camera.up = DVec3(0, 0, -1);
-  s.camera.fov_deg = 2.0 * glm::degrees(std::atan(0.9 / 4.0));
+  test::look_down_from_4(s, 2.0 * glm::degrees(std::atan(0.9 / 4.0)));
   s.width = s.height = 8;
   s.render.max_bounces = 1;
   s.render.estimator = Estimator::Mis;

@@ -31,10 +31,7 @@ std::shared_ptr<const Texture> two_tone(float left, float right) {
 
 TEST_CASE("emission textures: an emitter seen directly shows its factor times its texture") {
   SceneDesc s;
-  s.camera.position = DVec3(0, 4, 0);
-  s.camera.look_at = DVec3(0, 0, 0);
-  s.camera.up = DVec3(0, 0, -1);  // image left = −x = small u
-  s.camera.fov_deg = 2.0 * glm::degrees(std::atan(0.9 / 4.0));
+  test::look_down_from_4(s, 2.0 * glm::degrees(std::atan(0.9 / 4.0)));  // image left = −x = small u
   s.width = s.height = 8;
   s.render.max_bounces = 1;
   MaterialDesc lamp;
@@ -128,10 +125,7 @@ TEST_CASE("emission textures: an emitter without texture coordinates emits its f
   // A scene-file quad has no uv: its light reads no texture, and a hit on it must not either (a texel at uv
   // (0, 0), black here, would make the lamp black where rays hit it and bright where light samples land).
   SceneDesc s;
-  s.camera.position = DVec3(0, 4, 0);
-  s.camera.look_at = DVec3(0, 0, 0);
-  s.camera.up = DVec3(0, 0, -1);
-  s.camera.fov_deg = 10;
+  test::look_down_from_4(s, 10);
   s.width = s.height = 4;
   s.render.max_bounces = 1;
   MaterialDesc lamp;

@@ -35,10 +35,7 @@ std::shared_ptr<const Texture> constant_map(Rgb texel) {
 // One bounce, black surroundings unless `furnace` (a constant environment of radiance 1, many bounces).
 SceneDesc mapped_floor(const MaterialDesc& material, bool furnace) {
   SceneDesc s;
-  s.camera.position = DVec3(0, 4, 0);
-  s.camera.look_at = DVec3(0, 0, 0);
-  s.camera.up = DVec3(0, 0, -1);
-  s.camera.fov_deg = 2;
+  test::look_down_from_4(s, 2);
   s.width = s.height = 4;
   s.render.max_bounces = furnace ? 64 : 1;
   s.render.russian_roulette_depth = -1;

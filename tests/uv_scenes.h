@@ -37,6 +37,15 @@ inline void add_uv_square(SceneDesc& s, std::vector<TriangleShading>& shading, d
   }
 }
 
+// The camera at (0, 4, 0) looking straight down at the origin, the image's up along −z (so its left is −x:
+// small u on add_uv_square's squares), its vertical field of view `fov_deg`.
+inline void look_down_from_4(SceneDesc& s, double fov_deg) {
+  s.camera.position = DVec3(0, 4, 0);
+  s.camera.look_at = DVec3(0, 0, 0);
+  s.camera.up = DVec3(0, 0, -1);
+  s.camera.fov_deg = fov_deg;
+}
+
 // Writes `name` in `folder`: a glTF file of one triangle (0,0,0), (1,0,0), (0,1,0) with TEXCOORD_0 (0,0), (1,0),
 // (0,1) (its buffer tri.bin beside it) using material 0, and `assets`, the file's "images", "samplers",
 // "textures" and "materials" members as the test writes them (without a trailing comma). Returns its path.
