@@ -317,15 +317,20 @@ TEST_CASE("view cli: following the window, a window resize changes the render's 
     pt::test::skip_for_missing("xvfb-run or xdotool", "the resize test");
     return;
   }
-  // The viewer follows its window (--size window); 5 s in, the window is resized to 1000 × 700, and 4 s later
-  // SIGINT saves the image, whose size must then be the image area's: 1000 minus the panel (380) by 700.
+  // The viewer follows its window (--size window); once its first render is done, the window is resized to
+  // 1000 × 700, and once the render restarted at the new size is done too, SIGINT saves the image, whose size
+  // must then be the image area's: 1000 minus the panel (380) by 700. The waits poll the window's title (no
+  // fixed delay for a loaded machine to outrun); a restart missed between two polls only costs the 30 s wait.
   const std::filesystem::path dir = "view_resize_" + std::to_string(getpid());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directory(dir);
   const std::string env_dir = std::filesystem::absolute(dir / "config").string();  // no user preferences
   const std::string script =
-      "exe=$0; \"$exe\" \"$@\" & pid=$!; sleep 5; wid=$(xdotool search --name pathtracer | head -1); "
-      "xdotool windowsize --sync $wid 1000 700; sleep 4; kill -INT $pid; wait $pid";
+      "exe=$0; \"$exe\" \"$@\" & pid=$!; wid=$(xdotool search --sync --name pathtracer | head -1); "
+      "done_() { xdotool getwindowname $wid | grep -q \", done\"; }; "
+      "for i in $(seq 600); do done_ && break; sleep 0.1; done; xdotool windowsize --sync $wid 1000 700; "
+      "for i in $(seq 300); do done_ || break; sleep 0.1; done; "
+      "for i in $(seq 600); do done_ && break; sleep 0.1; done; kill -INT $pid; wait $pid";
   const Run r = run("XDG_CONFIG_HOME=" + env_dir + " timeout 120 xvfb-run -a -s '-screen 0 1280x800x24' sh -c '" +
                         script + "'",
                     "view --size window --threads 2 --spp 4 --output-dir " + dir.string());
