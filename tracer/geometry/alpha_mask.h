@@ -17,7 +17,7 @@ struct AlphaMask {
   // Whether the surface is there at texture coordinates uv: the alpha bilinearly filtered at the image's full
   // resolution (the cut's edge is as sharp as the image; the pixel's samples antialias it).
   bool opaque_at(Vec2 uv) const {
-    const float a = alpha ? texture_lookup(*alpha, Vec2(uv_transform * glm::vec3(uv, 1.f)), 0.f).x : 1.f;
+    const float a = alpha ? texture_at(*alpha, uv_transform, uv).x : 1.f;
     return factor * a >= cutoff;
   }
 };

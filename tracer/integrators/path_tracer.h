@@ -156,7 +156,7 @@ template <MaterialSet kM>
       }
       // The emission as the light reads it (emission_texel), where it does: a model's triangles with uv.
       if (const TextureSlot& em = m.emission_map; em.texture && !s.shading.empty() && it.prim < s.sphere_begin())
-        out.emission = m.emission * texture_lookup(*em.texture, Vec2(em.uv_transform * glm::vec3(it.uv, 1.f)), 0.f);
+        out.emission = m.emission * texture_at(*em.texture, em.uv_transform, it.uv);
       if (const TextureSlot& nm = m.normal_map; nm.texture)
         it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, lookup(*nm.texture, nm.uv_transform), m.normal_scale);
       return out;

@@ -87,6 +87,15 @@ AlphaImage decode_alpha(const std::string& bytes, const std::string& what, bool 
   return a;
 }
 
+Image alpha_as_image(const AlphaImage& a) {
+  Image img;
+  img.width = a.width;
+  img.height = a.height;
+  img.rgb.reserve(3 * a.alpha.size());
+  for (float v : a.alpha) img.rgb.insert(img.rgb.end(), {v, v, v});
+  return img;
+}
+
 std::shared_ptr<const Texture> load_texture_file(const std::string& path, bool srgb) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

@@ -34,6 +34,8 @@ struct AlphaImage {
   std::vector<float> alpha;  // rows top first
 };
 AlphaImage decode_alpha(const std::string& bytes, const std::string& what, bool grey_without_alpha = false);
+// The alpha as a linear image with it in every channel (what a cut-out's Texture holds).
+Image alpha_as_image(const AlphaImage& a);
 
 // An image file as a texture: .exr, .hdr and .pfm through read_hdr_image (linear), anything else through
 // decode_image (read under the scene's file rules). Throws ImageError naming the file.

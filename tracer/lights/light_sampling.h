@@ -55,8 +55,7 @@ inline Rgb area_light_emission(const Light& l, Vec3 n, Vec3 w) {
 // function wherever it is read (a ray hitting the light, a light sample landing on it), as MIS's two
 // strategies must estimate the same integrand.
 inline Rgb emission_texel(const Light& l, Vec2 uv) {
-  const TextureSlot& t = l.emission_map;
-  return texture_lookup(*t.texture, Vec2(t.uv_transform * glm::vec3(uv, 1.f)), 0.f);
+  return texture_at(*l.emission_map.texture, l.emission_map.uv_transform, uv);
 }
 
 // The texture coordinates of point p on triangle `prim` (its barycentrics by areas; Ericson 2005, §3.4).

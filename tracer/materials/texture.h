@@ -60,6 +60,13 @@ float srgb_to_linear(float v);
 // around log2(texels) (level 0 bilinear for a footprint of a texel or less; the last level beyond).
 Rgb texture_lookup(const Texture& t, Vec2 uv, float texels);
 
+// The texture at full resolution (level 0, bilinear) at the surface's uv mapped by `uv_transform` (surface uv →
+// texture uv): where one function must be read wherever it is read (a cut-out's alpha, an emitter's image for
+// both the rays that hit it and the light samples that land on it).
+inline Rgb texture_at(const Texture& t, const glm::mat3& uv_transform, Vec2 uv) {
+  return texture_lookup(t, Vec2(uv_transform * glm::vec3(uv, 1.f)), 0.f);
+}
+
 // The same over an elliptical footprint with axes `major` and `minor` (full widths, in uv units): up to
 // kMaxAnisotropy trilinear lookups spread along the major axis, each as wide as the minor one (or as the
 // major one's share, where the ellipse is longer than that), averaged: the anisotropic filtering of GPUs, which

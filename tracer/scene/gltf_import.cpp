@@ -297,10 +297,7 @@ struct Reader {
     try {
       const std::string bytes(img.image.begin(), img.image.end());
       if (kind == Texels::Alpha) {
-        const AlphaImage a = decode_alpha(bytes, iat);
-        linear.width = a.width;
-        linear.height = a.height;
-        for (float v : a.alpha) linear.rgb.insert(linear.rgb.end(), {v, v, v});
+        linear = alpha_as_image(decode_alpha(bytes, iat));
       } else {
         linear = decode_image(bytes, kind == Texels::Colour, iat);
       }

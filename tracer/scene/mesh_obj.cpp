@@ -98,6 +98,11 @@ MtlParams mtl_params(const tinyobj::material_t& m) {
   return p;
 }
 
+// A file an .mtl names, relative to the OBJ's folder.
+std::string beside(const std::string& obj_path, const std::string& name) {
+  return (std::filesystem::path(obj_path).parent_path() / name).string();
+}
+
 // map_Kd: the image (relative to the OBJ's folder) whose colour times Kd is the material's albedo, as the .mtl
 // format defines it; for the material just added to out.materials. One that cannot be read is a warning (the
 // material keeps Kd alone).
@@ -107,7 +112,7 @@ void add_diffuse_map(const std::string& obj_path, const std::string& name, MeshT
     out.warnings.push_back("material " + d.name + ": map_Kd is not used by its " + to_string(d.type) + " mapping");
     return;
   }
-  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  const std::string file = beside(obj_path, name);
   try {
     d.albedo_map = load_texture_file(file, true);
     d.albedo_texture = d.resolved_albedo_texture = file;
@@ -120,7 +125,7 @@ void add_diffuse_map(const std::string& obj_path, const std::string& name, MeshT
 // material just added to out.materials. One that cannot be read is a warning (the surface stays smooth).
 void add_normal_map(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
   MaterialDesc& d = out.materials.back();
-  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  const std::string file = beside(obj_path, name);
   try {
     d.normal_map.texture = load_texture_file(file, false);
   } catch (const ImageError& e) {
@@ -133,14 +138,11 @@ void add_normal_map(const std::string& obj_path, const std::string& name, MeshTr
 // One that cannot be read is a warning (the surface stays opaque).
 void add_cutout(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
   MaterialDesc& d = out.materials.back();
-  const std::string file = (std::filesystem::path(obj_path).parent_path() / name).string();
+  const std::string file = beside(obj_path, name);
   try {
-    const AlphaImage a = decode_alpha(read_file_limited(file, kMaxTextureFileBytes), file, true);
-    std::vector<float> rgb;
-    rgb.reserve(3 * a.alpha.size());
-    for (float v : a.alpha) rgb.insert(rgb.end(), {v, v, v});
     auto mask = std::make_shared<AlphaMask>();
-    mask->alpha = make_texture(a.width, a.height, rgb, TextureWrap::Repeat, TextureWrap::Repeat,
+    mask->alpha = make_texture(alpha_as_image(decode_alpha(read_file_limited(file, kMaxTextureFileBytes), file, true)),
+                               TextureWrap::Repeat, TextureWrap::Repeat,
                                std::filesystem::path(file).filename().string() + " (map_d)");
     d.cutout = std::move(mask);
   } catch (const std::bad_alloc&) {
