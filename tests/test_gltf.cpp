@@ -126,10 +126,14 @@ TEST_CASE("gltf: node transforms compose parent then child and translation then 
       R"({"mesh": 0, "matrix": [0,2,0,0, -2,0,0,0, 0,0,2,0, 11,2,3,1]})", "0")));
   REQUIRE(m.triangles.size() == 1);
   for (int k = 0; k < 3; ++k) check_vertex(m.triangles[0][k], g.triangles[0][k]);
-  // Nodes outside the scene are not shown; a mesh used by two nodes is shown twice.
+  // Nodes outside the scene are not shown; a mesh used by two nodes is shown twice, by two instances of it.
   const GltfContents two = load_gltf(dir.write("two.gltf", triangle_gltf(
       R"({"mesh": 0}, {"mesh": 0, "translation": [0, 0, 5]}, {"mesh": 0, "translation": [0, 0, 9]})", "0, 1")));
-  CHECK(two.triangles.size() == 2);
+  CHECK(two.triangles.empty());
+  REQUIRE(two.instances.size() == 2);
+  CHECK(two.meshes.size() == 1);
+  CHECK(two.instances[0].transform[3][2] == 0.0);
+  CHECK(two.instances[1].transform[3][2] == 5.0);
 }
 
 TEST_CASE("gltf: a mirroring transform keeps each face's front by listing its vertices the other way round") {

@@ -25,6 +25,7 @@ SceneState scene_state(const SceneDesc& d, std::vector<EmissionSetting> emission
   if (geometry) {
     s.shapes = std::make_shared<const std::vector<ShapeDesc>>(d.shapes);
     s.objects = d.objects;
+    s.instances = d.instances;
   }
   s.id = id;
   return s;

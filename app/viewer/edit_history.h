@@ -33,6 +33,7 @@ struct SceneState {
   int width = 0, height = 0;
   std::shared_ptr<const std::vector<ShapeDesc>> shapes;  // null: not part of this state
   std::vector<ObjectDesc> objects;                        // with the shapes
+  std::vector<InstanceDesc> instances;                    // with the shapes (their materials; the meshes stay)
   uint64_t id = 0;  // which scene state this is (EditHistory::current_id)
 };
 SceneState scene_state(const SceneDesc& scene, std::vector<EmissionSetting> emission, bool geometry, uint64_t id);

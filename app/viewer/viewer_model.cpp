@@ -263,10 +263,17 @@ std::optional<PickResult> ViewerModel::pick(double x, double y) {
   Hit hit;
   if (!s.intersect(ray, kInfinity, kNoPrimitive, hit)) return std::nullopt;
   PickResult r;
-  r.shape = hit.prim < pick_shapes_.size() ? pick_shapes_[hit.prim] : 0;
   r.distance = hit.t;
   r.point = c.position + static_cast<double>(hit.t) * DVec3(ray.d);
   r.material = s.material_of(hit.prim);
+  if (s.instances.holds(hit.prim)) {
+    // An instanced mesh: the object that places it (its shapes, if it has any, stand for it).
+    const int o = scene_.instances[s.instances.instance_of(hit.prim).desc].object;
+    if (o >= 0) r.object = static_cast<size_t>(o);
+    r.shape = o >= 0 && scene_.objects[o].shape_count > 0 ? scene_.objects[o].first_shape : scene_.shapes.size();
+    return r;
+  }
+  r.shape = hit.prim < pick_shapes_.size() ? pick_shapes_[hit.prim] : 0;
   r.object = object_containing(scene_, r.shape);
   return r;
 }
@@ -371,6 +378,8 @@ bool ViewerModel::set_object_material(size_t object, size_t material) {
   const ObjectDesc& o = edited.objects[object];
   for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k)
     edited.shapes[k].material = static_cast<int>(material);
+  for (InstanceDesc& in : edited.instances)  // and its instanced meshes
+    if (in.object == static_cast<int>(object)) std::fill(in.materials.begin(), in.materials.end(), static_cast<int>(material));
   return set_geometry(std::move(edited), "object " + std::to_string(object));
 }
 
@@ -452,6 +461,7 @@ void ViewerModel::restore(const SceneState& s) {
   if (s.shapes) {
     scene_.shapes = *s.shapes;
     scene_.objects = s.objects;
+    scene_.instances = s.instances;
     pick_scene_.reset();
   }
   camera_.set_aspect(static_cast<double>(scene_.width) / scene_.height);

@@ -634,18 +634,29 @@ void object_emission(ViewerModel& model, PanelState& state, size_t material) {
 
 // An object (a mesh, a group): its material and its transform (position, rotation, scale), for all its shapes.
 void object_fields(ViewerModel& model, PanelState& state, size_t index) {
-  const ObjectDesc& o = model.scene().objects[index];
+  const SceneDesc& scene = model.scene();
+  const ObjectDesc& o = scene.objects[index];
+  // Its materials: its shapes', then its instanced meshes' (an object may hold instances alone).
+  int first = -1;
+  size_t differing = 0, instances = 0;
+  const auto see = [&](int m) { first < 0 ? void(first = m) : void(differing += m != first); };
+  for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) see(scene.shapes[k].material);
+  for (const InstanceDesc& in : scene.instances)
+    if (in.object == static_cast<int>(index)) {
+      ++instances;
+      for (int m : in.materials) see(m);
+    }
   ImGui::Text("%s: %s, %zu %s", o.name.c_str(), enum_label(o.kind), o.shape_count, o.shape_count == 1 ? "shape" : "shapes");
+  if (instances) {
+    ImGui::SameLine();
+    ImGui::Text("+ %zu %s", instances, instances == 1 ? "instance" : "instances");
+  }
   if (o.kind != ObjectKind::Group && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", o.file.c_str());
-  const int current = std::clamp(model.scene().shapes[o.first_shape].material, 0, static_cast<int>(model.scene().materials.size()) - 1);
+  const int current = std::clamp(first, 0, static_cast<int>(scene.materials.size()) - 1);
   // A model file keeps its file's materials (each in Materials as NAME/MATERIAL); choosing one here gives that
   // one to all of its triangles.
-  if (o.kind != ObjectKind::Group) {
-    size_t differing = 0;
-    for (size_t k = o.first_shape + 1; k < o.first_shape + o.shape_count; ++k)
-      differing += model.scene().shapes[k].material != current;
-    if (differing) ImGui::TextDisabled("the file's materials (%s/...); one below for all", o.name.c_str());
-  }
+  if (o.kind != ObjectKind::Group && differing)
+    ImGui::TextDisabled("the file's materials (%s/...); one below for all", o.name.c_str());
   material_combo(model, current, [&](size_t m) { return model.set_object_material(index, m); });
   const ObjectTransform t = o.transform;
   const auto field = [&](const char* label, DVec3 value, const char* tip, auto&& with) {
@@ -700,7 +711,7 @@ void lone_shape_fields(ViewerModel& model, PanelState& state, size_t index) {
 // object is one of its own). A light is an emitting object, so this moves lights too.
 void object_section(ViewerModel& model, PanelState& state) {
   const std::optional<Selection>& sel = model.selection();
-  if (!sel || sel->shape >= model.scene().shapes.size()) return;
+  if (!sel || (!sel->object && sel->shape >= model.scene().shapes.size())) return;
   if (sel->serial != state.shown_selection) ImGui::SetNextItemOpen(true);
   expand_if(state);
   if (!ImGui::CollapsingHeader("Object")) return;

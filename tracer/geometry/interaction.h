@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "geometry/primitives.h"
+#include "geometry/triangle_frame.h"
 
 namespace pt {
 
@@ -62,6 +63,86 @@ inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 
   }
 }
 
+namespace interaction_detail {
+
+// The hit at distance t along `ray` on polygon (v[0], v[1], v[2][, v[3]]) with the given frame (PolygonSoA's
+// normal, dual and edge_margin): fills it.p, p_error, ng, ns and planar; returns the barycentrics in the half
+// hit (b[0..2]) and that half.
+// The ray kernels report only distances. The barycentrics of the point o + t·d in the polygon's plane (in
+// half 0; in half 1 when a quad's point lies beyond its diagonal a–c, i.e. b's weight is negative) locate
+// the hit to within the rounding of o + t·d; the point is then re-interpolated from the vertices below, so
+// it lies on the polygon whatever that rounding was.
+inline uint32_t polygon_point(const Vec3 (&v)[4], bool triangle, const std::array<std::array<Vec3, 2>, 2>& dual,
+                              const std::array<Vec3, 2>& margin, Vec3 normal, const Ray& ray, float t,
+                              Interaction& it, float (&bary)[3]) {
+  const Vec3 a = v[0];
+  const Vec3 q = ray.o + t * ray.d - a;
+  uint32_t half = 0;
+  float b1 = glm::dot(q, dual[0][0]), b2 = glm::dot(q, dual[0][1]);
+  if (b1 < 0.f && !triangle) {
+    half = 1;
+    b1 = glm::dot(q, dual[1][0]), b2 = glm::dot(q, dual[1][1]);
+  }
+  float b0 = 1.f - b1 - b2;
+  const Vec3 b = v[half + 1], c = v[half + 2];
+  const Vec3 m = margin[half];
+  it.ng = normal;
+  // Keep the point inside by more than its rounding error: a point near an edge shared with another face must
+  // not round to the far side of that face.
+  if (b0 < m.x || b1 < m.y || b2 < m.z) {
+    b0 = std::max(b0, m.x), b1 = std::max(b1, m.y), b2 = std::max(b2, m.z);
+    const float inv = 1.f / (b0 + b1 + b2);
+    b0 *= inv, b1 *= inv, b2 *= inv;
+  }
+  // Interpolate the hit from the vertices (pbrt-v4 eq. 6.26): its error is γ7·Σ|bᵢ·vᵢ|, independent of t.
+  it.p = b0 * a + b1 * b + b2 * c;
+  it.p_error = gamma_bound(7) * (glm::abs(b0 * a) + glm::abs(b1 * b) + glm::abs(b2 * c));
+  it.planar = true;
+  it.ns = it.ng;
+  bary[0] = b0, bary[1] = b1, bary[2] = b2;
+  return half;
+}
+
+// A hit on triangle i of an instanced mesh (instances.h): the triangle is placed in the world (in double, from
+// the instance's transform; its vertices the other way round under a mirroring one, so that its front stays the
+// file's), its frame computed there as compile_scene computes a polygon's, and the hit located on it as on any
+// polygon. The hit point's error bound also covers the placement's rounding and that of the ray's way into the
+// mesh (a few ulps of the vertices' coordinates), so spawned rays clear the mesh's surface as it was tested.
+template <bool kShading>
+inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h, Interaction& it) {
+  const Instance& in = s.instances.instance_of(h.prim);
+  const MeshGeometry& mesh = *s.instances.meshes[in.mesh];
+  const uint32_t i = h.prim - in.first_prim;
+  int order[3] = {0, 1, 2};
+  if (in.mirrors) std::swap(order[1], order[2]);
+  DVec3 w[3];
+  double max_abs = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    w[k] = in.to_world_linear * DVec3(mesh.v[order[k]][i]) + in.to_world_offset;
+    max_abs = std::max(max_abs, std::max(std::abs(w[k].x), std::max(std::abs(w[k].y), std::abs(w[k].z))));
+  }
+  const std::array<std::array<Vec3, 2>, 2> dual{triangle_dual(w[0], w[1], w[2]), {}};
+  const std::array<Vec3, 2> margin{triangle_margins(w[0], w[1], w[2], hit_error_bound(max_abs)), Vec3(0.f)};
+  const Vec3 v[4] = {Vec3(w[0]), Vec3(w[1]), Vec3(w[2]), Vec3(w[0])};
+  float b[3];
+  polygon_point(v, true, dual, margin, Vec3(glm::normalize(glm::cross(w[1] - w[0], w[2] - w[0]))), ray, h.t, it, b);
+  it.p_error += Vec3(static_cast<float>(8.0 * 0x1p-24 * max_abs));
+  if constexpr (kShading) {
+    if (!mesh.normal.empty() || !mesh.uv.empty()) {
+      std::array<Vec3, 3> n{it.ng, it.ng, it.ng};
+      std::array<Vec2, 3> uv{Vec2(0.f), Vec2(0.f), Vec2(0.f)};
+      for (int k = 0; k < 3; ++k) {
+        if (!mesh.normal.empty() && mesh.normal[i][0] != Vec3(0.f))
+          n[k] = glm::normalize(in.normal_to_world * mesh.normal[i][order[k]]);
+        if (!mesh.uv.empty()) uv[k] = mesh.uv[i][order[k]];
+      }
+      vertex_shading(n, uv, v, b[0], b[1], b[2], dual[0], it);
+    }
+  }
+}
+
+}  // namespace interaction_detail
+
 // F: the kernel's feature set (KernelFeature); a kind of primitive outside it is never hit, so its code is left out.
 template <uint32_t F = kAllFeatures>
 inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, const Hit& h) {
@@ -69,46 +150,28 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
   it.prim = h.prim;
   it.material = s.material_of(h.prim);
   constexpr bool kOnlyPolygons = (F & kFeatureSpheres) == 0, kOnlySpheres = (F & kFeaturePolygons) == 0;
+  constexpr bool kShading = (F & kFeatureGeneralMaterials) != 0;
   if (kOnlyPolygons || (!kOnlySpheres && h.prim < s.sphere_begin())) {
-    // The ray kernels report only distances. The barycentrics of the point o + t·d in the polygon's plane (in
-    // half 0; in half 1 when a quad's point lies beyond its diagonal a–c, i.e. b's weight is negative) locate
-    // the hit to within the rounding of o + t·d; the point is then re-interpolated from the vertices below, so
-    // it lies on the polygon whatever that rounding was.
     const uint32_t i = h.prim;
+    if (!kOnlySpheres && i >= s.sphere_begin()) [[unlikely]] {  // only polygons: an instance's triangle
+      interaction_detail::instance_point<kShading>(s, ray, h, it);
+      return it;
+    }
     const PolygonSoA& P = s.polygons;
-    const Vec3 a = P.v[0][i];
-    const Vec3 q = ray.o + h.t * ray.d - a;
-    const auto& dual = P.dual[i];
-    uint32_t half = 0;
-    float b1 = glm::dot(q, dual[0][0]), b2 = glm::dot(q, dual[0][1]);
-    if (b1 < 0.f && !P.triangle[i]) {
-      half = 1;
-      b1 = glm::dot(q, dual[1][0]), b2 = glm::dot(q, dual[1][1]);
-    }
-    float b0 = 1.f - b1 - b2;
-    const Vec3 b = P.v[half + 1][i], c = P.v[half + 2][i];
-    const Vec3 m = P.edge_margin[i][half];
-    it.ng = P.normal[i];
-    // Keep the point inside by more than its rounding error: a point near an edge shared with another face must
-    // not round to the far side of that face.
-    if (b0 < m.x || b1 < m.y || b2 < m.z) {
-      b0 = std::max(b0, m.x), b1 = std::max(b1, m.y), b2 = std::max(b2, m.z);
-      const float inv = 1.f / (b0 + b1 + b2);
-      b0 *= inv, b1 *= inv, b2 *= inv;
-    }
-    // Interpolate the hit from the vertices (pbrt-v4 eq. 6.26): its error is γ7·Σ|bᵢ·vᵢ|, independent of t.
-    it.p = b0 * a + b1 * b + b2 * c;
-    it.p_error = gamma_bound(7) * (glm::abs(b0 * a) + glm::abs(b1 * b) + glm::abs(b2 * c));
-    it.planar = true;
-    it.ns = it.ng;
+    const Vec3 v[4] = {P.v[0][i], P.v[1][i], P.v[2][i], P.v[3][i]};
+    float b[3];
+    const uint32_t half = interaction_detail::polygon_point(v, P.triangle[i], P.dual[i], P.edge_margin[i], P.normal[i],
+                                                             ray, h.t, it, b);
     // Vertex normals are read by the general-material kernels alone: a scene that has them runs those
     // (Scene::kernel_features), so the Lambert kernels stay as they were.
-    if constexpr ((F & kFeatureGeneralMaterials) != 0) {
+    if constexpr (kShading) {
       if (!s.shading.empty()) [[unlikely]] {
-        const Vec3 v[3] = {a, b, c};
-        vertex_shading(s.shading.normal[i], s.shading.uv[i], v, b0, b1, b2, dual[0], it);
+        const Vec3 tri[3] = {v[0], v[half + 1], v[half + 2]};
+        vertex_shading(s.shading.normal[i], s.shading.uv[i], tri, b[0], b[1], b[2], P.dual[i][0], it);
       }
     }
+  } else if (!kOnlyPolygons && s.instances.holds(h.prim)) [[unlikely]] {
+    interaction_detail::instance_point<kShading>(s, ray, h, it);
   } else {
     // Sphere: recompute in double and project back onto the surface, so the only float error left is the final
     // rounding of p (bounded by γ3·|p| with margin).

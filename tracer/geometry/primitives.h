@@ -12,6 +12,7 @@
 
 #include "geometry/alpha_mask.h"
 #include "geometry/geometry.h"
+#include "geometry/instances.h"
 #include "geometry/polygon_bvh.h"
 #include "geometry/simd_polygons.h"
 
@@ -86,7 +87,8 @@ inline bool intersect_polygon(const PolygonSoA& p, uint32_t i, Vec3 o, const Ray
 
 // What the ray queries (scene_queries.h) and make_interaction (interaction.h) read: the primitives, and the
 // same polygons' vertices for the SIMD tests: all of them in padded SoA (brute force) when there are fewer than
-// kBvhMinPolygons, else in the hierarchy's leaves (polygon_lanes then stays empty).
+// kBvhMinPolygons, else in the hierarchy's leaves (polygon_lanes then stays empty); and the instanced meshes
+// (instances.h), whose triangles take the ids after the spheres'.
 struct SceneGeometry {
   PolygonSoA polygons;
   PolygonShading shading;  // parallel to `polygons`, or empty
@@ -96,11 +98,17 @@ struct SceneGeometry {
   // Cut-outs (alpha_mask.h): per material, its mask or null; empty when no material has one (then the queries
   // run without the test). A scene with cut-outs always has a hierarchy (its traversal applies them).
   std::vector<std::shared_ptr<const AlphaMask>> material_mask;
+  InstanceSet instances;
 
   uint32_t sphere_begin() const { return static_cast<uint32_t>(polygons.size()); }
+  // The scene's own primitives (polygons, spheres); the instances' triangles follow them.
   uint32_t primitive_count() const { return sphere_begin() + static_cast<uint32_t>(spheres.size()); }
+  bool is_sphere(uint32_t prim) const { return prim >= sphere_begin() && prim < primitive_count(); }
   uint32_t material_of(uint32_t prim) const {
-    return prim < sphere_begin() ? polygons.material[prim] : spheres.material[prim - sphere_begin()];
+    if (prim < sphere_begin()) return polygons.material[prim];
+    if (prim < primitive_count()) return spheres.material[prim - sphere_begin()];
+    const Instance& in = instances.instance_of(prim);
+    return in.material[instances.meshes[in.mesh]->slot[prim - in.first_prim]];
   }
   bool has_cutouts() const { return !material_mask.empty(); }
   // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away.
@@ -111,6 +119,19 @@ struct SceneGeometry {
     Vec2 uv(0.f);
     if (!shading.empty()) {
       const std::array<Vec2, 3>& t = shading.uv[p];
+      uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
+    }
+    return !mask->opaque_at(uv);
+  }
+  // The same for the hit h on triangle i of instance `in`'s mesh (barycentrics in the mesh's vertex order).
+  bool cut_away(const Instance& in, uint32_t i, const PolygonHit& h) const {
+    const MeshGeometry& mesh = *instances.meshes[in.mesh];
+    const uint32_t m = in.material[mesh.slot[i]];
+    const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
+    if (!mask) return false;
+    Vec2 uv(0.f);
+    if (!mesh.uv.empty()) {
+      const std::array<Vec2, 3>& t = mesh.uv[i];
       uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
     }
     return !mask->opaque_at(uv);

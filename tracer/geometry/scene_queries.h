@@ -17,6 +17,60 @@ inline auto uncut(const SceneGeometry& s, Vec3 o, const RayShear& shear) {
     return !s.cut_away(p, h);
   };
 }
+
+// The mesh of instance `in` as a ray sees it: the ray taken into the mesh's coordinates, the scalar test of its
+// triangles, and the hit filter for cut-outs.
+struct InstanceRay {
+  const SceneGeometry& s;
+  const Instance& in;
+  const MeshGeometry& mesh;
+  Vec3 o, d;
+  RayShear shear;
+  InstanceRay(const SceneGeometry& scene, const Instance& instance, const Ray& ray)
+      : s(scene), in(instance), mesh(*scene.instances.meshes[instance.mesh]), o(instance.to_mesh.point(ray.o)),
+        d(instance.to_mesh.vector(ray.d)), shear(d) {}
+  // A global id as the mesh's own (~0u for none of its triangles).
+  uint32_t local(uint32_t prim) const { return prim - in.first_prim < mesh.size() ? prim - in.first_prim : ~0u; }
+  bool test(uint32_t i, float t_max, PolygonHit& h) const {
+    return intersect_triangle(mesh.v[0][i], mesh.v[1][i], mesh.v[2][i], o, shear, t_max, h);
+  }
+  bool uncut(uint32_t i) const {
+    PolygonHit h{};
+    return !test(i, kInfinity, h) || !s.cut_away(in, i, h);
+  }
+};
+
+// Closest hit among the instances' triangles in (0, t_max) (lowered to it), never reporting `skip`.
+inline bool closest_instance(const SceneGeometry& s, const Ray& ray, uint32_t skip, float& t_max, uint32_t& id) {
+  bool found = false;
+  visit_instances(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
+    const InstanceRay r(s, in, ray);
+    const auto test = [&r](uint32_t i, float tm, PolygonHit& h) { return r.test(i, tm, h); };
+    uint32_t local = 0;
+    const bool hit = s.has_cutouts()
+                         ? closest_polygon_bvh(r.mesh.bvh, r.o, r.d, r.shear, r.local(skip), t_max, local, test,
+                                               [&r](uint32_t i) { return r.uncut(i); })
+                         : closest_polygon_bvh(r.mesh.bvh, r.o, r.d, r.shear, r.local(skip), t_max, local, test);
+    if (hit) {
+      id = in.first_prim + local;
+      found = true;
+    }
+    return false;
+  });
+  return found;
+}
+
+// Any hit among the instances' triangles in (0, t_max), ignoring skip_a and skip_b.
+inline bool occluded_instance(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
+  return visit_instances(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
+    const InstanceRay r(s, in, ray);
+    const auto test = [&r](uint32_t i, float tm, PolygonHit& h) { return r.test(i, tm, h); };
+    return s.has_cutouts() ? any_polygon_bvh(r.mesh.bvh, r.o, r.d, r.shear, r.local(skip_a), r.local(skip_b), t_max,
+                                             test, [&r](uint32_t i) { return r.uncut(i); })
+                           : any_polygon_bvh(r.mesh.bvh, r.o, r.d, r.shear, r.local(skip_a), r.local(skip_b), t_max, test);
+  });
+}
+
 }  // namespace query_detail
 
 // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
@@ -35,6 +89,10 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
                                                     query_detail::uncut(s, ray.o, shear))
                               : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
     if (hit_polygon) {
+      hit = {t_max, id};
+      found = true;
+    }
+    if (!s.instances.empty() && query_detail::closest_instance(s, ray, skip, t_max, id)) [[unlikely]] {
       hit = {t_max, id};
       found = true;
     }
@@ -65,6 +123,8 @@ inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, 
         : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
                                                 query_detail::uncut(s, ray.o, shear))
                               : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
+      return true;
+    if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b)) [[unlikely]]
       return true;
   }
   if constexpr ((F & kFeatureSpheres) != 0) {
@@ -98,6 +158,12 @@ inline void intersect_scene_packet(const SceneGeometry& s, const Ray* rays, cons
       for (int l = 0; l < n; ++l) {
         found[l] = t[l] < t_max[l];
         if (found[l]) hits[l] = {t[l], id[l]};
+        float tl = found[l] ? t[l] : t_max[l];
+        uint32_t il = 0;
+        if (!s.instances.empty() && query_detail::closest_instance(s, rays[l], skip[l], tl, il)) [[unlikely]] {
+          hits[l] = {tl, il};
+          found[l] = true;
+        }
       }
       if constexpr ((F & kFeatureSpheres) != 0) {
         for (int l = 0; l < n; ++l) {
@@ -127,6 +193,10 @@ inline uint32_t occluded_scene_packet(const SceneGeometry& s, const Ray* rays, c
       bits = any_polygon_packet(s.polygon_lanes, P, [&](int l, uint32_t i, float tm, PolygonHit& h) {
         return intersect_polygon(s.polygons, i, rays[l].o, RayShear(rays[l].d), tm, h);
       });
+      if (!s.instances.empty()) [[unlikely]]
+        for (int l = 0; l < n; ++l)
+          if (!(bits >> l & 1u) && query_detail::occluded_instance(s, rays[l], t_max[l], skip_a[l], skip_b ? skip_b[l] : ~0u))
+            bits |= 1u << l;
       if constexpr ((F & kFeatureSpheres) != 0)
         for (int l = 0; l < n; ++l)
           if (!(bits >> l & 1u) && occluded_scene<F & ~uint32_t{kFeaturePolygons}>(s, rays[l], t_max[l], skip_a[l], skip_b ? skip_b[l] : ~0u))

@@ -173,7 +173,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     v.it = make_interaction<F>(s, ray, h);
     v.wo = -ray.d;
     v.beta = beta;
-    v.light = s.light_of_prim[v.it.prim];
+    v.light = s.light_of(v.it.prim);
     v.pdf_fwd = to_area_density(pdf_dir, path[prev], v);
     path.push_back(v);
     const Material& m = s.materials[v.it.material];
@@ -545,7 +545,7 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
       }
       v.it = make_interaction<F>(s, ray, h);
       v.wo = -ray.d;
-      v.light = s.light_of_prim[v.it.prim];
+      v.light = s.light_of(v.it.prim);
       if (v.emits()) sum += beta * emitted(s, v);
       // The next vertex scatters event bounce + 1, within max_bounces events in all (the walk's limit).
       if (b.bounce + 2 <= static_cast<uint32_t>(o.max_bounces) && pure_specular(s, v.it))

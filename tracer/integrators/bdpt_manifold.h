@@ -42,7 +42,7 @@ void for_each_chain(const Scene& s, DVec3 x, Visit&& visit) {
   for (uint32_t i = 0; i < s.spheres.size(); ++i) {
     const Material& m = s.materials[s.spheres.material[i]];
     const BsdfFlags flags = bsdf_flags(m);
-    if (!only_specular(flags) || s.light_of_prim[s.sphere_begin() + i] >= 0) continue;
+    if (!only_specular(flags) || s.light_of(s.sphere_begin() + i) >= 0) continue;
     SpecularSphere chain{s.spheres.center[i], s.spheres.radius[i], false, static_cast<double>(m.ior)};
     const DVec3 to_c = chain.center - x;
     const double sin2 = chain.radius * chain.radius / glm::dot(to_c, to_c);
@@ -227,7 +227,7 @@ inline float path_tracing_share(const Scene& s, const std::vector<BdptVertex>& c
   const Light& l = s.lights[yv.light];
   if (!manifold_light(l)) return 1.f;
   const uint32_t exit_prim = camera[t - 2].it.prim;
-  if (!camera[t - 2].delta || exit_prim < s.sphere_begin()) return 1.f;
+  if (!camera[t - 2].delta || !s.is_sphere(exit_prim)) return 1.f;
   const uint32_t i = exit_prim - s.sphere_begin();
   // Two vertices on the sphere are the way in and out (a reflection off a convex sphere cannot meet it again).
   const bool through = camera[t - 3].it.prim == exit_prim;

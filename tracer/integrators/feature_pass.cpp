@@ -38,7 +38,7 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
     const Material& m = integrator_detail::material_at<kM>(s, it, ray.d, cone_width, scratch);
     const Vec3 wo = -ray.d;
     if (!is_black(m.emission)) {
-      const Light& light = s.lights[s.light_of_prim[it.prim]];
+      const Light& light = s.lights[s.light_of(it.prim)];
       L += beta * area_light_emission(light, it.ng, wo) * (light.emission_map.texture ? emission_texel(light, it.uv) : Rgb(1.f));
     }
     trace.at_vertex<kM>(depth, ray.o, it, wo, m, depth >= settings.max_bounces, L);

@@ -199,7 +199,7 @@ template <class Sampler, uint32_t F>
   const Vec3 wo = -p.ray.d;
 
   if (!is_black(m.emission)) {
-    const int li = s.light_of_prim[it.prim];
+    const int li = s.light_of(it.prim);
     const Light& light = s.lights[li];
     Rgb Le = area_light_emission(light, it.ng, wo);
     if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, it.uv);

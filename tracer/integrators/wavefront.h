@@ -32,9 +32,10 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// What PathLoop::Auto resolves to for this scene: the wavefront where polygons are searched by brute force.
+// What PathLoop::Auto resolves to for this scene: the wavefront where polygons are searched by brute force (and
+// no instanced mesh is searched ray by ray besides).
 inline bool wavefront_pays(const Scene& scene) {
-  return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty();
+  return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty() && scene.instances.empty();
 }
 
 // Whether settings.path_loop, resolved for this scene, runs the wavefront loop (select_batch_kernel's choice).

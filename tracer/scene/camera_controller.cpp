@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "scene/scene.h"
+
 namespace pt {
 
 SceneBounds scene_bounds(const SceneDesc& scene) {
@@ -19,6 +21,10 @@ SceneBounds scene_bounds(const SceneDesc& scene) {
         hi = glm::max(hi, s.vertices[k]);
       }
     }
+  }
+  for (const InstanceDesc& in : scene.instances) {
+    const auto [ilo, ihi] = placed_box(scene, in);
+    lo = glm::min(lo, ilo), hi = glm::max(hi, ihi);
   }
   SceneBounds b;
   if (!(lo.x <= hi.x)) {  // no shapes: centre on what the camera looks at

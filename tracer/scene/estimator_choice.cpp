@@ -55,6 +55,9 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
   std::vector<char> used(scene.materials.size(), 0);
   for (const ShapeDesc& s : scene.shapes)
     if (s.material >= 0 && static_cast<size_t>(s.material) < used.size()) used[static_cast<size_t>(s.material)] = 1;
+  for (const InstanceDesc& in : scene.instances)
+    for (int m : in.materials)
+      if (m >= 0 && static_cast<size_t>(m) < used.size()) used[static_cast<size_t>(m)] = 1;
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
   if (scene.camera.aperture_radius > 0.0)
     return {Estimator::Mis, "mis: a thin-lens camera, which bdpt does not support yet"};

@@ -354,9 +354,69 @@ struct Reader {
     return t * r * s;
   }
 
+  // Meshes used by more than one node (and whose materials do not emit) are stored once and placed by
+  // instances; the others' triangles are placed in the file's world here.
+  std::vector<int> mesh_uses;       // per mesh, how many nodes show it
+  std::vector<int> instanced_mesh;  // per mesh, its index in out.meshes, −1 while not built
+  bool counting = false;            // the first walk of the node graph only counts mesh_uses
+
+  bool mesh_emits(const tg::Mesh& me) const {
+    for (const tg::Primitive& p : me.primitives) {
+      if (p.material < 0 || static_cast<size_t>(p.material) >= m.materials.size()) continue;
+      const std::vector<double>& e = m.materials[p.material].emissiveFactor;
+      if (std::any_of(e.begin(), e.end(), [](double c) { return c != 0.0; })) return true;
+    }
+    return false;
+  }
+
   void add_mesh(int mesh, const glm::dmat4& world, const std::string& node_where) {
     if (mesh < 0 || static_cast<size_t>(mesh) >= m.meshes.size())
       fail(node_where + ".mesh", "mesh " + std::to_string(mesh) + " does not exist");
+    if (counting) {
+      ++mesh_uses[mesh];
+      return;
+    }
+    if (mesh_uses[mesh] > 1 && !mesh_emits(m.meshes[mesh])) {
+      add_instance(mesh, world);
+      return;
+    }
+    mesh_triangles(mesh, world, [&](const std::array<DVec3, 3>& tri, const TriangleShading& shading, int material) {
+      out.triangles.push_back(tri);
+      out.triangle_material.push_back(material);
+      if (shading.any() && !any_shading) {  // the first triangle with either: the ones before it too
+        any_shading = true;
+        out.shading.resize(out.triangles.size() - 1);
+      }
+      if (any_shading) out.shading.push_back(shading);
+    });
+  }
+
+  void add_instance(int mesh, const glm::dmat4& world) {
+    if (instanced_mesh[mesh] < 0) {
+      GltfMesh g;
+      std::map<int, uint32_t> slot_of;  // file material → slot
+      mesh_triangles(mesh, glm::dmat4(1.0), [&](const std::array<DVec3, 3>& tri, const TriangleShading& shading, int material) {
+        const auto [it, added] = slot_of.emplace(material, static_cast<uint32_t>(g.slot_material.size()));
+        if (added) g.slot_material.push_back(material);
+        g.mesh.triangles.push_back(tri);
+        g.mesh.slot.push_back(it->second);
+        g.mesh.shading.push_back(shading);
+      });
+      if (g.mesh.triangles.empty()) return;  // nothing to place
+      g.mesh.slots = static_cast<uint32_t>(g.slot_material.size());
+      g.mesh.fit_box();
+      if (std::none_of(g.mesh.shading.begin(), g.mesh.shading.end(), [](const TriangleShading& t) { return t.any(); }))
+        g.mesh.shading.clear();
+      instanced_mesh[mesh] = static_cast<int>(out.meshes.size());
+      out.meshes.push_back(std::move(g));
+    }
+    out.instances.push_back({static_cast<uint32_t>(instanced_mesh[mesh]), world});
+  }
+
+  // Calls emit(triangle, shading, material) for every non-degenerate triangle of mesh `mesh` placed by `world`
+  // (normals by its inverse transpose; vertices listed the other way round under a mirroring transform).
+  template <class Emit>
+  void mesh_triangles(int mesh, const glm::dmat4& world, const Emit& emit) {
     const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
     const tg::Mesh& me = m.meshes[mesh];
     for (size_t pi = 0; pi < me.primitives.size(); ++pi) {
@@ -418,20 +478,15 @@ struct Reader {
           ++out.degenerate;
           continue;
         }
-        if (out.triangles.size() >= kMaxMeshTriangles)
+        if (++stored_triangles > kMaxMeshTriangles)
           fail(where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
-        out.triangles.push_back(tri);
-        out.triangle_material.push_back(material);
         if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
           shading.normal = {};  // a zero normal: the face stays flat
-        if (shading.any() && !any_shading) {  // the first triangle with either: the ones before it too
-          any_shading = true;
-          out.shading.resize(out.triangles.size() - 1);
-        }
-        if (any_shading) out.shading.push_back(shading);
+        emit(tri, shading, material);
       }
     }
   }
+  size_t stored_triangles = 0;  // triangles held: placed ones and instanced meshes' own
 
   int default_index = -1;
   int default_material() {
@@ -525,8 +580,8 @@ struct Reader {
         if (!std::isfinite(world[c][r])) fail(where, "its transform is not finite");
     if (n.skin >= 0) warn("skins are not read: skinned meshes keep their bind pose");
     if (n.mesh >= 0) add_mesh(n.mesh, world, where);
-    if (n.camera >= 0) add_camera(n.camera, world, where);
-    if (const tg::Value* ext = extension(n.extensions, "KHR_lights_punctual")) add_light(*ext, world, where);
+    if (n.camera >= 0 && !counting) add_camera(n.camera, world, where);
+    if (const tg::Value* ext = extension(n.extensions, "KHR_lights_punctual"); ext && !counting) add_light(*ext, world, where);
     on_path[node] = true;
     for (int child : n.children) visit(child, world, on_path, depth + 1);
     on_path[node] = false;
@@ -551,8 +606,13 @@ struct Reader {
         if (!child[i]) roots.push_back(static_cast<int>(i));
     }
     std::vector<bool> on_path(m.nodes.size(), false);
+    mesh_uses.assign(m.meshes.size(), 0);
+    instanced_mesh.assign(m.meshes.size(), -1);
+    counting = true;
     for (int r : roots) visit(r, glm::dmat4(1.0), on_path, 0);
-    if (out.triangles.empty()) throw SceneError(path + ": no triangles to show");
+    counting = false;
+    for (int r : roots) visit(r, glm::dmat4(1.0), on_path, 0);
+    if (out.triangles.empty() && out.instances.empty()) throw SceneError(path + ": no triangles to show");
     // The materials: the file's, names made unique, then the default if a primitive used it.
     std::set<std::string> names;
     for (size_t i = 0; i < m.materials.size(); ++i) out.materials.push_back(material(i));
@@ -661,6 +721,18 @@ SceneDesc gltf_scene(const std::string& path) {
     for (int k = 0; k < 3; ++k) lo = glm::min(lo, g.triangles[i][k]), hi = glm::max(hi, g.triangles[i][k]);
   }
   if (!g.shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(g.shading));
+  // Meshes several nodes show: stored once, placed by instances of the model's object.
+  for (GltfMesh& m : g.meshes) s.meshes.push_back(std::make_shared<const MeshDesc>(std::move(m.mesh)));
+  for (const GltfInstance& gi : g.instances) {
+    InstanceDesc in;
+    in.mesh = gi.mesh;
+    in.transform = gi.transform;
+    in.object = 0;
+    in.materials = g.meshes[gi.mesh].slot_material;  // the scene's materials are the file's, in order
+    s.instances.push_back(std::move(in));
+    const auto [ilo, ihi] = placed_box(s, s.instances.back());
+    lo = glm::min(lo, ilo), hi = glm::max(hi, ihi);
+  }
   s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
   s.punctual_lights = std::move(g.lights);
   for (PunctualLightDesc& l : s.punctual_lights) l.object = 0;  // placed by the model's object

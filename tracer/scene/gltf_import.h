@@ -43,12 +43,25 @@
 
 namespace pt {
 
+// A mesh of the file that several nodes show: stored once, in its own coordinates (MeshDesc), its material slots
+// mapped to the file's materials.
+struct GltfMesh {
+  MeshDesc mesh;
+  std::vector<int> slot_material;  // per slot, an index into GltfContents::materials
+};
+struct GltfInstance {
+  uint32_t mesh = 0;            // index into GltfContents::meshes
+  glm::dmat4 transform{1.0};    // its node's transform into the file's world
+};
+
 struct GltfContents {
   std::vector<std::array<DVec3, 3>> triangles;  // world coordinates (node transforms applied)
   std::vector<int> triangle_material;           // per triangle, an index into `materials`
   // Per triangle, its vertex normals (NORMAL, in the file's world, unit) and texture coordinates (TEXCOORD_0),
   // in the triangles' vertex order; empty when no primitive has normals (TriangleShading).
   std::vector<TriangleShading> shading;
+  std::vector<GltfMesh> meshes;                 // meshes shown by several nodes (whose materials do not emit)
+  std::vector<GltfInstance> instances;          // their placements, one per node showing one
   std::vector<MaterialDesc> materials;          // the file's materials (unique names), then the default if used
   std::vector<PunctualLightDesc> lights;        // KHR_lights_punctual, placed by their nodes (object −1)
   std::optional<CameraDesc> camera;             // the first perspective camera in the node graph

@@ -31,6 +31,17 @@ DVec3 to_world(const ObjectTransform& t, DVec3 p) {
   return rotate(p * t.scale, glm::normalize(t.axis), glm::radians(t.degrees)) + t.translate;
 }
 
+glm::dmat4 world_matrix(const ObjectTransform& t) {
+  glm::dmat4 m(1.0);
+  for (int c = 0; c < 3; ++c) {
+    DVec3 e(0.0);
+    e[c] = 1.0;
+    m[c] = glm::dvec4(to_world(t, e) - t.translate, 0.0);
+  }
+  m[3] = glm::dvec4(t.translate, 1.0);
+  return m;
+}
+
 DVec3 to_object(const ObjectTransform& t, DVec3 p) {
   return rotate(p - t.translate, glm::normalize(t.axis), -glm::radians(t.degrees)) / t.scale;
 }

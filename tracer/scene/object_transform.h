@@ -25,6 +25,8 @@ std::string transform_error(const ObjectTransform& t);
 // The object's point p in the world, and back.
 DVec3 to_world(const ObjectTransform& t, DVec3 p);
 DVec3 to_object(const ObjectTransform& t, DVec3 p);
+// to_world as a matrix (the affine map p ↦ M·(p, 1)).
+glm::dmat4 world_matrix(const ObjectTransform& t);
 // A normal of the object's surface, mapped into the world: by the inverse transpose of the linear part
 // (rotation · scale⁻¹), so that it stays perpendicular to the mapped surface. Not normalised.
 DVec3 normal_to_world(const ObjectTransform& t, DVec3 n);

@@ -1,6 +1,7 @@
 #include "scene/scene.h"
 
 #include "geometry/scene_queries.h"
+#include "geometry/triangle_frame.h"
 #include "io/image_io.h"
 #include "lights/sky_preetham.h"
 #include "materials/bsdf.h"
@@ -166,7 +167,18 @@ std::string validate_objects(const SceneDesc& s) {
   for (size_t i = 0; i < s.objects.size(); ++i) {
     const ObjectDesc& o = s.objects[i];
     const std::string path = "objects[" + std::to_string(i) + "]";
-    if (o.shape_count == 0) return path + ": an object holds at least one shape";
+    if (o.shape_count == 0) {
+      const bool places = std::any_of(s.instances.begin(), s.instances.end(),
+                                      [i](const InstanceDesc& in) { return in.object == static_cast<int>(i); });
+      if (!places) return path + ": an object holds at least one shape or instance";
+      if (o.first_shape < next_free || o.first_shape > s.shapes.size())
+        return path + ": its place among the shapes is out of order";
+      if (std::string err = transform_error(o.transform); !err.empty()) return path + ".transform: " + err;
+      if (o.kind == ObjectKind::Group) return path + ": a group holds shapes";
+      if (o.file.empty()) return path + ".file: a model names its file";
+      next_free = o.first_shape;
+      continue;
+    }
     if (o.first_shape < next_free) return path + ": its shapes overlap an earlier object's (objects go in shape order)";
     if (o.first_shape > s.shapes.size() || o.shape_count > s.shapes.size() - o.first_shape)
       return path + ": its shapes run past the scene's " + std::to_string(s.shapes.size());
@@ -243,6 +255,92 @@ bool textured(const SceneDesc& s) {
   return std::any_of(s.materials.begin(), s.materials.end(), [](const MaterialDesc& m) { return m.textured(); });
 }
 
+namespace {
+
+// The instances (InstanceDesc) and their meshes; widens `farthest` by the placed meshes' boxes.
+std::string validate_instances(const SceneDesc& s, double& farthest) {
+  for (size_t i = 0; i < s.meshes.size(); ++i) {
+    const std::string path = "meshes[" + std::to_string(i) + "]";
+    if (!s.meshes[i]) return path + ": missing";
+    const MeshDesc& m = *s.meshes[i];
+    if (m.triangles.empty() || m.slot.size() != m.triangles.size() || m.slots == 0)
+      return path + ": no triangles, or not one material slot per triangle";
+    if (!m.shading.empty() && m.shading.size() != m.triangles.size()) return path + ": shading not one per triangle";
+    DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      const auto& v = m.triangles[t];
+      if (m.slot[t] >= m.slots) return path + ".slot: past the mesh's slots";
+      for (const DVec3& p : v) {
+        if (!finite3(p)) return path + ": a vertex is not finite";
+        lo = glm::min(lo, p), hi = glm::max(hi, p);
+      }
+      if (degenerate_triangle(v[0], v[1], v[2])) return path + ": degenerate triangle " + std::to_string(t);
+      if (!m.shading.empty())
+        for (const Vec3& n : m.shading[t].normal)
+          if (!finite3(n)) return path + ": a vertex normal is not finite";
+    }
+    if (lo != m.lo || hi != m.hi) return path + ": its box is not its vertices' bounds (MeshDesc::fit_box)";
+  }
+  size_t triangles = 0;
+  for (size_t k = 0; k < s.instances.size(); ++k) {
+    const InstanceDesc& in = s.instances[k];
+    const std::string path = "instances[" + std::to_string(k) + "]";
+    if (in.mesh >= s.meshes.size()) return path + ".mesh: no such mesh";
+    const MeshDesc& m = *s.meshes[in.mesh];
+    if (in.object < -1 || in.object >= static_cast<int>(s.objects.size())) return path + ".object: no such object";
+    if (in.materials.size() != m.slots) return path + ".materials: not one per material slot of its mesh";
+    for (int mat : in.materials) {
+      if (mat < 0 || mat >= static_cast<int>(s.materials.size())) return path + ".materials: no such material";
+      if (!is_black(s.materials[mat].emission))
+        return path + ".materials: " + shown_material(s, mat) +
+               " emits light, which an instanced mesh cannot do (its triangles are not among the lights)";
+    }
+    const glm::dmat4 world = instance_world(s, in);
+    const double det = glm::determinant(glm::dmat3(world));
+    bool finite = true;
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r) finite = finite && std::isfinite(world[c][r]);
+    if (!finite || world[0][3] != 0.0 || world[1][3] != 0.0 || world[2][3] != 0.0 || world[3][3] != 1.0)
+      return path + ".transform: must be a finite affine transform";
+    if (!(std::abs(det) > 0.0 && std::isfinite(1.0 / det))) return path + ".transform: must be invertible";
+    for (int c = 0; c < 8; ++c) {
+      const DVec3 p = DVec3(world * glm::dvec4(box_corner(m.lo, m.hi, c), 1.0)) - s.camera.position;
+      const double d = std::hypot(p.x, p.y, p.z);
+      if (!(d <= kMaxCameraDistance))
+        return path + ": the placed mesh reaches " + short_number(d) + " from the camera, beyond the " +
+               short_number(kMaxCameraDistance) + " the tracer represents";
+      farthest = std::max(farthest, d);
+    }
+    triangles += m.triangles.size();
+    if (triangles > kMaxInstancedTriangles)
+      return path + ": the instances place more than " + std::to_string(kMaxInstancedTriangles) + " triangles";
+  }
+  return {};
+}
+
+}  // namespace
+
+std::pair<DVec3, DVec3> placed_box(const SceneDesc& s, const InstanceDesc& in) {
+  const MeshDesc& m = *s.meshes[in.mesh];
+  const glm::dmat4 world = instance_world(s, in);
+  DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (int c = 0; c < 8; ++c) {
+    const DVec3 p(world * glm::dvec4(box_corner(m.lo, m.hi, c), 1.0));
+    lo = glm::min(lo, p), hi = glm::max(hi, p);
+  }
+  return {lo, hi};
+}
+
+glm::dmat4 instance_world(const SceneDesc& s, const InstanceDesc& in) {
+  if (in.object < 0 || in.object >= static_cast<int>(s.objects.size())) return in.transform;
+  return world_matrix(s.objects[in.object].transform) * in.transform;
+}
+
+std::string shown_material(const SceneDesc& s, int material) {
+  return material >= 0 && material < static_cast<int>(s.materials.size()) ? "material \"" + s.materials[material].name + "\""
+                                                                           : "material " + std::to_string(material);
+}
+
 std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
@@ -255,7 +353,7 @@ std::string validate_scene(const SceneDesc& s) {
   if (s.materials.empty()) return "materials: the scene defines no material";
   for (const MaterialDesc& m : s.materials)
     if (std::string err = validate_material(m); !err.empty()) return err;
-  if (s.shapes.empty()) return "shapes: the scene has no shape";
+  if (s.shapes.empty() && s.instances.empty()) return "shapes: the scene has no shape";
   const DVec3 eye = s.camera.position;
   const std::string too_far = " from the camera, beyond the " + short_number(kMaxCameraDistance) +
                               " the tracer represents (move the camera closer or scale the scene down)";
@@ -299,6 +397,7 @@ std::string validate_scene(const SceneDesc& s) {
       if (glm::dot(n1, n2) <= 0.0) return path() + ".vertices: quad is folded or not convex (vertex order?)";
     }
   }
+  if (std::string err = validate_instances(s, farthest); !err.empty()) return err;
   if (std::string err = validate_objects(s); !err.empty()) return err;
   if (farthest < kMinSceneExtent)
     return "shapes: the whole scene lies within " + short_number(farthest) + " of the camera, below the " +
@@ -307,15 +406,6 @@ std::string validate_scene(const SceneDesc& s) {
 }
 
 namespace {
-
-// Smallest barycentrics (b0, b1, b2) of a point inside triangle (a, b, c) that keep it `err` away from each
-// edge: b_k = distance to the edge opposite vertex k over that vertex's altitude = err·|edge|/(2·area).
-Vec3 triangle_margins(DVec3 a, DVec3 b, DVec3 c, double err) {
-  const double a2 = glm::length(glm::cross(b - a, c - a));  // twice the area
-  DVec3 m = DVec3(glm::length(c - b), glm::length(a - c), glm::length(b - a)) * (err / a2);
-  if (m.x + m.y + m.z >= 0.5) m = DVec3(1.0 / 3.0);  // a sliver below float resolution: use its centroid
-  return Vec3(m);
-}
 
 // Appends a triangle (N = 3) or a convex planar quad (N = 4).
 template <int N>
@@ -330,18 +420,14 @@ void add_polygon(PolygonSoA& soa, const std::array<DVec3, N>& world, DVec3 origi
   soa.normal.push_back(Vec3(glm::normalize(n)));
   soa.area.push_back(static_cast<float>(area));
   soa.material.push_back(material);
-  // Hit-point rounding error bound γ7·Σ|bᵢvᵢ| ≤ γ7·max|v| (camera-relative), with a 4× margin.
   double max_abs = 0.0;
   for (int k = 0; k < N; ++k) max_abs = std::max(max_abs, glm::compMax(glm::abs(world[k] - origin)));
-  const double err = 4.0 * 7.0 * 0x1p-24 * max_abs;
+  const double err = hit_error_bound(max_abs);
   std::array<Vec3, 2> margins{Vec3(0.f), Vec3(0.f)};
   std::array<std::array<Vec3, 2>, 2> dual{};
   for (int h = 0; h < N - 2; ++h) {
-    const DVec3 a = world[0], q = world[h + 1], r = world[h + 2];
-    margins[h] = triangle_margins(a, q, r, err);
-    const DVec3 e1 = q - a, e2 = r - a, nh = glm::cross(e1, e2);
-    const double inv = 1.0 / glm::dot(nh, nh);
-    dual[h] = {Vec3(glm::cross(e2, nh) * inv), Vec3(glm::cross(nh, e1) * inv)};
+    margins[h] = triangle_margins(world[0], world[h + 1], world[h + 2], err);
+    dual[h] = triangle_dual(world[0], world[h + 1], world[h + 2]);
   }
   soa.edge_margin.push_back(margins);
   soa.dual.push_back(dual);
@@ -391,6 +477,76 @@ class ShadingCompiler {
  private:
   bool active_ = false, smooth_ = false;
 };
+
+// A mesh that instances place, in its own coordinates, with its hierarchy (geometry/instances.h).
+std::shared_ptr<const MeshGeometry> compile_mesh(const MeshDesc& d) {
+  auto g = std::make_shared<MeshGeometry>();
+  const size_t n = d.triangles.size();
+  for (auto& v : g->v) v.reserve(n);
+  for (const std::array<DVec3, 3>& t : d.triangles) {
+    for (int k = 0; k < 3; ++k) g->v[k].push_back(Vec3(t[k]));
+    g->v[3].push_back(Vec3(t[0]));
+  }
+  g->triangle.assign(n, 1);
+  g->slot = d.slot;
+  const bool normals = std::any_of(d.shading.begin(), d.shading.end(), [](const TriangleShading& t) { return t.has_normals(); });
+  const bool uv = std::any_of(d.shading.begin(), d.shading.end(), [](const TriangleShading& t) { return t.has_uv; });
+  for (const TriangleShading& t : d.shading) {
+    if (normals) g->normal.push_back(t.normal);
+    if (uv) g->uv.push_back(t.uv);
+  }
+  g->bvh = build_polygon_bvh(g->v, g->triangle);
+  return g;
+}
+
+// The instances (geometry/instances.h): each mesh compiled once, each placement camera-relative.
+void compile_instances(const SceneDesc& desc, Scene& s) {
+  if (desc.instances.empty()) return;
+  InstanceSet& set = s.instances;
+  std::vector<int> geometry_of(desc.meshes.size(), -1);
+  uint32_t next = s.primitive_count();
+  set.prim_begin = next;
+  for (size_t k = 0; k < desc.instances.size(); ++k) {
+    const InstanceDesc& d = desc.instances[k];
+    const MeshDesc& mesh = *desc.meshes[d.mesh];
+    if (geometry_of[d.mesh] < 0) {
+      geometry_of[d.mesh] = static_cast<int>(set.meshes.size());
+      set.meshes.push_back(compile_mesh(mesh));
+      s.features.smooth_shading = s.features.smooth_shading || !set.meshes.back()->normal.empty();
+    }
+    Instance in;
+    in.mesh = static_cast<uint32_t>(geometry_of[d.mesh]);
+    in.first_prim = next;
+    in.desc = static_cast<uint32_t>(k);
+    const glm::dmat4 world = instance_world(desc, d);
+    in.to_world_linear = glm::dmat3(world);
+    in.to_world_offset = DVec3(world[3]) - s.world_origin;
+    const glm::dmat3 inverse = glm::inverse(in.to_world_linear);
+    in.to_mesh.linear = glm::mat3(inverse);
+    in.to_mesh.offset = Vec3(-(inverse * in.to_world_offset));
+    in.normal_to_world = glm::mat3(glm::transpose(inverse));
+    in.mirrors = glm::determinant(in.to_world_linear) < 0.0;
+    for (int m : d.materials) {
+      in.material.push_back(static_cast<uint32_t>(m));
+      s.material_used[static_cast<size_t>(m)] = 1;
+    }
+    // The placed box: its corners in double, rounded outwards to float.
+    DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (int c = 0; c < 8; ++c) {
+      const DVec3 p = in.to_world_linear * box_corner(mesh.lo, mesh.hi, c) + in.to_world_offset;
+      lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+    for (int a = 0; a < 3; ++a) {
+      in.lo[a] = next_float_down(static_cast<float>(lo[a]));
+      in.hi[a] = next_float_up(static_cast<float>(hi[a]));
+    }
+    next += static_cast<uint32_t>(mesh.triangles.size());
+    set.instances.push_back(std::move(in));
+  }
+  set.prim_end = next;
+  set.top = build_instance_bvh(set.instances);
+  s.features.triangles = true;
+}
 
 Material compile_material(const MaterialDesc& d) {
   Material m;
@@ -665,6 +821,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
   for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
   s.features.spheres = s.spheres.size() > 0;
+  compile_instances(desc, s);
 
   double r2 = 0.0;
   for (const auto& arr : s.polygons.v)
@@ -672,6 +829,10 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
   for (size_t i = 0; i < s.spheres.size(); ++i) {
     const double r = glm::length(s.spheres.center[i]) + s.spheres.radius[i];
     r2 = std::max(r2, r * r);
+  }
+  for (const Instance& in : s.instances.instances) {
+    const Vec3 far = glm::max(glm::abs(in.lo), glm::abs(in.hi));
+    r2 = std::max(r2, static_cast<double>(glm::dot(far, far)));
   }
   s.bounding_radius = std::sqrt(r2);
   compile_punctual_lights(desc, s);
@@ -720,6 +881,12 @@ bool same_shapes(const SceneDesc& a, const SceneDesc& b) {
         x.material != y.material || x.shading != y.shading)
       return false;
   }
+  // The instances: the same meshes (shared, never changed), placed alike.
+  if (a.meshes != b.meshes || a.instances.size() != b.instances.size()) return false;
+  for (size_t i = 0; i < a.instances.size(); ++i) {
+    const InstanceDesc &x = a.instances[i], &y = b.instances[i];
+    if (x.mesh != y.mesh || x.materials != y.materials || instance_world(a, x) != instance_world(b, y)) return false;
+  }
   // The vertex normals (shared, never changed: the same table, or both without).
   return a.shading == b.shading || (!a.smooth_shading() && !b.smooth_shading());
 }
@@ -758,6 +925,11 @@ bool update_scene_appearance(Scene& s, const SceneDesc& before, const SceneDesc&
 std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit) {
   if (const auto* m = std::get_if<MaterialEdit>(&edit)) {
     if (m->index >= desc.materials.size()) return "materials[" + std::to_string(m->index) + "]: no such material";
+    if (!is_black(m->material.emission))
+      for (const InstanceDesc& in : desc.instances)
+        if (std::find(in.materials.begin(), in.materials.end(), static_cast<int>(m->index)) != in.materials.end())
+          return "materials." + m->material.name +
+                 ".emission: an instanced mesh has this material, and instanced meshes cannot emit light";
     return validate_material(m->material);
   }
   if (const auto* c = std::get_if<CameraDesc>(&edit)) {

@@ -87,7 +87,9 @@ class Scene : public SceneGeometry {
   SceneFeatures features;
 
   std::vector<Light> lights;
-  std::vector<int32_t> light_of_prim;  // light index of each primitive, −1 for non-emitters
+  std::vector<int32_t> light_of_prim;  // light index of each of the scene's own primitives, −1 for non-emitters
+  // The light a primitive is, −1 for none (instanced meshes never emit: validate_scene).
+  int32_t light_of(uint32_t prim) const { return prim < light_of_prim.size() ? light_of_prim[prim] : -1; }
   std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
   std::vector<float> light_pmf;
   std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
@@ -201,6 +203,16 @@ std::string validate_punctual_for_estimator(const SceneDesc& scene, const Render
 std::string validate_shading_for_estimator(const SceneDesc& scene, const RenderSettings& render);
 // Some material has an albedo texture.
 bool textured(const SceneDesc& scene);
+// At most this many triangles placed by instances (their ids follow the scene's own primitives' in 32 bits).
+inline constexpr size_t kMaxInstancedTriangles = size_t{1} << 31;
+// Where an instance puts its mesh: its object's transform after its own.
+glm::dmat4 instance_world(const SceneDesc& scene, const InstanceDesc& instance);
+// The world box of the mesh an instance places (from its mesh's box; not tight under rotation).
+std::pair<DVec3, DVec3> placed_box(const SceneDesc& scene, const InstanceDesc& instance);
+// Corner c (bits: x, y, z at hi) of the box lo–hi.
+inline DVec3 box_corner(DVec3 lo, DVec3 hi, int c) { return {c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z}; }
+// `material "NAME"` for messages.
+std::string shown_material(const SceneDesc& scene, int material);
 // "" when the material's parameters are valid, else "materials.NAME.field: reason".
 std::string validate_material(const MaterialDesc& material);
 // Checks a SceneDesc built in code; returns an empty string when valid, else "path: reason".

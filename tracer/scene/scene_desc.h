@@ -4,6 +4,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -184,7 +185,9 @@ struct ShapeDesc {
 // triangles keep the file's materials until one is chosen for all). Its shapes are a contiguous
 // run of SceneDesc::shapes, in world coordinates like every shape (the renderer never sees objects); `transform`
 // places the object's own coordinates (the OBJ file's, or the group's shapes as the scene file writes them) in the
-// world. A shape outside every object stands alone (object_containing(), scene.h).
+// world. A shape outside every object stands alone (object_containing(), scene.h). A model's meshes used more
+// than once are not among its shapes but instances (InstanceDesc::object names the object): such an object may
+// hold no shape at all.
 struct ObjectDesc {
   std::string name;
   ObjectKind kind = ObjectKind::Group;
@@ -192,6 +195,33 @@ struct ObjectDesc {
   ObjectTransform transform;
   std::string file;           // mesh: the OBJ file as written in the scene file
   std::string resolved_file;  // mesh: `file` relative to the scene file's directory (not saved)
+};
+
+// A triangle mesh that several instances place (a glTF mesh used by more than one node): stored once, in its
+// own coordinates, and shared, never changed, by every copy of the scene (the viewer's edits). Its triangles
+// have material slots, which each instance maps to the scene's materials.
+struct MeshDesc {
+  std::vector<std::array<DVec3, 3>> triangles;  // the file's vertex order
+  std::vector<uint32_t> slot;                   // per triangle, its material slot (< slots)
+  uint32_t slots = 1;
+  // Per triangle, its vertex normals and uv (in its vertex order), or empty when no triangle has either.
+  std::vector<TriangleShading> shading;
+  DVec3 lo{0.0}, hi{0.0};  // the vertices' bounds (set with the triangles: fit_box)
+  void fit_box() {
+    lo = DVec3(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (const std::array<DVec3, 3>& t : triangles)
+      for (const DVec3& p : t) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  }
+};
+
+// One placement of a mesh: mesh → its object's coordinates (a glTF node's world transform), then the object's
+// transform (ObjectDesc), so that moving the object moves its instances. Instanced triangles never emit
+// (validate_scene): a model's emitting meshes are stored as shapes, which light sampling knows.
+struct InstanceDesc {
+  uint32_t mesh = 0;            // index into SceneDesc::meshes
+  glm::dmat4 transform{1.0};    // affine, invertible
+  int object = -1;              // the SceneDesc::objects entry that places it, −1 for the world
+  std::vector<int> materials;   // per slot of the mesh, an index into SceneDesc::materials
 };
 
 // A punctual light, in the coordinates of the model file it came from (the object's transform places it, as it
@@ -272,10 +302,16 @@ struct SceneDesc {
   // The model files' vertex normals and texture coordinates (ShapeDesc::shading indexes it); null when no shape
   // has any. Shared, never changed: copies of a scene (the viewer's edits) share it.
   std::shared_ptr<const std::vector<TriangleShading>> shading;
+  // Meshes placed by instances (model files' meshes used more than once), and their placements.
+  std::vector<std::shared_ptr<const MeshDesc>> meshes;
+  std::vector<InstanceDesc> instances;
   // Some triangle has vertex normals.
   bool smooth_shading() const {
     if (shading)
       for (const TriangleShading& t : *shading)
+        if (t.has_normals()) return true;
+    for (const std::shared_ptr<const MeshDesc>& m : meshes)
+      for (const TriangleShading& t : m->shading)
         if (t.has_normals()) return true;
     return false;
   }

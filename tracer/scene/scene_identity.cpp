@@ -4,6 +4,7 @@
 
 #include "core/fnv1a.h"
 #include "io/little_endian.h"
+#include "scene/scene.h"
 #include "scene/scene_json.h"
 
 namespace pt {
@@ -12,7 +13,7 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
   // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
   // a million triangles' doubles as JSON took 10 s of every render (docs/performance.md, session 20).
-  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}, {}, {}};
+  SceneDesc head{scene.camera, scene.width, scene.height, scene.render, scene.environment, scene.materials, {}, {}, {}, {}, {}, {}};
   head.render.seed = 0;
   const std::string json = scene_to_json(head);
   uint64_t h = fnv1a(reinterpret_cast<const unsigned char*>(json.data()), json.size());
@@ -36,6 +37,31 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
         }
       }
     }
+    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+  }
+  // Instanced meshes by their bits, and each placement (its object's transform included) with its materials.
+  for (const std::shared_ptr<const MeshDesc>& m : scene.meshes) {
+    record.clear();
+    put_le_u32(record, m->slots);
+    for (size_t t = 0; t < m->triangles.size(); ++t) {
+      put_le_u32(record, m->slot[t]);
+      for (const DVec3& p : m->triangles[t])
+        for (int a = 0; a < 3; ++a) put_le_f64(record, p[a]);
+      if (!m->shading.empty())
+        for (int k = 0; k < 3; ++k) {
+          for (int a = 0; a < 3; ++a) put_le_u32(record, std::bit_cast<uint32_t>(m->shading[t].normal[k][a]));
+          for (int a = 0; a < 2; ++a) put_le_u32(record, std::bit_cast<uint32_t>(m->shading[t].uv[k][a]));
+        }
+    }
+    h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+  }
+  for (const InstanceDesc& in : scene.instances) {
+    record.clear();
+    put_le_u32(record, in.mesh);
+    for (int m : in.materials) put_le_u32(record, static_cast<uint32_t>(m));
+    const glm::dmat4 world = instance_world(scene, in);
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 3; ++r) put_le_f64(record, world[c][r]);
     h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
   }
   // The model files' punctual lights (not in the scene file: their files bring them).

@@ -750,14 +750,18 @@ struct StreamedShapes {
     shading.push_back(t);
     return static_cast<uint32_t>(shading.size() - 1);
   }
-  void add(ShapeDesc s, std::string_view material, size_t index) {
+  // The id of a material name (resolve() maps ids to the scene's materials).
+  int material_id(std::string_view material, size_t index) {
     auto it = ids.find(material);
     if (it == ids.end()) {
       it = ids.emplace(std::string(material), static_cast<int>(names.size())).first;
       names.push_back(&it->first);
       first_use.push_back(index);
     }
-    s.material = it->second;
+    return it->second;
+  }
+  void add(ShapeDesc s, std::string_view material, size_t index) {
+    s.material = material_id(material, index);
     shapes.push_back(s);
   }
   void add(const Json& j, size_t index) {
@@ -857,6 +861,18 @@ struct StreamedShapes {
       add(s, override_name ? std::string_view(*override_name) : std::string_view(names[model.triangle_material[t]]), index);
     }
     o.shape_count = shapes.size() - o.first_shape;
+    // Meshes several nodes show: stored once, placed by instances of this object (its transform applies).
+    const size_t first_mesh = meshes.size();
+    for (GltfMesh& g : model.meshes) meshes.push_back(std::make_shared<const MeshDesc>(std::move(g.mesh)));
+    for (const GltfInstance& gi : model.instances) {
+      InstanceDesc in;
+      in.mesh = static_cast<uint32_t>(first_mesh + gi.mesh);
+      in.transform = gi.transform;
+      in.object = static_cast<int>(objects.size());
+      for (int m : model.meshes[gi.mesh].slot_material)
+        in.materials.push_back(material_id(override_name ? std::string_view(*override_name) : std::string_view(names[m]), index));
+      instances.push_back(std::move(in));
+    }
     objects.push_back(std::move(o));
   }
 
@@ -937,6 +953,8 @@ struct StreamedShapes {
   }
 
   std::vector<ObjectDesc> objects;  // in shape order
+  std::vector<std::shared_ptr<const MeshDesc>> meshes;  // glTF models' meshes shown by several nodes
+  std::vector<InstanceDesc> instances;                  // their placements (materials as name ids until resolve)
   std::vector<PunctualLightDesc> lights;  // glTF models' punctual lights
   std::string base_dir;  // where relative mesh paths start (the scene file's directory)
   std::vector<MaterialDesc> imported;  // glTF models' materials, named "OBJECT/MATERIAL"
@@ -951,6 +969,8 @@ struct StreamedShapes {
       index_of[id] = it->second;
     }
     for (ShapeDesc& s : shapes) s.material = index_of[s.material];
+    for (InstanceDesc& in : instances)
+      for (int& m : in.materials) m = index_of[m];
   }
 };
 
@@ -998,10 +1018,12 @@ SceneDesc read_scene(const Json& root, const std::string& base_dir, StreamedShap
 
   const Json& shapes = required_key(root, "", "shapes");  // its elements were streamed (SceneSax)
   if (!shapes.is_array()) fail("shapes", "expected an array, " + got(shapes));
-  if (streamed.shapes.empty()) fail("shapes", "must contain at least one shape");
+  if (streamed.shapes.empty() && streamed.instances.empty()) fail("shapes", "must contain at least one shape");
   streamed.resolve(material_index);
   s.shapes = std::move(streamed.shapes);
   s.objects = std::move(streamed.objects);
+  s.meshes = std::move(streamed.meshes);
+  s.instances = std::move(streamed.instances);
   s.punctual_lights = std::move(streamed.lights);
   if (!streamed.shading.empty())
     s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(streamed.shading));
@@ -1150,27 +1172,39 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
     materials[m.name] = std::move(j);
   }
   root["materials"] = std::move(materials);
-  const auto material_name = [&](size_t i) -> const std::string& {
-    const int m = s.shapes[i].material;
+  const auto material_name = [&](int m, const std::string& what) -> const std::string& {
     if (m < 0 || m >= static_cast<int>(s.materials.size()))
-      throw std::invalid_argument("scene_to_json: shapes[" + std::to_string(i) + "].material: no such material");
+      throw std::invalid_argument("scene_to_json: " + what + ".material: no such material");
     return s.materials[static_cast<size_t>(m)].name;
+  };
+  // An object's one material (its shapes' and its instances'), or "" when they differ (a glTF model's triangles
+  // keep the file's materials).
+  const auto object_material = [&](size_t object) {
+    const ObjectDesc& o = s.objects[object];
+    int one = -1;
+    bool same = true;
+    const auto see = [&](int m) { same = same && (one < 0 || m == one), one = one < 0 ? m : one; };
+    for (size_t k = o.first_shape; k < o.first_shape + o.shape_count; ++k) see(s.shapes[k].material);
+    for (const InstanceDesc& in : s.instances)
+      if (in.object == static_cast<int>(object))
+        for (int m : in.materials) see(m);
+    return same && one >= 0 ? material_name(one, "objects[" + std::to_string(object) + "]") : std::string();
   };
   Json shapes = Json::array();
   size_t next_object = 0;
-  for (size_t i = 0; i < s.shapes.size(); ++i) {
-    if (next_object < s.objects.size() && s.objects[next_object].first_shape == i) {
-      const ObjectDesc& o = s.objects[next_object++];
-      // A glTF model whose triangles do not share one material passes none (they keep the file's).
-      bool one_material = true;
-      for (size_t k = i + 1; k < i + o.shape_count && one_material; ++k) one_material = s.shapes[k].material == s.shapes[i].material;
-      shapes.push_back(object_json(o, s.shapes, one_material ? material_name(i) : std::string(), destination_dir));
-      i += o.shape_count - 1;
+  for (size_t i = 0; i < s.shapes.size() || next_object < s.objects.size();) {
+    if (next_object < s.objects.size() && s.objects[next_object].first_shape <= i) {
+      const ObjectDesc& o = s.objects[next_object];
+      shapes.push_back(object_json(o, s.shapes, object_material(next_object), destination_dir));
+      ++next_object;
+      i = o.first_shape + o.shape_count;
       continue;
     }
+    if (i >= s.shapes.size()) break;
     Json j = shape_json(s.shapes[i]);
-    j["material"] = material_name(i);
+    j["material"] = material_name(s.shapes[i].material, "shapes[" + std::to_string(i) + "]");
     shapes.push_back(std::move(j));
+    ++i;
   }
   root["shapes"] = std::move(shapes);
   return root;

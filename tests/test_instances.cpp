@@ -1,0 +1,371 @@
+// Instancing (geometry/instances.h): a mesh stored once and placed by several transforms must be found, shaded
+// and rendered exactly as the same triangles placed one by one. Each check compares an instanced scene with its
+// flattening (every instance's triangles transformed in double into world shapes, the way a model file's
+// triangles were always placed), which shares no code with the instance path: ray transform, two-level
+// traversal, per-hit frame and normal mapping.
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+#include "core/rng.h"
+#include "geometry/interaction.h"
+#include "scene/gltf_import.h"
+#include "scene/scene_identity.h"
+#include "scene/scene_json.h"
+#include "scene/scene.h"
+#include "temp_folder.h"
+#include "test_helpers.h"
+
+namespace pt {
+namespace {
+
+// A UV sphere of radius 1 (a closed, curved mesh) with unit vertex normals and uv; its bands alternate
+// between material slots 0 and 1.
+std::shared_ptr<const MeshDesc> sphere_mesh(int rings, int segments) {
+  auto m = std::make_shared<MeshDesc>();
+  const auto at = [&](int r, int s) {
+    const double th = glm::pi<double>() * r / rings, ph = 2.0 * glm::pi<double>() * s / segments;
+    return DVec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+  };
+  const auto uv = [&](int r, int s) { return Vec2(float(s) / segments, float(r) / rings); };
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      const int quad[4][2] = {{r, s}, {r + 1, s}, {r + 1, s + 1}, {r, s + 1}};
+      for (const auto& tri : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+        std::array<DVec3, 3> v;
+        TriangleShading sh;
+        for (int k = 0; k < 3; ++k) {
+          v[k] = at(quad[tri[k]][0], quad[tri[k]][1]);
+          sh.normal[k] = Vec3(v[k]);
+          sh.uv[k] = uv(quad[tri[k]][0], quad[tri[k]][1]);
+        }
+        sh.has_uv = true;
+        if (degenerate_triangle(v[0], v[1], v[2])) continue;  // the poles' collapsed corners
+        m->triangles.push_back(v);
+        m->slot.push_back(static_cast<uint32_t>(r % 2));
+        m->shading.push_back(sh);
+      }
+    }
+  m->slots = 2;
+  m->fit_box();
+  return m;
+}
+
+glm::dmat4 placement(DVec3 translate, double degrees, DVec3 axis, DVec3 scale) {
+  ObjectTransform t;
+  t.translate = translate;
+  t.degrees = degrees;
+  t.axis = axis;
+  t.scale = scale;
+  return world_matrix(t);
+}
+
+// A floor quad and four placements of one sphere mesh: plain, rotated and scaled, stretched per axis, mirrored.
+SceneDesc instanced_scene() {
+  SceneDesc s;
+  s.camera.position = {0.5, 2.0, 9.0};
+  s.camera.look_at = {0.5, 0.0, 0.0};
+  s.width = s.height = 32;
+  s.render.estimator = Estimator::Mis;
+  s.render.sampler = SamplerType::Independent;
+  s.render.max_bounces = 3;
+  s.environment.radiance = Rgb(1.f);
+  s.materials = {test::diffuse_material("a", Rgb(0.7f, 0.5f, 0.3f), Rgb(0.f), false),
+                 test::diffuse_material("b", Rgb(0.2f, 0.6f, 0.8f), Rgb(0.f), false),
+                 test::diffuse_material("floor", Rgb(0.5f), Rgb(0.f), false)};
+  ShapeDesc floor;
+  floor.type = ShapeType::Quad;
+  floor.vertices = {DVec3(-10, -2, 10), DVec3(10, -2, 10), DVec3(10, -2, -10), DVec3(-10, -2, -10)};
+  floor.material = 2;
+  s.shapes.push_back(floor);
+  s.meshes.push_back(sphere_mesh(12, 16));
+  const glm::dmat4 places[4] = {placement({-4.5, 0, 0}, 0, {0, 1, 0}, DVec3(1.0)),
+                                placement({-1.5, 0.3, -1}, 37, {1, 2, 0.5}, DVec3(1.3)),
+                                placement({1.5, 0, 0.5}, -20, {0, 0, 1}, DVec3(0.6, 1.4, 1.0)),
+                                placement({4.5, 0, 0}, 65, {0, 1, 0}, DVec3(-1.0, 1.0, 1.2))};
+  for (int k = 0; k < 4; ++k) {
+    InstanceDesc in;
+    in.mesh = 0;
+    in.transform = places[k];
+    in.materials = k == 2 ? std::vector<int>{1, 0} : std::vector<int>{0, 1};
+    s.instances.push_back(in);
+  }
+  return s;
+}
+
+// The same scene with every instance's triangles placed as shapes (world vertices and normals, the vertices
+// listed the other way round under a mirroring placement).
+SceneDesc flattened(const SceneDesc& s) {
+  SceneDesc f = s;
+  f.meshes.clear();
+  f.instances.clear();
+  auto shading = std::make_shared<std::vector<TriangleShading>>();
+  for (const InstanceDesc& in : s.instances) {
+    const MeshDesc& m = *s.meshes[in.mesh];
+    const glm::dmat4 world = instance_world(s, in);
+    const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      ShapeDesc sh;
+      TriangleShading ts = m.shading[t];
+      for (int k = 0; k < 3; ++k) {
+        sh.vertices[k] = DVec3(world * glm::dvec4(m.triangles[t][k], 1.0));
+        ts.normal[k] = Vec3(glm::normalize(normal_matrix * DVec3(ts.normal[k])));
+      }
+      if (mirror) {
+        std::swap(sh.vertices[1], sh.vertices[2]);
+        std::swap(ts.normal[1], ts.normal[2]);
+        std::swap(ts.uv[1], ts.uv[2]);
+      }
+      sh.material = in.materials[m.slot[t]];
+      sh.shading = static_cast<uint32_t>(shading->size());
+      shading->push_back(ts);
+      f.shapes.push_back(sh);
+    }
+  }
+  f.shading = shading;
+  return f;
+}
+
+// A random ray from around the scene towards a point among the spheres.
+Ray random_ray(Pcg32& rng, const Scene& s) {
+  const DVec3 eye = s.world_origin;
+  const DVec3 from(rng.next_float() * 16.0 - 8.0, rng.next_float() * 8.0 - 2.0, rng.next_float() * 16.0 - 8.0);
+  const DVec3 to(rng.next_float() * 12.0 - 6.0, rng.next_float() * 3.0 - 1.5, rng.next_float() * 3.0 - 1.5);
+  return Ray{Vec3(from - eye), Vec3(glm::normalize(to - from))};
+}
+
+}  // namespace
+
+TEST_CASE("instances: rays find the same triangles at the same distances as in the flattened scene") {
+  const SceneDesc desc = instanced_scene();
+  const auto inst = compile_scene(desc);
+  const auto flat = compile_scene(flattened(desc));
+  REQUIRE(inst->instances.instances.size() == 4);
+  REQUIRE(inst->instances.meshes.size() == 1);  // stored once
+  REQUIRE(inst->polygons.size() == 1);          // the floor alone
+  REQUIRE(flat->polygons.size() == 1 + 4 * desc.meshes[0]->triangles.size());
+  // Global ids: the floor, then the instances' triangles in order, as the flattened scene numbers its shapes.
+  Pcg32 rng(7, 5);
+  int rays = 0, hits = 0, differ = 0, other_triangle = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Ray ray = random_ray(rng, *inst);
+    Hit a, b;
+    const bool ha = inst->intersect(ray, kInfinity, kNoPrimitive, a), hb = flat->intersect(ray, kInfinity, kNoPrimitive, b);
+    ++rays;
+    if (ha != hb) {
+      ++differ;
+      continue;
+    }
+    if (!ha) continue;
+    ++hits;
+    // The two placements round the ray's origin differently by a few ulps of its coordinates (|o| ≤ 20).
+    CHECK(std::abs(a.t - b.t) <= 1e-5f * b.t + 2e-5f);
+    if (a.prim != b.prim) ++other_triangle;  // a neighbour across an edge the ray grazes
+    // A shadow ray to just before the hit is unoccluded in both, one to beyond it occluded in both.
+    CHECK(!inst->occluded(ray, 0.999f * b.t, kNoPrimitive, kNoPrimitive));
+    CHECK(inst->occluded(ray, 1.001f * b.t, kNoPrimitive, kNoPrimitive) == flat->occluded(ray, 1.001f * b.t, kNoPrimitive, kNoPrimitive));
+  }
+  MESSAGE(hits << " hits of " << rays << " rays; " << differ << " hit in one scene only, " << other_triangle
+                << " on a neighbouring triangle");
+  CHECK(hits > 8000);
+  // Rounding differs between the two placements only at the last float bit, so disagreement is confined to
+  // rays within ~1e-6 of a silhouette or an edge: a few in 20,000. A wrong transform disagrees on most rays.
+  CHECK(differ <= 4);
+  CHECK(other_triangle <= 8);
+}
+
+TEST_CASE("instances: a hit is shaded as in the flattened scene: point, normals, uv, material") {
+  const SceneDesc desc = instanced_scene();
+  const auto inst = compile_scene(desc);
+  const auto flat = compile_scene(flattened(desc));
+  Pcg32 rng(11, 5);
+  int compared = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Ray ray = random_ray(rng, *inst);
+    Hit a, b;
+    if (!inst->intersect(ray, kInfinity, kNoPrimitive, a) || !flat->intersect(ray, kInfinity, kNoPrimitive, b) ||
+        a.prim != b.prim || a.prim == 0)
+      continue;
+    const Interaction x = make_interaction(*inst, ray, a), y = make_interaction(*flat, ray, b);
+    ++compared;
+    CHECK(x.material == y.material);
+    CHECK(glm::length(x.p - y.p) <= 1e-5f * (1.f + glm::length(y.p)));
+    CHECK(glm::dot(x.ng, y.ng) >= 1.f - 1e-6f);
+    CHECK(glm::dot(x.ns, y.ns) >= 1.f - 1e-5f);
+    CHECK(glm::length(x.uv - y.uv) <= 1e-5f);
+    CHECK(glm::length(x.du_dp - y.du_dp) <= 1e-4f * (1.f + glm::length(y.du_dp)));
+    CHECK(x.lifted == y.lifted);
+    // The instance's error bound covers the flattened one's (and the placement's rounding besides).
+    CHECK(x.p_error.x >= y.p_error.x);
+  }
+  CHECK(compared > 1000);
+}
+
+TEST_CASE("instances: rays leaving an instanced sphere never hit it again from outside, and stay inside from inside") {
+  // Convex meshes: a ray leaving the outside cannot meet the mesh again, one leaving into it must. Offsets too
+  // small for the placement's rounding show up as self-hits at t ≈ 0.
+  const SceneDesc desc = instanced_scene();
+  const auto s = compile_scene(desc);
+  Pcg32 rng(3, 5);
+  int outward = 0, inward = 0;
+  for (int i = 0; i < 6000; ++i) {
+    const Ray ray = random_ray(rng, *s);
+    Hit h;
+    if (!s->intersect(ray, kInfinity, kNoPrimitive, h) || !s->instances.holds(h.prim)) continue;
+    const Interaction it = make_interaction(*s, ray, h);
+    const Instance& in = s->instances.instance_of(h.prim);
+    for (int k = 0; k < 4; ++k) {
+      Vec3 w(rng.next_float() * 2.f - 1.f, rng.next_float() * 2.f - 1.f, rng.next_float() * 2.f - 1.f);
+      if (glm::length(w) > 1.f || glm::length(w) < 1e-3f) continue;
+      w = glm::normalize(w);
+      // Outwards: away from the placed sphere's centre side of the face (whatever the winding).
+      const Vec3 centre = Vec3(in.to_world_offset);
+      const Vec3 out_normal = glm::dot(it.ng, it.p - centre) > 0.f ? it.ng : -it.ng;
+      const float c = glm::dot(w, out_normal);
+      if (std::abs(c) < 0.02f) continue;
+      const Ray out{offset_ray_origin(it, w), w};
+      Hit next;
+      const bool again = s->intersect(out, kInfinity, skip_on_leave(it), next);
+      const bool same_instance = again && next.prim >= in.first_prim && next.prim - in.first_prim < s->instances.meshes[in.mesh]->size();
+      if (c > 0.f) {
+        ++outward;
+        CHECK_FALSE(same_instance);
+      } else {
+        ++inward;
+        CHECK(same_instance);
+      }
+    }
+  }
+  CHECK(outward > 1000);
+  CHECK(inward > 1000);
+}
+
+TEST_CASE("instances: the image matches the flattened scene's, estimator by estimator") {
+  SceneDesc desc = instanced_scene();
+  for (Estimator e : {Estimator::Mis, Estimator::Cosine}) {
+    desc.render.estimator = e;
+    const Film a = test::render_film(desc, 64, 2), b = test::render_film(flattened(desc), 64, 2);
+    const auto ma = test::film_mean(a), mb = test::film_mean(b);
+    for (int c = 0; c < 3; ++c) {
+      const double se = std::sqrt(ma.se[c] * ma.se[c] + mb.se[c] * mb.se[c]);
+      MESSAGE(std::string(to_string(e)) << " channel " << c << ": instanced " << ma.mean[c] << " +- " << ma.se[c] << ", flattened "
+                           << mb.mean[c] << " +- " << mb.se[c]);
+      // 4 standard errors: a false failure about once in 16,000 comparisons (normal tails); seeds fixed.
+      CHECK(std::abs(ma.mean[c] - mb.mean[c]) <= 4.0 * se);
+      CHECK(se <= 0.01 * mb.mean[c]);  // tight enough that a missing or misplaced instance fails
+    }
+  }
+}
+
+TEST_CASE("instances: 1,000 placements store the mesh once") {
+  SceneDesc desc = instanced_scene();
+  desc.instances.resize(1);
+  const auto one = compile_scene(desc);
+  for (int k = 1; k < 1000; ++k) {
+    InstanceDesc in = desc.instances[0];
+    in.transform = placement({(k % 40) * 2.5 - 50.0, 0.0, -2.5 * (k / 40)}, k, {0, 1, 0}, DVec3(1.0));
+    desc.instances.push_back(in);
+  }
+  const auto many = compile_scene(desc);
+  REQUIRE(many->instances.meshes.size() == 1);
+  CHECK(many->instances.meshes[0].get() != nullptr);
+  CHECK(many->instances.instances.size() == 1000);
+  CHECK(many->polygons.size() == one->polygons.size());
+  CHECK(many->instances.prim_end - many->instances.prim_begin == 1000 * desc.meshes[0]->triangles.size());
+  // Every placement is found: a ray down the centre of each hits that instance.
+  for (int k = 0; k < 1000; k += 37) {
+    const glm::dmat4 w = instance_world(desc, desc.instances[k]);
+    const DVec3 centre(w[3]);
+    const Ray ray{Vec3(centre + DVec3(0, 5, 0) - many->world_origin), Vec3(0, -1, 0)};
+    Hit h;
+    REQUIRE(many->intersect(ray, kInfinity, kNoPrimitive, h));
+    CHECK(many->instances.instance_of(h.prim).desc == static_cast<uint32_t>(k));
+    CHECK(h.t == doctest::Approx(4.0).epsilon(1e-3));
+  }
+}
+
+TEST_CASE("instances: invalid placements and emitting materials are refused with their path") {
+  SceneDesc desc = instanced_scene();
+  CHECK(validate_scene(desc).empty());
+  SceneDesc bad = desc;
+  bad.instances[1].transform[0][0] = 0.0, bad.instances[1].transform[1][0] = 0.0, bad.instances[1].transform[2][0] = 0.0;
+  CHECK(validate_scene(bad).find("instances[1].transform: must be invertible") != std::string::npos);
+  bad = desc;
+  bad.instances[2].materials = {0};
+  CHECK(validate_scene(bad).find("instances[2].materials: not one per material slot") != std::string::npos);
+  bad = desc;
+  bad.instances[0].mesh = 5;
+  CHECK(validate_scene(bad).find("instances[0].mesh: no such mesh") != std::string::npos);
+  bad = desc;
+  bad.materials[1].emission = Rgb(1.f);
+  CHECK(validate_scene(bad).find("instances[0].materials: material \"b\" emits light") != std::string::npos);
+  // The viewer's live edit is refused the same way, before it reaches the renderer.
+  MaterialEdit edit{1, desc.materials[1]};
+  edit.material.emission = Rgb(2.f);
+  CHECK(validate_edit(desc, edit).find("instanced mesh") != std::string::npos);
+  edit.index = 2;  // the floor's material: not instanced
+  edit.material = desc.materials[2];
+  edit.material.emission = Rgb(2.f);
+  CHECK(validate_edit(desc, edit).empty());
+}
+
+}  // namespace pt
+
+namespace pt {
+
+TEST_CASE("gltf: a mesh several nodes show is stored once and placed by instances, through a scene file too") {
+  test::TempFolder dir("instances");
+  std::string buf;
+  const std::vector<float> pos{0, 0, 0, 1, 0, 0, 0, 1, 0};
+  buf.append(reinterpret_cast<const char*>(pos.data()), 36);
+  dir.write("tri.bin", buf);
+  // Mesh 0: shown by nodes 0, 1 and (under node 3) 2; mesh 1: by node 4 alone; mesh 2 (emitting): by 5 and 6.
+  const std::string path = dir.write("three.gltf", R"({"asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 36, "uri": "tri.bin"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+    "materials": [{"name": "grey"}, {"name": "lamp", "emissiveFactor": [1, 1, 1]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]},
+               {"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]},
+               {"primitives": [{"attributes": {"POSITION": 0}, "material": 1}]}],
+    "nodes": [{"mesh": 0}, {"mesh": 0, "translation": [2, 0, 0]}, {"mesh": 0, "translation": [0, 2, 0]},
+              {"children": [2], "scale": [1, 1, -1]}, {"mesh": 1, "translation": [4, 0, 0]},
+              {"mesh": 2, "translation": [0, 0, 3]}, {"mesh": 2, "translation": [2, 0, 3]}],
+    "scenes": [{"nodes": [0, 1, 3, 4, 5, 6]}], "scene": 0})");
+  const GltfContents g = load_gltf(path);
+  REQUIRE(g.meshes.size() == 1);
+  CHECK(g.meshes[0].mesh.triangles.size() == 1);
+  REQUIRE(g.instances.size() == 3);
+  CHECK(g.instances[1].transform[3][0] == 2.0);
+  CHECK(glm::determinant(glm::dmat3(g.instances[2].transform)) < 0.0);  // node 3's mirror reaches its child
+  CHECK(g.triangles.size() == 3);  // mesh 1 once, and the emitting mesh 2 twice: placed triangles (lights)
+  CHECK(g.emits);
+
+  const SceneDesc s = gltf_scene(path);
+  CHECK(s.instances.size() == 3);
+  CHECK(s.instances[0].object == 0);
+  const auto compiled = compile_scene(s);
+  CHECK(compiled->instances.instances.size() == 3);
+  CHECK(compiled->lights.size() == 2);  // the two lamp triangles
+
+  // Placed by a scene file's gltf element: its transform moves the instances with the object.
+  dir.write("scene.json", R"({"camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+    "materials": {"white": {"type": "diffuse", "albedo": [0.8, 0.8, 0.8]}},
+    "shapes": [{"type": "gltf", "file": "three.gltf", "transform": {"translate": [10, 0, 0]}},
+               {"type": "gltf", "name": "plain", "file": "three.gltf", "material": "white"}]})");
+  const SceneDesc placed = load_scene_file(dir.path("scene.json"));
+  REQUIRE(placed.instances.size() == 6);
+  CHECK(placed.meshes.size() == 2);  // one per model element
+  CHECK(instance_world(placed, placed.instances[1])[3][0] == 12.0);
+  const int white = placed.instances[3].materials[0];
+  CHECK(placed.materials[white].name == "white");
+  CHECK(placed.materials[placed.instances[0].materials[0]].name == "three/grey");
+  // Saved and read back, the scene is the same scene (its content hash names it).
+  const std::string saved = dir.write("saved.json", scene_to_json(placed, dir.dir.string()));
+  const SceneDesc again = load_scene_file(saved);
+  CHECK(again.instances.size() == 6);
+  CHECK(scene_content_hash(again) == scene_content_hash(placed));
+}
+
+}  // namespace pt
