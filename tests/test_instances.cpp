@@ -8,6 +8,8 @@
 #include <cmath>
 
 #include "core/rng.h"
+#include "geometry/alpha_mask.h"
+#include "io/texture_io.h"
 #include "geometry/interaction.h"
 #include "scene/gltf_import.h"
 #include "scene/scene_identity.h"
@@ -173,6 +175,44 @@ TEST_CASE("instances: rays find the same triangles at the same distances as in t
   // rays within ~1e-6 of a silhouette or an edge: a few in 20,000. A wrong transform disagrees on most rays.
   CHECK(differ <= 4);
   CHECK(other_triangle <= 8);
+}
+
+TEST_CASE("instances: cut-outs cut instanced meshes where they cut the flattened scene's triangles") {
+  // Material "a" loses the half of each sphere with u < 0.5 (its bands of slot 0 on the plain placements).
+  SceneDesc desc = instanced_scene();
+  auto mask = std::make_shared<AlphaMask>();
+  mask->alpha = make_texture(2, 1, {0, 0, 0, 1, 1, 1}, TextureWrap::Clamp, TextureWrap::Clamp, "half");
+  desc.materials[0].cutout = mask;
+  const auto inst = compile_scene(desc);
+  const auto flat = compile_scene(flattened(desc));
+  REQUIRE(inst->has_cutouts());
+  Pcg32 rng(19, 5);
+  int hits = 0, differ = 0, through = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Ray ray = random_ray(rng, *inst);
+    Hit a, b;
+    const bool ha = inst->intersect(ray, kInfinity, kNoPrimitive, a), hb = flat->intersect(ray, kInfinity, kNoPrimitive, b);
+    if (ha != hb || (ha && a.prim != b.prim)) {
+      ++differ;
+      continue;
+    }
+    hits += ha;
+    // Shadow rays see the same surface (cut parts cast no shadow).
+    if (ha) CHECK(inst->occluded(ray, a.t * 1.001f, kNoPrimitive, kNoPrimitive));
+  }
+  // Rays the mask lets through: some hit in the uncut scene lands on a cut part.
+  const auto whole = compile_scene(instanced_scene());
+  Pcg32 again(19, 5);
+  for (int i = 0; i < 2000; ++i) {
+    const Ray ray = random_ray(again, *inst);
+    Hit w, a;
+    if (!whole->intersect(ray, kInfinity, kNoPrimitive, w)) continue;
+    const bool ha = inst->intersect(ray, kInfinity, kNoPrimitive, a);
+    if (!ha || a.t > w.t * 1.0001f) ++through;
+  }
+  MESSAGE(hits << " hits; " << differ << " rays disagree; " << through << " of 2000 pass where the uncut mesh stops them");
+  CHECK(differ <= 12);
+  CHECK(through > 100);
 }
 
 TEST_CASE("instances: a hit is shaded as in the flattened scene: point, normals, uv, material") {
