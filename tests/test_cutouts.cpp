@@ -138,13 +138,72 @@ TEST_CASE("cut-outs: glTF alphaMode MASK reads alphaCutoff, the factor's alpha a
   // The colour texture of the same image stays RGB (its alpha is not its colour).
   REQUIRE(g.materials[0].albedo_map);
   CHECK(texture_lookup(*g.materials[0].albedo_map, Vec2(0.1f, 0.5f), 0.f) == Rgb(1.f));
-  // OPAQUE (the default) has no mask; BLEND is opaque, with a warning.
+  // OPAQUE (the default) has no mask; BLEND is partial transparency: the factor's alpha times the texture's.
   gltf("opaque.gltf", R"({"name": "plain", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})");
   CHECK_FALSE(load_gltf(f.path("opaque.gltf")).materials[0].cutout);
-  gltf("blend.gltf", R"({"name": "glassy", "alphaMode": "BLEND", "pbrMetallicRoughness": {}})");
+  gltf("blend.gltf", R"({"name": "glassy", "alphaMode": "BLEND",
+      "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.6], "baseColorTexture": {"index": 0}}})");
   const GltfContents blend = load_gltf(f.path("blend.gltf"));
-  CHECK_FALSE(blend.materials[0].cutout);
-  bool warned = false;
-  for (const std::string& w : blend.warnings) warned = warned || w.find("BLEND") != std::string::npos;
-  CHECK(warned);
+  REQUIRE(blend.materials[0].cutout);
+  const AlphaMask& b = *blend.materials[0].cutout;
+  CHECK(b.blend);
+  CHECK(b.factor == doctest::Approx(0.6));
+  // At the texel centres (the sampler repeats, so elsewhere the two texels blend): there with probability
+  // 0.6 × 1 on the right, never on the left (alpha 0).
+  CHECK_FALSE(b.opaque_at(Vec2(0.75f, 0.5f), 0.61f));
+  CHECK(b.opaque_at(Vec2(0.75f, 0.5f), 0.59f));
+  CHECK_FALSE(b.opaque_at(Vec2(0.25f, 0.5f), 0.f));
+}
+
+TEST_CASE("cut-outs: a BLEND surface of alpha 0.3 shows 0.7 of what is behind it and lets 0.7 of the light through") {
+  // Stochastic transparency: every ray meets the surface with probability 0.3, each decided anew, so a pixel's
+  // samples average to 0.7 of the background over a black square, and a floor under a blocker gets 0.7 of the
+  // sun. Bounds: 4.5 standard errors of the Bernoulli(0.7) average (a false failure about once in 150,000 runs;
+  // seeds fixed); an opaque surface (0), the cut-out rule (alpha 0.3 < 0.5: 1) or 1 − alpha swapped (0.3) fail.
+  const auto blend = [](float alpha) {
+    auto m = std::make_shared<AlphaMask>();
+    m->blend = true;
+    m->factor = alpha;
+    return std::shared_ptr<const AlphaMask>(m);
+  };
+  SceneDesc s = looking_down();
+  s.environment.radiance = Rgb(1.f);
+  MaterialDesc black;
+  black.name = "black";
+  black.albedo = Rgb(0.f);
+  black.cutout = blend(0.3f);
+  s.materials = {black};
+  auto shading = std::make_shared<std::vector<TriangleShading>>();
+  test::add_uv_square(s, *shading, 0.0, 1.0, 0);
+  s.shading = shading;
+  constexpr int kSpp = 256;
+  const double se = std::sqrt(0.21 / (kSpp * 64.0));
+  for (Estimator est : {Estimator::Cosine, Estimator::Mis}) {
+    s.render.estimator = est;
+    const auto [left, right] = halves(test::render_film(s, kSpp, 2), s.width, s.height);
+    INFO(std::string(to_string(est)) << ": " << 0.5 * (left + right) << " (0.7 expected, SE " << se << ")");
+    CHECK(std::abs(0.5 * (left + right) - 0.7) <= 4.5 * se);
+  }
+
+  SceneDesc lit = looking_down();
+  MaterialDesc floor, blocker;
+  floor.name = "floor";
+  floor.albedo = Rgb(0.5f);
+  blocker.name = "blocker";
+  blocker.albedo = Rgb(0.5f);
+  blocker.cutout = blend(0.3f);
+  lit.materials = {floor, blocker};
+  auto uv = std::make_shared<std::vector<TriangleShading>>();
+  test::add_uv_square(lit, *uv, 0.0, 10.0, 0);
+  test::add_uv_square(lit, *uv, 6.0, 10.0, 1);
+  lit.shading = uv;
+  PunctualLightDesc sun;
+  sun.kind = PunctualKind::Directional;
+  sun.direction = DVec3(0, -1, 0);
+  sun.intensity = Rgb(2.f);
+  lit.punctual_lights = {sun};
+  const double full = 0.5 / glm::pi<double>() * 2.0;  // ρ/π · E without the blocker
+  const auto [left, right] = halves(test::render_film(lit, kSpp, 2), lit.width, lit.height);
+  INFO("floor: " << 0.5 * (left + right) << ", expected " << 0.7 * full);
+  CHECK(std::abs(0.5 * (left + right) - 0.7 * full) <= 4.5 * se * full);
 }

@@ -65,16 +65,24 @@ TEST_CASE("obj materials: .mtl parameters map to the nearest project material") 
   d = mtl_material(lamp, warnings);
   CHECK(d.emission == Rgb(10.f, 9.f, 8.f));
   CHECK(d.two_sided);
-  // What is not read is said: a texture, transparency.
+  // What is not read is said: a texture. Partial transparency (d < 1) is read: there with probability d.
   warnings.clear();
   MtlParams textured;
   textured.name = "wood";
   textured.textures = {"bump"};
-  textured.dissolve = 0.5f;
-  mtl_material(textured, warnings);
-  REQUIRE(warnings.size() == 2);
+  textured.dissolve = 0.4f;
+  d = mtl_material(textured, warnings);
+  REQUIRE(warnings.size() == 1);
   CHECK(warnings[0].find("wood: bump") != std::string::npos);
-  CHECK(warnings[1].find("d < 1") != std::string::npos);
+  REQUIRE(d.cutout);
+  CHECK(d.cutout->blend);
+  CHECK(d.cutout->factor == 0.4f);
+  // Opaque (d = 1) and refracting glass (d < 1 with illum 7: transparency by refraction) have no mask.
+  textured.dissolve = 1.f;
+  CHECK_FALSE(mtl_material(textured, warnings).cutout);
+  textured.dissolve = 0.4f;
+  textured.illum = 7;
+  CHECK_FALSE(mtl_material(textured, warnings).cutout);
 }
 
 namespace {

@@ -111,8 +111,9 @@ struct SceneGeometry {
     return in.material[instances.meshes[in.mesh]->slot[prim - in.first_prim]];
   }
   bool has_cutouts() const { return !material_mask.empty(); }
-  // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away.
-  bool cut_away(uint32_t p, const PolygonHit& h) const {
+  // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away (xi: the
+  // ray's own number for partial transparency, ray_uniform).
+  bool cut_away(uint32_t p, const PolygonHit& h, float xi) const {
     const uint32_t m = polygons.material[p];
     const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
     if (!mask) return false;
@@ -121,10 +122,10 @@ struct SceneGeometry {
       const std::array<Vec2, 3>& t = shading.uv[p];
       uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
     }
-    return !mask->opaque_at(uv);
+    return !mask->opaque_at(uv, xi);
   }
   // The same for the hit h on triangle i of instance `in`'s mesh (barycentrics in the mesh's vertex order).
-  bool cut_away(const Instance& in, uint32_t i, const PolygonHit& h) const {
+  bool cut_away(const Instance& in, uint32_t i, const PolygonHit& h, float xi) const {
     const MeshGeometry& mesh = *instances.meshes[in.mesh];
     const uint32_t m = in.material[mesh.slot[i]];
     const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
@@ -134,7 +135,7 @@ struct SceneGeometry {
       const std::array<Vec2, 3>& t = mesh.uv[i];
       uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
     }
-    return !mask->opaque_at(uv);
+    return !mask->opaque_at(uv, xi);
   }
 };
 

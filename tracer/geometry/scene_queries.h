@@ -10,11 +10,11 @@ namespace query_detail {
 // The traversal's hit filter for a scene with cut-outs (alpha_mask.h): a hit counts unless its polygon's mask
 // cuts the surface away there (the barycentrics recomputed by the scalar test, which does the SIMD test's
 // arithmetic).
-inline auto uncut(const SceneGeometry& s, Vec3 o, const RayShear& shear) {
-  return [&s, o, &shear](uint32_t p) {
+inline auto uncut(const SceneGeometry& s, const Ray& ray, const RayShear& shear) {
+  return [&s, &ray, &shear](uint32_t p) {
     PolygonHit h{};
-    if (!intersect_polygon(s.polygons, p, o, shear, kInfinity, h)) return true;
-    return !s.cut_away(p, h);
+    if (!intersect_polygon(s.polygons, p, ray.o, shear, kInfinity, h)) return true;
+    return !s.cut_away(p, h, ray_uniform(ray.o, ray.d, p));
   };
 }
 
@@ -24,11 +24,12 @@ struct InstanceRay {
   const SceneGeometry& s;
   const Instance& in;
   const MeshGeometry& mesh;
+  const Ray& world;
   Vec3 o, d;
   RayShear shear;
   InstanceRay(const SceneGeometry& scene, const Instance& instance, const Ray& ray)
-      : s(scene), in(instance), mesh(*scene.instances.meshes[instance.mesh]), o(instance.to_mesh.point(ray.o)),
-        d(instance.to_mesh.vector(ray.d)), shear(d) {}
+      : s(scene), in(instance), mesh(*scene.instances.meshes[instance.mesh]), world(ray),
+        o(instance.to_mesh.point(ray.o)), d(instance.to_mesh.vector(ray.d)), shear(d) {}
   // A global id as the mesh's own (~0u for none of its triangles).
   uint32_t local(uint32_t prim) const { return prim - in.first_prim < mesh.size() ? prim - in.first_prim : ~0u; }
   bool test(uint32_t i, float t_max, PolygonHit& h) const {
@@ -36,7 +37,7 @@ struct InstanceRay {
   }
   bool uncut(uint32_t i) const {
     PolygonHit h{};
-    return !test(i, kInfinity, h) || !s.cut_away(in, i, h);
+    return !test(i, kInfinity, h) || !s.cut_away(in, i, h, ray_uniform(world.o, world.d, in.first_prim + i));
   }
 };
 
@@ -86,7 +87,7 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
     const bool hit_polygon =
         s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
         : s.has_cutouts()     ? closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test,
-                                                    query_detail::uncut(s, ray.o, shear))
+                                                    query_detail::uncut(s, ray, shear))
                               : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
     if (hit_polygon) {
       hit = {t_max, id};
@@ -121,7 +122,7 @@ inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, 
     };
     if (s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
         : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
-                                                query_detail::uncut(s, ray.o, shear))
+                                                query_detail::uncut(s, ray, shear))
                               : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
       return true;
     if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b)) [[unlikely]]

@@ -232,7 +232,7 @@ struct Reader {
     if (g.emissiveTexture.index >= 0 && !is_black(d.emission))  // the emission is the factor times the image
       d.emission_map = model_texture(g.emissiveTexture, where + ".emissiveTexture", Texels::Colour);
     if (g.occlusionTexture.index >= 0) warn("occlusion textures are not read (a path tracer finds occlusion itself)");
-    if (g.alphaMode == "MASK") {
+    if (g.alphaMode == "MASK" || g.alphaMode == "BLEND") {
       // Cut-outs: opaque where baseColorFactor's alpha × the base colour texture's alpha ≥ alphaCutoff.
       auto mask = std::make_shared<AlphaMask>();
       mask->factor = pbr.baseColorFactor.size() >= 4 ? static_cast<float>(pbr.baseColorFactor[3]) : 1.f;
@@ -244,9 +244,9 @@ struct Reader {
         mask->alpha = t.texture;
         mask->uv_transform = t.uv_transform;
       }
+      // BLEND: partial transparency, the surface there with probability alpha (stochastic transparency).
+      mask->blend = g.alphaMode == "BLEND";
       d.cutout = std::move(mask);
-    } else if (g.alphaMode == "BLEND") {
-      warn("alpha mode BLEND is not read yet (MASK is): those surfaces are opaque");
     }
     return d;
   }
@@ -409,6 +409,13 @@ struct Reader {
         g.mesh.shading.clear();
       instanced_mesh[mesh] = static_cast<int>(out.meshes.size());
       out.meshes.push_back(std::move(g));
+    }
+    // A node that flattens its mesh (a zero scale) shows nothing, as its triangles placed one by one would be
+    // degenerate and left out.
+    const double det = glm::determinant(glm::dmat3(world));
+    if (!(std::abs(det) > 0.0 && std::isfinite(1.0 / det))) {
+      out.degenerate += out.meshes[instanced_mesh[mesh]].mesh.triangles.size();
+      return;
     }
     out.instances.push_back({static_cast<uint32_t>(instanced_mesh[mesh]), world});
   }

@@ -22,11 +22,14 @@
 //   (a tangent-space normal map: materials/normal_map.h, whose per-face tangents come from the uv mapping, so
 //   TANGENT is passed over), each with its own KHR_texture_transform.
 // - alpha mode MASK: cut-outs (geometry/alpha_mask.h) where baseColorFactor's alpha × the base colour
-//   texture's alpha falls below alphaCutoff.
+//   texture's alpha falls below alphaCutoff; BLEND: partial transparency, the surface there with probability
+//   that alpha (stochastic transparency).
+// - a mesh shown by several nodes (and whose materials do not emit): stored once, placed by instances
+//   (GltfContents::meshes, instances; geometry/instances.h).
 // - emissiveTexture: the emission is emissiveFactor × strength × the image (sRGB), where rays hit the surface
 //   and where light samples land on it.
 // Not read, each named once on the warnings list: occlusion textures (ambient occlusion baked for
-// rasterisers: a path tracer computes occlusion), alpha mode BLEND (opaque), skins and morph targets,
+// rasterisers: a path tracer computes occlusion), skins and morph targets,
 // orthographic cameras. Extensions named in extensionsRequired that are not read are refused by name; other unknown
 // extensions are warned about.
 //

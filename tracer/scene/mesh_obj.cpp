@@ -134,13 +134,14 @@ void add_normal_map(const std::string& obj_path, const std::string& name, MeshTr
 }
 
 // map_d: the dissolve image as a cut-out (geometry/alpha_mask.h): opaque where its value (its alpha channel,
-// or its grey level for an image without one) is at least ½, for the material just added to out.materials.
-// One that cannot be read is a warning (the surface stays opaque).
+// or its grey level for an image without one) is at least ½, for the material just added to out.materials; for
+// a material with d < 1 (partial transparency, mtl_material.h), there with probability d × its value.
+// One that cannot be read is a warning (the surface stays as d makes it).
 void add_cutout(const std::string& obj_path, const std::string& name, MeshTriangles& out) {
   MaterialDesc& d = out.materials.back();
   const std::string file = beside(obj_path, name);
   try {
-    auto mask = std::make_shared<AlphaMask>();
+    auto mask = d.cutout ? std::make_shared<AlphaMask>(*d.cutout) : std::make_shared<AlphaMask>();
     mask->alpha = make_texture(alpha_as_image(decode_alpha(read_file_limited(file, kMaxTextureFileBytes), file, true)),
                                TextureWrap::Repeat, TextureWrap::Repeat,
                                std::filesystem::path(file).filename().string() + " (map_d)");

@@ -46,9 +46,14 @@ MaterialDesc mtl_material(const MtlParams& p, std::vector<std::string>& warnings
   if (!black(d.emission) && black(kd) && black(ks)) d.two_sided = true;
   for (const std::string& t : p.textures)
     warnings.push_back("material " + d.name + ": " + t + " is not read yet (textures): its colours stand alone");
-  if (p.dissolve < 1.f && !refracts)
-    warnings.push_back("material " + d.name + ": d < 1 (partial transparency) is not read yet: the surface is opaque "
-                       "(map_d cut-outs are)");
+  if (p.dissolve < 1.f && !refracts) {
+    // Partial transparency: the surface is there with probability d (geometry/alpha_mask.h); a map_d image, if
+    // any, multiplies it (mesh_obj.cpp).
+    auto mask = std::make_shared<AlphaMask>();
+    mask->blend = true;
+    mask->factor = std::isfinite(p.dissolve) ? std::max(p.dissolve, 0.f) : 1.f;
+    d.cutout = std::move(mask);
+  }
   return d;
 }
 

@@ -9,10 +9,12 @@
 // - roughness from the Phong exponent by Walter et al. 2007 ("Microfacet Models for Refraction through Rough
 //   Surfaces", §5.2: Beckmann α = √(2/(Ns + 2))), roughness = √α since the project's α = roughness²;
 // - emission Ke, on both faces when the material is otherwise black (an .mtl lamp has no front).
+// - dissolve d < 1 (without refraction): partial transparency, the surface there with probability d
+//   (geometry/alpha_mask.h: stochastic transparency).
 // map_Kd, the albedo's image (times Kd, as the format defines it), norm, a tangent-space normal map
-// (materials/normal_map.h), and map_d, a cut-out mask (geometry/alpha_mask.h), are the mesh reader's to load
-// (mesh_obj.h); the other textures (map_Ks, bump, …) and dissolve d < 1 (partial transparency) are not read
-// yet: each is one warning line, and the surface keeps its colours and stays opaque.
+// (materials/normal_map.h), and map_d, a cut-out mask (geometry/alpha_mask.h; with d < 1, the image times d
+// gives the probability), are the mesh reader's to load (mesh_obj.h); the other textures (map_Ks, bump, …) are
+// not read yet: each is one warning line, and the surface keeps its colours.
 #pragma once
 #include <string>
 #include <vector>
