@@ -41,6 +41,29 @@ SceneDesc looking_down() {
   return s;
 }
 
+// A sun straight down (irradiance 2); a floor of albedo 0.5 at y = 0 seen from y = 4; a blocker at y = 6 (above
+// the camera, out of view) with the given mask.
+SceneDesc sunlit_floor_under(std::shared_ptr<const AlphaMask> mask) {
+  SceneDesc s = looking_down();
+  MaterialDesc floor, blocker;
+  floor.name = "floor";
+  floor.albedo = Rgb(0.5f);
+  blocker.name = "blocker";
+  blocker.albedo = Rgb(0.5f);
+  blocker.cutout = std::move(mask);
+  s.materials = {floor, blocker};
+  auto shading = std::make_shared<std::vector<TriangleShading>>();
+  test::add_uv_square(s, *shading, 0.0, 10.0, 0);
+  test::add_uv_square(s, *shading, 6.0, 10.0, 1);
+  s.shading = shading;
+  PunctualLightDesc sun;
+  sun.kind = PunctualKind::Directional;
+  sun.direction = DVec3(0, -1, 0);
+  sun.intensity = Rgb(2.f);
+  s.punctual_lights = {sun};
+  return s;
+}
+
 // Mean radiance of the image's left and right halves.
 std::pair<double, double> halves(const Film& f, int width, int height) {
   double left = 0, right = 0;
@@ -92,25 +115,8 @@ TEST_CASE("cut-outs: a black square cut in its left half shows the bright backgr
 }
 
 TEST_CASE("cut-outs: light passes through the cut part of a blocker and not through the rest") {
-  // A sun straight down; a white floor at y = 0 seen from y = 4; a blocker at y = 6 (above the camera, out of
-  // view) cut in its left half. The floor's left half is lit, ρ/π · E, its right half in shadow.
-  SceneDesc s = looking_down();
-  MaterialDesc floor, blocker;
-  floor.name = "floor";
-  floor.albedo = Rgb(0.5f);
-  blocker.name = "blocker";
-  blocker.albedo = Rgb(0.5f);
-  blocker.cutout = left_half_cut();
-  s.materials = {floor, blocker};
-  auto shading = std::make_shared<std::vector<TriangleShading>>();
-  test::add_uv_square(s, *shading, 0.0, 10.0, 0);
-  test::add_uv_square(s, *shading, 6.0, 10.0, 1);
-  s.shading = shading;
-  PunctualLightDesc sun;
-  sun.kind = PunctualKind::Directional;
-  sun.direction = DVec3(0, -1, 0);
-  sun.intensity = Rgb(2.f);
-  s.punctual_lights = {sun};
+  // The floor's left half is lit, ρ/π · E, its right half in shadow.
+  const SceneDesc s = sunlit_floor_under(left_half_cut());
   const auto [left, right] = halves(test::render_film(s, 4, 2), s.width, s.height);
   CHECK(left == doctest::Approx(0.5 / glm::pi<double>() * 2.0).epsilon(1e-4));
   CHECK(right == 0.0);
@@ -185,23 +191,7 @@ TEST_CASE("cut-outs: a BLEND surface of alpha 0.3 shows 0.7 of what is behind it
     CHECK(std::abs(0.5 * (left + right) - 0.7) <= 4.5 * se);
   }
 
-  SceneDesc lit = looking_down();
-  MaterialDesc floor, blocker;
-  floor.name = "floor";
-  floor.albedo = Rgb(0.5f);
-  blocker.name = "blocker";
-  blocker.albedo = Rgb(0.5f);
-  blocker.cutout = blend(0.3f);
-  lit.materials = {floor, blocker};
-  auto uv = std::make_shared<std::vector<TriangleShading>>();
-  test::add_uv_square(lit, *uv, 0.0, 10.0, 0);
-  test::add_uv_square(lit, *uv, 6.0, 10.0, 1);
-  lit.shading = uv;
-  PunctualLightDesc sun;
-  sun.kind = PunctualKind::Directional;
-  sun.direction = DVec3(0, -1, 0);
-  sun.intensity = Rgb(2.f);
-  lit.punctual_lights = {sun};
+  const SceneDesc lit = sunlit_floor_under(blend(0.3f));
   const double full = 0.5 / glm::pi<double>() * 2.0;  // ρ/π · E without the blocker
   const auto [left, right] = halves(test::render_film(lit, kSpp, 2), lit.width, lit.height);
   INFO("floor: " << 0.5 * (left + right) << ", expected " << 0.7 * full);

@@ -102,24 +102,14 @@ template <class Visit>
 inline bool visit_instances(const InstanceSet& set, Vec3 o, Vec3 d, const float& t_max, const Visit& visit) {
   using namespace bvh_detail;
   const SlabRay ray(o, d);
-  StackEntry stack[kStackSize];
-  int top = 0;
-  stack[top++] = {0, 0, 0.f};
-  while (top > 0) {
-    const StackEntry e = stack[--top];
-    if (e.entry > t_max * kHitSlack) continue;
-    if (e.lanes == 0) {
-      const BvhNode& n = set.top.nodes[e.ref];
-      push_children(n, child_entry(n, ray, t_max * kHitSlack), stack, top);
-      continue;
-    }
-    for (uint32_t lane = e.ref; lane < e.ref + e.lanes; ++lane) {
+  return visit_leaves_nearest(set.top, ray, t_max, [&](uint32_t first, uint8_t lanes) {
+    for (uint32_t lane = first; lane < first + lanes; ++lane) {
       const uint32_t k = set.top.lane_polygon[lane];
       if (k == kNoLanePolygon || !instance_detail::enters(set.instances[k], ray, t_max * kHitSlack)) continue;
       if (visit(set.instances[k])) return true;
     }
-  }
-  return false;
+    return false;
+  });
 }
 
 }  // namespace pt

@@ -131,6 +131,27 @@ template <size_t N>
 // Each level down leaves at most width − 1 siblings pending; the wide tree is no deeper than the binary one.
 inline constexpr int kStackSize = kBvhMaxDepth * (kBvhWidth - 1) + 1;
 
+// The closest-hit traversal: visits the leaves whose boxes the ray enters before t_max (which `leaf` may lower
+// as it finds hits), nearest box first; leaf(first_lane, lanes) returns true to stop. Returns whether it stopped.
+template <class Leaf>
+[[gnu::always_inline]] inline bool visit_leaves_nearest(const PolygonBvh& bvh, const SlabRay& ray, const float& t_max,
+                                                        const Leaf& leaf) {
+  StackEntry stack[kStackSize];
+  int top = 0;
+  stack[top++] = {0, 0, 0.f};
+  while (top > 0) {
+    const StackEntry e = stack[--top];
+    if (e.entry > t_max * kHitSlack) continue;
+    if (e.lanes == 0) {
+      const BvhNode& n = bvh.nodes[e.ref];
+      push_children(n, child_entry(n, ray, t_max * kHitSlack), stack, top);
+      continue;
+    }
+    if (leaf(e.ref, e.lanes)) return true;
+  }
+  return false;
+}
+
 }  // namespace bvh_detail
 
 // The hit filter of the traversals below: `keep(p)` says whether a hit on polygon p counts (cut-outs:
@@ -164,26 +185,16 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
   const SlabRay ray(o, d);
   const uint32_t skip_lane = skip < bvh.polygon_lane.size() ? bvh.polygon_lane[skip] : kNoLanePolygon;
   const float t_in = t_max;
-  StackEntry stack[kStackSize];
-  int top = 0;
-  stack[top++] = {0, 0, 0.f};
-  while (top > 0) {
-    const StackEntry e = stack[--top];
-    if (e.entry > t_max * kHitSlack) continue;
-    if (e.lanes == 0) {
-      const BvhNode& n = bvh.nodes[e.ref];
-      push_children(n, child_entry(n, ray, t_max * kHitSlack), stack, top);
-      continue;
-    }
+  visit_leaves_nearest(bvh, ray, t_max, [&](uint32_t first, uint8_t lanes) {
     auto leaf = [&](auto tag) {
       using V = decltype(tag);
-      BlockResult<V> r = test_block<V>(R, e.ref, t_max);
-      mask_lane(r.t, skip_lane, e.ref);
-      filter_hits(r.t, bvh, e.ref, t_max, keep);
+      BlockResult<V> r = test_block<V>(R, first, t_max);
+      mask_lane(r.t, skip_lane, first);
+      filter_hits(r.t, bvh, first, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         stdx::where(r.zero_edge, r.t) = kInfinity;
         for (size_t lane = 0; lane < V::size(); ++lane) {
-          const uint32_t p = bvh.lane_polygon[e.ref + lane];
+          const uint32_t p = bvh.lane_polygon[first + lane];
           if (!r.zero_edge[lane] || p == kNoLanePolygon || p == skip) continue;
           PolygonHit h{};
           if (scalar_test(p, t_max, h) && h.t < t_max && keep(p)) {
@@ -196,14 +207,15 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
       const float t = block_min(r.t, lane);
       if (t < t_max) {
         t_max = t;
-        id = bvh.lane_polygon[e.ref + lane];
+        id = bvh.lane_polygon[first + lane];
       }
     };
-    if (e.lanes == 4)
+    if (lanes == 4)
       leaf(vfloat4{});
     else
       leaf(vfloat8{});
-  }
+    return false;
+  });
   return t_max < t_in;
 }
 
