@@ -263,6 +263,12 @@ void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& l
   upsample_joint_bilateral(low, low_rgb, guide, pool, out, scratch);
 }
 
+void copy_viewer_planes(const Film& film, FilmPlanes& planes, ThreadPool& pool) {
+  const bool estimated = film.min_count() >= 2;
+  planes.copy_from(film, estimated);
+  if (!estimated) prepare_preview_planes(planes, pool);
+}
+
 PreviewDenoiser::PreviewDenoiser() : scratch_(std::make_unique<PreviewScratch>()) {}
 PreviewDenoiser::~PreviewDenoiser() = default;
 

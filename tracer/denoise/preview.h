@@ -40,6 +40,12 @@ struct PreviewScratch;
 // each pixel's mean, per channel) with the spatial estimate.
 void prepare_preview_planes(FilmPlanes& planes, ThreadPool& pool);
 
+// The planes the viewer denoises a full-resolution film from: the film's own variance of each pixel's mean, or,
+// below 2 samples per pixel (where the film has no variance and the à-trous filter leaves every pixel as it is:
+// the first full-resolution frame after every edit came out raw), step 1's outlier clamp and spatial estimate,
+// so that frame is as clean as the preview before it.
+void copy_viewer_planes(const Film& film, FilmPlanes& planes, ThreadPool& pool);
+
 // Step 3: `low_rgb` (3 floats per pixel of `low`) upsampled to the guide's resolution into `out` (3 floats per
 // pixel). `low` supplies the small image's features (albedo, normal, depth, emission).
 void upsample_joint_bilateral(const FilmPlanes& low, const std::vector<float>& low_rgb, const FeatureImage& guide,

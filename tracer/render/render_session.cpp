@@ -565,7 +565,7 @@ void RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, dou
     }
   }
   if (final_pass || w.denoised_generation != w.generation || now >= w.next_denoise) {
-    if (!copied) w.planes.copy_from(w.film);
+    if (!copied) copy_viewer_planes(w.film, w.planes, w.renderer->pool());
     w.denoiser.run(w.planes.input(), DenoiseSettings::viewer(), w.renderer->pool(), w.denoised);
     w.denoised_generation = w.generation;
     const Clock::time_point done = Clock::now();
