@@ -16,6 +16,7 @@
 
 #include "film/film.h"
 #include "render/renderer.h"
+#include "gltf_helpers.h"
 #include "scene/gltf_import.h"
 #include "scene/scene.h"
 #include "scene/scene_json.h"
@@ -113,7 +114,7 @@ TEST_CASE("gltf: node transforms compose parent then child and translation then 
   // Child: scale 2 then a quarter turn about +z then a move by (1, 2, 3); parent: a move by (10, 0, 0).
   // (1,0,0) -> (2,0,0) -> (0,2,0) -> (1,4,3) -> (11,4,3); (0,1,0) -> (0,2,0) -> (-2,0,0) -> (-1,2,3) -> (9,2,3).
   const std::string s = std::to_string(std::sqrt(0.5));
-  const GltfContents g = load_gltf(dir.write("trs.gltf", triangle_gltf(
+  const GltfContents g = test::flat_gltf(dir.write("trs.gltf", triangle_gltf(
       R"({"translation": [10, 0, 0], "children": [1]},
          {"mesh": 0, "translation": [1, 2, 3], "rotation": [0, 0, )" + s + ", " + s + R"(], "scale": [2, 2, 2]})",
       "0")));
@@ -122,7 +123,7 @@ TEST_CASE("gltf: node transforms compose parent then child and translation then 
   check_vertex(g.triangles[0][1], DVec3(11, 4, 3));
   check_vertex(g.triangles[0][2], DVec3(9, 2, 3));
   // The same as one column-major matrix: columns (0,2,0), (-2,0,0), (0,0,2), (11,2,3).
-  const GltfContents m = load_gltf(dir.write("matrix.gltf", triangle_gltf(
+  const GltfContents m = test::flat_gltf(dir.write("matrix.gltf", triangle_gltf(
       R"({"mesh": 0, "matrix": [0,2,0,0, -2,0,0,0, 0,0,2,0, 11,2,3,1]})", "0")));
   REQUIRE(m.triangles.size() == 1);
   for (int k = 0; k < 3; ++k) check_vertex(m.triangles[0][k], g.triangles[0][k]);
@@ -139,8 +140,8 @@ TEST_CASE("gltf: node transforms compose parent then child and translation then 
 TEST_CASE("gltf: a mirroring transform keeps each face's front by listing its vertices the other way round") {
   TempDir dir;
   auto front_z = [](const std::array<DVec3, 3>& t) { return glm::cross(t[1] - t[0], t[2] - t[0]).z; };
-  const GltfContents plain = load_gltf(dir.write("plain.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
-  const GltfContents mirrored = load_gltf(dir.write("mirror.gltf", triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})", "0")));
+  const GltfContents plain = test::flat_gltf(dir.write("plain.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
+  const GltfContents mirrored = test::flat_gltf(dir.write("mirror.gltf", triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})", "0")));
   REQUIRE(plain.triangles.size() == 1);
   REQUIRE(mirrored.triangles.size() == 1);
   CHECK(front_z(plain.triangles[0]) > 0.0);
@@ -182,7 +183,7 @@ TEST_CASE("gltf: materials map to the metallic-roughness BRDF or glass and emitt
          {"name": "lamp", "emissiveFactor": [1, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}},
           "pbrMetallicRoughness": {"metallicFactor": 0}})";
   for (int which = 0; which < 4; ++which) {
-    const GltfContents g = load_gltf(dir.write("m.gltf", triangle_gltf(R"({"mesh": 0})", "0", "",
+    const GltfContents g = test::flat_gltf(dir.write("m.gltf", triangle_gltf(R"({"mesh": 0})", "0", "",
                                                                      ", \"material\": " + std::to_string(which), materials)));
     REQUIRE(g.materials.size() == 4);
     REQUIRE(g.triangle_material.size() == 1);
@@ -287,7 +288,7 @@ TEST_CASE("gltf: index types and a .glb file read alike") {
     replace_once(t, "\"byteLength\": 44", "\"byteLength\": " + std::to_string(buf.size()));
     replace_once(t, "\"byteOffset\": 36, \"byteLength\": 6}", "\"byteOffset\": 36, \"byteLength\": " + std::to_string(len) + "}");
     replace_once(t, "\"componentType\": 5123", "\"componentType\": " + std::to_string(type));
-    const GltfContents g = load_gltf(dir.write("idx.gltf", t));
+    const GltfContents g = test::flat_gltf(dir.write("idx.gltf", t));
     REQUIRE(g.triangles.size() == 1);
     check_vertex(g.triangles[0][2], DVec3(0, 1, 0));
   }
@@ -305,7 +306,7 @@ TEST_CASE("gltf: index types and a .glb file read alike") {
   auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
   const std::string glb = "glTF" + u32(2) + u32(12 + 8 + json.size() + 8 + bin.size()) + u32(json.size()) +
                           "JSON" + json + u32(bin.size()) + std::string("BIN\0", 4) + bin;
-  const GltfContents g = load_gltf(dir.write("tri.glb", glb));
+  const GltfContents g = test::flat_gltf(dir.write("tri.glb", glb));
   REQUIRE(g.triangles.size() == 1);
   check_vertex(g.triangles[0][1], DVec3(1, 0, -2));
   // A header that claims far more bytes than the file has is refused, not trusted.
@@ -400,12 +401,14 @@ TEST_CASE("gltf: a scene file places a glTF model with a transform, its material
   const ObjectDesc& o = s.objects[0];
   CHECK(o.kind == ObjectKind::Gltf);
   CHECK(o.name == "toy");
-  REQUIRE(o.shape_count == 1);
-  const ShapeDesc& t = s.shapes[o.first_shape];
+  CHECK(o.shape_count == 0);  // its mesh is placed by an instance
+  const std::vector<test::PlacedTriangle> placed = test::object_triangles(s, 0);
+  REQUIRE(placed.size() == 1);
+  const test::PlacedTriangle& t = placed[0];
   // File (0,0,0),(1,0,0),(0,1,0), moved by its node to x + 1, then scaled by 2 and lifted by 3 in z.
-  check_vertex(t.vertices[0], DVec3(2, 0, 3));
-  check_vertex(t.vertices[1], DVec3(4, 0, 3));
-  check_vertex(t.vertices[2], DVec3(2, 2, 3));
+  check_vertex(t.v[0], DVec3(2, 0, 3));
+  check_vertex(t.v[1], DVec3(4, 0, 3));
+  check_vertex(t.v[2], DVec3(2, 2, 3));
   REQUIRE(s.materials.size() == 2);
   CHECK(s.materials[t.material].name == "toy/paint");
   CHECK(s.materials[t.material].albedo == Rgb(0.2f, 0.4f, 0.6f));
@@ -413,27 +416,30 @@ TEST_CASE("gltf: a scene file places a glTF model with a transform, its material
   const std::string saved = scene_to_json(s, dir.path.string());
   CHECK(saved.find("\"type\": \"gltf\"") != std::string::npos);
   const SceneDesc back = parse_scene(saved, "saved.json", dir.path.string());
-  CHECK(back.shapes[back.objects[0].first_shape].vertices == t.vertices);
+  CHECK(test::object_triangles(back, 0)[0].v == t.v);
   CHECK(back.materials.size() == 2);
   // An edited model material is written among the materials and overrides the file's on reading.
   SceneDesc edited = s;
   edited.materials[t.material].albedo = Rgb(0.9f, 0.1f, 0.1f);
   const SceneDesc edited_back = parse_scene(scene_to_json(edited, dir.path.string()), "e.json", dir.path.string());
   REQUIRE(edited_back.materials.size() == 2);
-  CHECK(edited_back.materials[edited_back.shapes[1].material].albedo == Rgb(0.9f, 0.1f, 0.1f));
+  CHECK(edited_back.materials[test::object_triangles(edited_back, 0)[0].material].albedo == Rgb(0.9f, 0.1f, 0.1f));
   // "material" gives the whole model one of the scene's materials; so does saving a model recoloured so.
   const SceneDesc one = parse_scene(scene_json("", R"(, "material": "white")"), "one.json", dir.path.string());
   CHECK(one.materials.size() == 1);
-  CHECK(one.shapes[1].material == 0);
+  CHECK(test::object_triangles(one, 0)[0].material == 0);
   SceneDesc recoloured = s;
-  recoloured.shapes[1].material = 0;
+  REQUIRE(recoloured.instances.size() == 1);
+  recoloured.instances[0].materials = {0};
   const std::string recoloured_text = scene_to_json(recoloured, dir.path.string());
   const SceneDesc recoloured_back = parse_scene(recoloured_text, "r.json", dir.path.string());
-  CHECK(recoloured_back.shapes[1].material == recoloured_back.shapes[0].material);
+  CHECK(test::object_triangles(recoloured_back, 0)[0].material == recoloured_back.shapes[0].material);
   // It renders (the model in front of the wall).
   SceneDesc small = s;
   small.width = small.height = 16;
-  CHECK(compile_scene(small)->polygons.size() == 2);
+  const std::shared_ptr<Scene> compiled = compile_scene(small);
+  CHECK(compiled->polygons.size() == 1);
+  CHECK(compiled->instances.instances.size() == 1);
   // Errors name the shape: a missing file, a name with '/'.
   try {
     parse_scene(scene_json("", "").replace(scene_json("", "").find("model.gltf"), 10, "none.gltf"), "bad.json",
@@ -453,9 +459,10 @@ TEST_CASE("gltf: the shipped cornell-gltf scene loads its models, keeps their ma
   REQUIRE(s.objects.size() == box.objects.size() + 2);
   const ObjectDesc& toys = s.objects[box.objects.size()];
   CHECK(toys.kind == ObjectKind::Gltf);
-  CHECK(toys.shape_count == 48 * 24 * 2 + 8);  // the torus's quads as triangle pairs, the gem's eight faces
+  const std::vector<test::PlacedTriangle> toy_triangles = test::object_triangles(s, box.objects.size());
+  CHECK(toy_triangles.size() == 48 * 24 * 2 + 8);  // the torus's quads as triangle pairs, the gem's eight faces
   std::set<std::string> names;
-  for (size_t k = toys.first_shape; k < toys.first_shape + toys.shape_count; ++k) names.insert(s.materials[s.shapes[k].material].name);
+  for (const test::PlacedTriangle& t : toy_triangles) names.insert(s.materials[t.material].name);
   CHECK(names == std::set<std::string>{"toys/gold", "toys/crystal"});
   // Everything of the Cornell box is there unchanged, and the lens is on (so auto picks mis).
   CHECK(s.materials.size() == box.materials.size() + 3);
@@ -471,8 +478,9 @@ TEST_CASE("gltf: the shipped cornell-gltf scene loads its models, keeps their ma
   CHECK(s.camera.aperture_radius == 6.0);
   // The torus rests on the short block (top at y = 165): its lowest point lies on it, within rounding.
   double lowest = 1e30;
-  for (size_t k = toys.first_shape; k < toys.first_shape + 48 * 24 * 2; ++k)
-    for (int v = 0; v < 3; ++v) lowest = std::min(lowest, s.shapes[k].vertices[v].y);
+  for (const test::PlacedTriangle& t : toy_triangles)
+    if (s.materials[t.material].name == "toys/gold")
+      for (int v = 0; v < 3; ++v) lowest = std::min(lowest, t.v[v].y);
   CHECK(lowest == doctest::Approx(165.0).epsilon(0.002));
 }
 
@@ -508,7 +516,7 @@ TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and 
   TempDir dir;
   // Scale x by 2, then a quarter turn about +z: (0.6,0,0.8) → S⁻¹ (0.3,0,0.8) → R (0,0.3,0.8).
   const std::string r = std::to_string(std::sqrt(0.5));
-  const GltfContents g = load_gltf(dir.write("n.gltf", smooth_triangle_gltf(
+  const GltfContents g = test::flat_gltf(dir.write("n.gltf", smooth_triangle_gltf(
       R"({"mesh": 0, "rotation": [0, 0, )" + r + ", " + r + R"(], "scale": [2, 1, 1]})")));
   REQUIRE(g.shading.size() == 1);
   check_unit(g.shading[0].normal[0], Vec3(0, 0, 1));
@@ -517,7 +525,7 @@ TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and 
   CHECK(g.shading[0].uv[1] == Vec2(1, 0));
   CHECK(g.shading[0].uv[2] == Vec2(0, 1));
   // Mirrored: the vertices' order flips to keep the front, and the normals and uv go with their vertices.
-  const GltfContents m = load_gltf(dir.write("m.gltf", smooth_triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})")));
+  const GltfContents m = test::flat_gltf(dir.write("m.gltf", smooth_triangle_gltf(R"({"mesh": 0, "scale": [-1, 1, 1]})")));
   REQUIRE(m.shading.size() == 1);
   check_unit(m.shading[0].normal[1], Vec3(0, 0.6f, 0.8f));
   check_unit(m.shading[0].normal[2], Vec3(-0.6f, 0, 0.8f));
@@ -526,7 +534,8 @@ TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and 
   // A standalone file and a scene file's gltf shape both hand the normals on (and auto then picks mis).
   const SceneDesc alone = gltf_scene(dir.path / "n.gltf");
   REQUIRE(alone.smooth_shading());
-  CHECK(alone.shapes[0].shading == 0);
+  REQUIRE(alone.meshes.size() == 1);
+  CHECK(alone.meshes[0]->normal.size() == 3);
   // A NORMAL accessor that is not float VEC3, or of another length than POSITION, is refused by its path.
   std::string bad = smooth_triangle_gltf(R"({"mesh": 0})");
   replace_once(bad, R"({"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"})",
@@ -549,8 +558,9 @@ TEST_CASE("gltf: a model file alone is one object that a saved scene refers to, 
   SceneDesc s = gltf_scene(box);
   REQUIRE(s.objects.size() == 1);
   CHECK(s.objects[0].kind == ObjectKind::Gltf);
-  CHECK(s.objects[0].shape_count == s.shapes.size());
-  const size_t m = static_cast<size_t>(s.shapes[0].material);
+  const std::vector<test::PlacedTriangle> placed = test::object_triangles(s, 0);
+  REQUIRE(placed.size() == 12);
+  const size_t m = static_cast<size_t>(placed[0].material);
   CHECK(s.materials[m].name.rfind("BoxTextured/", 0) == 0);
   REQUIRE(s.materials[m].albedo_map);
   s.materials[m].roughness = 0.25f;
@@ -559,8 +569,10 @@ TEST_CASE("gltf: a model file alone is one object that a saved scene refers to, 
   CHECK(text.find("\"type\": \"gltf\"") != std::string::npos);
   CHECK(text.find("\"triangle\"") == std::string::npos);
   const SceneDesc back = parse_scene(text, "back.json", dir.path.string());
-  REQUIRE(back.shapes.size() == s.shapes.size());
-  const MaterialDesc& bm = back.materials[back.shapes[0].material];
+  const std::vector<test::PlacedTriangle> back_placed = test::object_triangles(back, 0);
+  REQUIRE(back_placed.size() == placed.size());
+  for (size_t k = 0; k < placed.size(); ++k) CHECK(back_placed[k].v == placed[k].v);
+  const MaterialDesc& bm = back.materials[back_placed[0].material];
   CHECK(bm.name == s.materials[m].name);
   CHECK(bm.roughness == 0.25f);
   CHECK(bm.albedo_map);  // the file's texture stays with its overridden material

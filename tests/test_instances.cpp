@@ -25,27 +25,24 @@ namespace {
 // between material slots 0 and 1.
 std::shared_ptr<const MeshDesc> sphere_mesh(int rings, int segments) {
   auto m = std::make_shared<MeshDesc>();
-  const auto at = [&](int r, int s) {
-    const double th = glm::pi<double>() * r / rings, ph = 2.0 * glm::pi<double>() * s / segments;
-    return DVec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
-  };
-  const auto uv = [&](int r, int s) { return Vec2(float(s) / segments, float(r) / rings); };
+  for (int r = 0; r <= rings; ++r)
+    for (int s = 0; s <= segments; ++s) {
+      const double th = glm::pi<double>() * r / rings, ph = 2.0 * glm::pi<double>() * s / segments;
+      const Vec3 p(DVec3(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)));
+      m->position.push_back(p);
+      m->normal.push_back(glm::normalize(p));
+      m->uv.push_back(Vec2(float(s) / segments, float(r) / rings));
+    }
+  const auto at = [&](int r, int s) { return static_cast<uint32_t>(r * (segments + 1) + s); };
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
-      const int quad[4][2] = {{r, s}, {r + 1, s}, {r + 1, s + 1}, {r, s + 1}};
-      for (const auto& tri : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
-        std::array<DVec3, 3> v;
-        TriangleShading sh;
-        for (int k = 0; k < 3; ++k) {
-          v[k] = at(quad[tri[k]][0], quad[tri[k]][1]);
-          sh.normal[k] = Vec3(v[k]);
-          sh.uv[k] = uv(quad[tri[k]][0], quad[tri[k]][1]);
-        }
-        sh.has_uv = true;
-        if (degenerate_triangle(v[0], v[1], v[2])) continue;  // the poles' collapsed corners
-        m->triangles.push_back(v);
+      const uint32_t quad[4] = {at(r, s), at(r + 1, s), at(r + 1, s + 1), at(r, s + 1)};
+      for (const std::array<uint32_t, 3>& tri : {std::array<uint32_t, 3>{quad[0], quad[1], quad[2]},
+                                                 std::array<uint32_t, 3>{quad[0], quad[2], quad[3]}}) {
+        const auto v = [&](int k) { return DVec3(m->position[tri[k]]); };
+        if (degenerate_triangle(v(0), v(1), v(2))) continue;  // the poles' collapsed corners
+        m->index.push_back(tri);
         m->slot.push_back(static_cast<uint32_t>(r % 2));
-        m->shading.push_back(sh);
       }
     }
   m->slots = 2;
@@ -107,12 +104,15 @@ SceneDesc flattened(const SceneDesc& s) {
     const glm::dmat4 world = instance_world(s, in);
     const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
     const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
-    for (size_t t = 0; t < m.triangles.size(); ++t) {
+    for (size_t t = 0; t < m.index.size(); ++t) {
       ShapeDesc sh;
-      TriangleShading ts = m.shading[t];
+      TriangleShading ts;
+      ts.has_uv = true;
       for (int k = 0; k < 3; ++k) {
-        sh.vertices[k] = DVec3(world * glm::dvec4(m.triangles[t][k], 1.0));
-        ts.normal[k] = Vec3(glm::normalize(normal_matrix * DVec3(ts.normal[k])));
+        const uint32_t v = m.index[t][k];
+        sh.vertices[k] = DVec3(world * glm::dvec4(DVec3(m.position[v]), 1.0));
+        ts.normal[k] = Vec3(glm::normalize(normal_matrix * DVec3(m.normal[v])));
+        ts.uv[k] = m.uv[v];
       }
       if (mirror) {
         std::swap(sh.vertices[1], sh.vertices[2]);
@@ -146,7 +146,7 @@ TEST_CASE("instances: rays find the same triangles at the same distances as in t
   REQUIRE(inst->instances.instances.size() == 4);
   REQUIRE(inst->instances.meshes.size() == 1);  // stored once
   REQUIRE(inst->polygons.size() == 1);          // the floor alone
-  REQUIRE(flat->polygons.size() == 1 + 4 * desc.meshes[0]->triangles.size());
+  REQUIRE(flat->polygons.size() == 1 + 4 * desc.meshes[0]->size());
   // Global ids: the floor, then the instances' triangles in order, as the flattened scene numbers its shapes.
   Pcg32 rng(7, 5);
   int rays = 0, hits = 0, differ = 0, other_triangle = 0;
@@ -312,7 +312,7 @@ TEST_CASE("instances: 1,000 placements store the mesh once") {
   CHECK(many->instances.meshes[0].get() != nullptr);
   CHECK(many->instances.instances.size() == 1000);
   CHECK(many->polygons.size() == one->polygons.size());
-  CHECK(many->instances.prim_end - many->instances.prim_begin == 1000 * desc.meshes[0]->triangles.size());
+  CHECK(many->instances.prim_end - many->instances.prim_begin == 1000 * desc.meshes[0]->size());
   // Every placement is found: a ray down the centre of each hits that instance.
   for (int k = 0; k < 1000; k += 37) {
     const glm::dmat4 w = instance_world(desc, desc.instances[k]);
@@ -374,19 +374,22 @@ TEST_CASE("gltf: a mesh several nodes show is stored once and placed by instance
               {"mesh": 2, "translation": [0, 0, 3]}, {"mesh": 2, "translation": [2, 0, 3]}],
     "scenes": [{"nodes": [0, 1, 3, 4, 5, 6]}], "scene": 0})");
   const GltfContents g = load_gltf(path);
-  REQUIRE(g.meshes.size() == 1);
-  CHECK(g.meshes[0].mesh.triangles.size() == 1);
-  REQUIRE(g.instances.size() == 3);
+  REQUIRE(g.meshes.size() == 2);  // meshes 0 and 1; the emitting mesh 2 is placed as triangles
+  CHECK(g.meshes[0].mesh.size() == 1);
+  CHECK(g.meshes[0].mesh.position.size() == 3);
+  REQUIRE(g.instances.size() == 4);
   CHECK(g.instances[1].transform[3][0] == 2.0);
   CHECK(glm::determinant(glm::dmat3(g.instances[2].transform)) < 0.0);  // node 3's mirror reaches its child
-  CHECK(g.triangles.size() == 3);  // mesh 1 once, and the emitting mesh 2 twice: placed triangles (lights)
+  CHECK(g.instances[3].mesh == 1);
+  CHECK(g.instances[3].transform[3][0] == 4.0);
+  CHECK(g.triangles.size() == 2);  // the emitting mesh 2 twice: placed triangles (lights)
   CHECK(g.emits);
 
   const SceneDesc s = gltf_scene(path);
-  CHECK(s.instances.size() == 3);
+  CHECK(s.instances.size() == 4);
   CHECK(s.instances[0].object == 0);
   const auto compiled = compile_scene(s);
-  CHECK(compiled->instances.instances.size() == 3);
+  CHECK(compiled->instances.instances.size() == 4);
   CHECK(compiled->lights.size() == 2);  // the two lamp triangles
 
   // Placed by a scene file's gltf element: its transform moves the instances with the object.
@@ -395,17 +398,24 @@ TEST_CASE("gltf: a mesh several nodes show is stored once and placed by instance
     "shapes": [{"type": "gltf", "file": "three.gltf", "transform": {"translate": [10, 0, 0]}},
                {"type": "gltf", "name": "plain", "file": "three.gltf", "material": "white"}]})");
   const SceneDesc placed = load_scene_file(dir.path("scene.json"));
-  REQUIRE(placed.instances.size() == 6);
-  CHECK(placed.meshes.size() == 2);  // one per model element
+  REQUIRE(placed.instances.size() == 8);
+  CHECK(placed.meshes.size() == 4);  // two per model element
   CHECK(instance_world(placed, placed.instances[1])[3][0] == 12.0);
-  const int white = placed.instances[3].materials[0];
+  const int white = placed.instances[4].materials[0];
   CHECK(placed.materials[white].name == "white");
   CHECK(placed.materials[placed.instances[0].materials[0]].name == "three/grey");
   // Saved and read back, the scene is the same scene (its content hash names it).
   const std::string saved = dir.write("saved.json", scene_to_json(placed, dir.dir.string()));
   const SceneDesc again = load_scene_file(saved);
-  CHECK(again.instances.size() == 6);
+  CHECK(again.instances.size() == 8);
   CHECK(scene_content_hash(again) == scene_content_hash(placed));
+  // A scene file's emitting "material" for a model is refused by the model's name (instanced meshes are not
+  // lights), not rendered dark.
+  dir.write("glow.json", R"({"camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+    "materials": {"glow": {"type": "diffuse", "albedo": [0, 0, 0], "emission": [2, 2, 2]}},
+    "shapes": [{"type": "gltf", "name": "sign", "file": "three.gltf", "material": "glow"}]})");
+  CHECK_THROWS_WITH_AS(load_scene_file(dir.path("glow.json")),
+                       doctest::Contains("model \"sign\" (instances[0].materials): material \"glow\" emits light"), SceneError);
 }
 
 }  // namespace pt

@@ -281,7 +281,7 @@ int run_render(const RenderOptions& o) {
 
   const auto scene = compile_scene(desc);
   const RankStop rank_stop = plan_stop(o, plan);
-  StartingFilm start = start_film(desc, scene_stem(o.scene), outputs->features, plan);
+  StartingFilm start = start_film(desc, scene_stem(o.scene), outputs->features, !o.save_state.empty(), plan);
   Film& film = start.film;
   Renderer renderer(o.threads);
   if (!renderer.thread_start_error().empty())

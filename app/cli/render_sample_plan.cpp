@@ -117,9 +117,12 @@ RankStop plan_stop(const RenderOptions& o, SamplePlan& plan) {
   return r;
 }
 
-StartingFilm start_film(const SceneDesc& desc, const std::string& scene_name, bool features, SamplePlan& plan) {
+StartingFilm start_film(const SceneDesc& desc, const std::string& scene_name, bool features, bool needs_identity,
+                        SamplePlan& plan) {
   StartingFilm s;
-  s.info = state_info_for(desc, scene_name);
+  // The scene's content hash goes only into film states (--save-state, the ranks' merge): hashing a million
+  // triangles takes a tenth of a second that a plain render need not spend.
+  s.info = state_info_for(desc, scene_name, needs_identity || plan.mpi);
   bool film_features = features || (plan.resumed && plan.resumed->film.has_features());
   if (plan.mpi) {
     std::vector<int64_t> v{film_features ? 1 : 0};

@@ -47,7 +47,9 @@ struct StartingFilm {
   Film film;
   FilmStateInfo info;
 };
-StartingFilm start_film(const SceneDesc& desc, const std::string& scene_name, bool features, SamplePlan& plan);
+// needs_identity: the film's state will be written (--save-state), so its info carries the scene's hash.
+StartingFilm start_film(const SceneDesc& desc, const std::string& scene_name, bool features, bool needs_identity,
+                        SamplePlan& plan);
 
 // Every rank's film on rank 0, merged exactly (io/film_state: double-double sums); nullopt on the other ranks.
 // The states travel in the file format, so the checksum also covers the transfer. With --resume, rank 0 adds the

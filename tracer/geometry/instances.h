@@ -17,16 +17,14 @@
 
 namespace pt {
 
-// Structure of arrays of one mesh's triangles in the mesh's coordinates. Shading data (vertex normals and uv,
-// in the triangles' vertex order) is empty when the mesh has none.
+// One mesh as the tracer reads it: the shared indexed mesh (triangle_mesh.h, never copied) and its hierarchy,
+// whose leaves hold the triangles' vertices in their own lanes.
 struct MeshGeometry {
-  std::vector<Vec3> v[4];               // vertex k of every triangle; v[3] repeats v[0] (the hierarchy's lanes)
-  std::vector<uint8_t> triangle;        // all 1: the polygon tests' flag
-  std::vector<uint32_t> slot;           // per triangle, its material slot (Instance::material maps it)
-  std::vector<std::array<Vec3, 3>> normal;  // per triangle, its vertex normals (unit; zero: flat), or empty
-  std::vector<std::array<Vec2, 3>> uv;      // per triangle, its texture coordinates, or empty
+  std::shared_ptr<const TriangleMesh> mesh;
   PolygonBvh bvh;
-  size_t size() const { return triangle.size(); }
+  size_t size() const { return mesh->size(); }
+  Vec3 vertex(uint32_t triangle, int k) const { return mesh->vertex(triangle, k); }
+  uint32_t slot(uint32_t triangle) const { return mesh->slot[triangle]; }
 };
 
 // An affine map in float, p ↦ L·p + offset.

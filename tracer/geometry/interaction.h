@@ -118,7 +118,7 @@ inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h,
   DVec3 w[3];
   double max_abs = 0.0;
   for (int k = 0; k < 3; ++k) {
-    w[k] = in.to_world_linear * DVec3(mesh.v[order[k]][i]) + in.to_world_offset;
+    w[k] = in.to_world_linear * DVec3(mesh.vertex(i, order[k])) + in.to_world_offset;
     max_abs = std::max(max_abs, std::max(std::abs(w[k].x), std::max(std::abs(w[k].y), std::abs(w[k].z))));
   }
   const std::array<std::array<Vec3, 2>, 2> dual{triangle_dual(w[0], w[1], w[2]), {}};
@@ -128,13 +128,14 @@ inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h,
   polygon_point(v, true, dual, margin, Vec3(glm::normalize(glm::cross(w[1] - w[0], w[2] - w[0]))), ray, h.t, it, b);
   it.p_error += Vec3(static_cast<float>(8.0 * 0x1p-24 * max_abs));
   if constexpr (kShading) {
-    if (!mesh.normal.empty() || !mesh.uv.empty()) {
-      std::array<Vec3, 3> n{it.ng, it.ng, it.ng};
+    const TriangleMesh& m = *mesh.mesh;
+    if (!m.normal.empty() || !m.uv.empty()) {
+      std::array<Vec3, 3> n{it.ng, it.ng, it.ng}, file_n;
       std::array<Vec2, 3> uv{Vec2(0.f), Vec2(0.f), Vec2(0.f)};
+      const bool smooth = m.vertex_normals(i, file_n);
       for (int k = 0; k < 3; ++k) {
-        if (!mesh.normal.empty() && mesh.normal[i][0] != Vec3(0.f))
-          n[k] = glm::normalize(in.normal_to_world * mesh.normal[i][order[k]]);
-        if (!mesh.uv.empty()) uv[k] = mesh.uv[i][order[k]];
+        if (smooth) n[k] = glm::normalize(in.normal_to_world * file_n[order[k]]);
+        if (!m.uv.empty()) uv[k] = m.uv[m.index[i][order[k]]];
       }
       vertex_shading(n, uv, v, b[0], b[1], b[2], dual[0], it);
     }

@@ -222,14 +222,18 @@ class Collapser {
 
 }  // namespace
 
-PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
+namespace {
+
+// The build over n polygons whose vertex k is vertex(i, k) (k < 4; a triangle repeats vertex 0 as 3) and
+// which are triangles where triangle(i).
+template <class Vertex, class IsTriangle>
+PolygonBvh build(size_t n, const Vertex& vertex, const IsTriangle& triangle) {
   PolygonBvh bvh;
-  const size_t n = is_triangle.size();
   if (n == 0) return bvh;
   std::vector<Box> boxes(n);
   std::vector<Vec3> centroids(n);
   for (size_t i = 0; i < n; ++i) {
-    for (int k = 0; k < 4; ++k) boxes[i].grow(v[k][i]);
+    for (int k = 0; k < 4; ++k) boxes[i].grow(vertex(i, k));
     centroids[i] = 0.5f * (boxes[i].lo + boxes[i].hi);
   }
   std::vector<uint32_t> order(n);
@@ -251,12 +255,26 @@ PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<
   for (size_t lane = 0; lane < lanes; ++lane) {
     const uint32_t p = bvh.lane_polygon[lane];
     if (p == kNoLanePolygon) continue;
-    for (int k = 0; k < 4; ++k)
-      for (int a = 0; a < 3; ++a) L.coord[k][a][lane] = v[k][p][a];
-    L.triangle[lane] = is_triangle[p] ? 1.f : 0.f;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 q = vertex(p, k);
+      for (int a = 0; a < 3; ++a) L.coord[k][a][lane] = q[a];
+    }
+    L.triangle[lane] = triangle(p) ? 1.f : 0.f;
     bvh.polygon_lane[p] = static_cast<uint32_t>(lane);
   }
   return bvh;
+}
+
+}  // namespace
+
+PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle) {
+  return build(
+      is_triangle.size(), [&v](size_t i, int k) { return v[k][i]; }, [&is_triangle](size_t i) { return is_triangle[i] != 0; });
+}
+
+PolygonBvh build_mesh_bvh(const TriangleMesh& mesh) {
+  return build(
+      mesh.size(), [&mesh](size_t i, int k) { return mesh.vertex(i, k == 3 ? 0 : k); }, [](size_t) { return true; });
 }
 
 }  // namespace pt

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "geometry/simd_polygons.h"
+#include "geometry/triangle_mesh.h"
 
 namespace pt {
 
@@ -49,6 +50,8 @@ inline constexpr uint32_t kNoLanePolygon = ~0u;
 
 // Builds the hierarchy over polygons with vertices v[k][i] (a triangle repeats its vertex a as v[3]).
 PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle);
+// The same over an indexed mesh's triangles (instances.h), read in place.
+PolygonBvh build_mesh_bvh(const TriangleMesh& mesh);
 
 namespace bvh_detail {
 

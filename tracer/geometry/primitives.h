@@ -108,7 +108,7 @@ struct SceneGeometry {
     if (prim < sphere_begin()) return polygons.material[prim];
     if (prim < primitive_count()) return spheres.material[prim - sphere_begin()];
     const Instance& in = instances.instance_of(prim);
-    return in.material[instances.meshes[in.mesh]->slot[prim - in.first_prim]];
+    return in.material[instances.meshes[in.mesh]->slot(prim - in.first_prim)];
   }
   bool has_cutouts() const { return !material_mask.empty(); }
   // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away (xi: the
@@ -126,14 +126,14 @@ struct SceneGeometry {
   }
   // The same for the hit h on triangle i of instance `in`'s mesh (barycentrics in the mesh's vertex order).
   bool cut_away(const Instance& in, uint32_t i, const PolygonHit& h, float xi) const {
-    const MeshGeometry& mesh = *instances.meshes[in.mesh];
+    const TriangleMesh& mesh = *instances.meshes[in.mesh]->mesh;
     const uint32_t m = in.material[mesh.slot[i]];
     const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
     if (!mask) return false;
     Vec2 uv(0.f);
     if (!mesh.uv.empty()) {
-      const std::array<Vec2, 3>& t = mesh.uv[i];
-      uv = h.b0 * t[0] + h.b1 * t[1] + h.b2 * t[2];
+      const std::array<uint32_t, 3>& t = mesh.index[i];
+      uv = h.b0 * mesh.uv[t[0]] + h.b1 * mesh.uv[t[1]] + h.b2 * mesh.uv[t[2]];
     }
     return !mask->opaque_at(uv, xi);
   }

@@ -33,7 +33,7 @@ struct InstanceRay {
   // A global id as the mesh's own (~0u for none of its triangles).
   uint32_t local(uint32_t prim) const { return prim - in.first_prim < mesh.size() ? prim - in.first_prim : ~0u; }
   bool test(uint32_t i, float t_max, PolygonHit& h) const {
-    return intersect_triangle(mesh.v[0][i], mesh.v[1][i], mesh.v[2][i], o, shear, t_max, h);
+    return intersect_triangle(mesh.vertex(i, 0), mesh.vertex(i, 1), mesh.vertex(i, 2), o, shear, t_max, h);
   }
   bool uncut(uint32_t i) const {
     PolygonHit h{};

@@ -36,6 +36,42 @@ namespace {
 
 namespace tg = tinygltf;
 
+// Mesh g's triangles placed by `world` among out.triangles: vertices in double, normals by the inverse transpose
+// of its linear part, listed the other way round under a mirroring transform; those it makes degenerate are
+// left out (counted).
+void place_mesh_triangles(const GltfMesh& g, const glm::dmat4& world, GltfContents& out) {
+  const MeshDesc& me = g.mesh;
+  const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+  const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+  for (size_t t = 0; t < me.size(); ++t) {
+    std::array<DVec3, 3> tri;
+    TriangleShading shading;
+    std::array<Vec3, 3> n;
+    const bool smooth = me.vertex_normals(t, n);
+    for (int k = 0; k < 3; ++k) {
+      tri[k] = DVec3(world * glm::dvec4(DVec3(me.vertex(t, k)), 1.0));
+      if (smooth) shading.normal[k] = Vec3(glm::normalize(normal_matrix * DVec3(n[k])));
+      if (!me.uv.empty()) shading.uv[k] = me.uv[me.index[t][k]];
+    }
+    shading.has_uv = !me.uv.empty();
+    if (mirror) {
+      std::swap(tri[1], tri[2]);
+      std::swap(shading.normal[1], shading.normal[2]);
+      std::swap(shading.uv[1], shading.uv[2]);
+    }
+    if (degenerate_triangle(tri[0], tri[1], tri[2])) {
+      ++out.degenerate;
+      continue;
+    }
+    out.triangles.push_back(tri);
+    out.triangle_material.push_back(g.slot_material[me.slot[t]]);
+    if (!out.shading.empty() || shading.any()) {
+      out.shading.resize(out.triangles.size() - 1);  // the triangles before the first with either have none
+      out.shading.push_back(shading);
+    }
+  }
+}
+
 // The extensions this reader understands; others in extensionsRequired are refused.
 const std::set<std::string> kReadExtensions = {"KHR_materials_emissive_strength", "KHR_materials_ior",
                                                "KHR_materials_transmission", "KHR_lights_punctual",
@@ -46,7 +82,6 @@ struct Reader {
   const std::string& path;
   const tg::Model& m;
   GltfContents out;
-  bool any_shading = false;  // out.shading holds an entry per triangle from the first with normals or uv on
   std::set<std::string> warned;
 
   [[noreturn]] void fail(const std::string& where, const std::string& why) const {
@@ -91,20 +126,20 @@ struct Reader {
     return {m.buffers[v.buffer].data.data() + v.byteOffset + a.byteOffset, a.count, stride};
   }
 
-  std::vector<DVec3> positions(int index, const std::string& where) const {
+  // Appends accessor `index`'s positions (float VEC3, finite) to `out`.
+  void append_positions(int index, const std::string& where, std::vector<Vec3>& out) const {
     const tg::Accessor* a = index >= 0 && static_cast<size_t>(index) < m.accessors.size() ? &m.accessors[index] : nullptr;
     if (a && (a->type != TINYGLTF_TYPE_VEC3 || a->componentType != TINYGLTF_COMPONENT_TYPE_FLOAT))
       fail(where, "positions must be float VEC3 (KHR_mesh_quantization is not supported)");
     const View v = accessor_view(index, where, 12);
-    std::vector<DVec3> p(v.count);
+    const size_t first = out.size();
+    out.resize(first + v.count);
     for (size_t i = 0; i < v.count; ++i) {
-      float xyz[3];
-      std::memcpy(xyz, v.data + i * v.stride, sizeof xyz);
-      if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2]))
+      Vec3& p = out[first + i];
+      std::memcpy(&p[0], v.data + i * v.stride, 12);
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
         fail(where, "position " + std::to_string(i) + " is not finite");
-      p[i] = DVec3(xyz[0], xyz[1], xyz[2]);
     }
-    return p;
   }
 
   // A per-vertex attribute of N components (NORMAL: float VEC3; TEXCOORD_0: VEC2 of floats, or of normalized
@@ -354,11 +389,11 @@ struct Reader {
     return t * r * s;
   }
 
-  // Meshes used by more than one node (and whose materials do not emit) are stored once and placed by
-  // instances; the others' triangles are placed in the file's world here.
-  std::vector<int> mesh_uses;       // per mesh, how many nodes show it
-  std::vector<int> instanced_mesh;  // per mesh, its index in out.meshes, −1 while not built
-  bool counting = false;            // the first walk of the node graph only counts mesh_uses
+  // Every mesh is read once into an indexed mesh in its own coordinates (GltfMesh). A mesh whose materials do
+  // not emit is placed by instances, one per node showing it; an emitting one's triangles are placed in the
+  // file's world as shapes, which light sampling knows (instanced triangles are not lights).
+  std::vector<int> read_mesh;  // per file mesh, its index in out.meshes, −1 while not read
+  size_t stored_triangles = 0;  // triangles held: the meshes' own and the placed ones
 
   bool mesh_emits(const tg::Mesh& me) const {
     for (const tg::Primitive& p : me.primitives) {
@@ -372,60 +407,73 @@ struct Reader {
   void add_mesh(int mesh, const glm::dmat4& world, const std::string& node_where) {
     if (mesh < 0 || static_cast<size_t>(mesh) >= m.meshes.size())
       fail(node_where + ".mesh", "mesh " + std::to_string(mesh) + " does not exist");
-    if (counting) {
-      ++mesh_uses[mesh];
-      return;
-    }
-    if (mesh_uses[mesh] > 1 && !mesh_emits(m.meshes[mesh])) {
-      add_instance(mesh, world);
-      return;
-    }
-    mesh_triangles(mesh, world, [&](const std::array<DVec3, 3>& tri, const TriangleShading& shading, int material) {
-      out.triangles.push_back(tri);
-      out.triangle_material.push_back(material);
-      if (shading.any() && !any_shading) {  // the first triangle with either: the ones before it too
-        any_shading = true;
-        out.shading.resize(out.triangles.size() - 1);
-      }
-      if (any_shading) out.shading.push_back(shading);
-    });
-  }
-
-  void add_instance(int mesh, const glm::dmat4& world) {
-    if (instanced_mesh[mesh] < 0) {
-      GltfMesh g;
-      std::map<int, uint32_t> slot_of;  // file material → slot
-      mesh_triangles(mesh, glm::dmat4(1.0), [&](const std::array<DVec3, 3>& tri, const TriangleShading& shading, int material) {
-        const auto [it, added] = slot_of.emplace(material, static_cast<uint32_t>(g.slot_material.size()));
-        if (added) g.slot_material.push_back(material);
-        g.mesh.triangles.push_back(tri);
-        g.mesh.slot.push_back(it->second);
-        g.mesh.shading.push_back(shading);
-      });
-      if (g.mesh.triangles.empty()) return;  // nothing to place
-      g.mesh.slots = static_cast<uint32_t>(g.slot_material.size());
-      g.mesh.fit_box();
-      if (std::none_of(g.mesh.shading.begin(), g.mesh.shading.end(), [](const TriangleShading& t) { return t.any(); }))
-        g.mesh.shading.clear();
-      instanced_mesh[mesh] = static_cast<int>(out.meshes.size());
-      out.meshes.push_back(std::move(g));
-    }
+    const int k = mesh_index(mesh);
+    if (k < 0) return;  // nothing to show
+    const GltfMesh& g = out.meshes[k];
     // A node that flattens its mesh (a zero scale) shows nothing, as its triangles placed one by one would be
     // degenerate and left out.
     const double det = glm::determinant(glm::dmat3(world));
     if (!(std::abs(det) > 0.0 && std::isfinite(1.0 / det))) {
-      out.degenerate += out.meshes[instanced_mesh[mesh]].mesh.triangles.size();
+      out.degenerate += g.mesh.size();
       return;
     }
-    out.instances.push_back({static_cast<uint32_t>(instanced_mesh[mesh]), world});
+    if (mesh_emits(m.meshes[mesh])) {
+      const size_t before = out.triangles.size();
+      place_mesh_triangles(g, world, out);
+      stored_triangles += out.triangles.size() - before;
+      if (stored_triangles > kMaxMeshTriangles)
+        fail(node_where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
+    } else {
+      out.instances.push_back({static_cast<uint32_t>(k), world});
+    }
   }
 
-  // Calls emit(triangle, shading, material) for every non-degenerate triangle of mesh `mesh` placed by `world`
-  // (normals by its inverse transpose; vertices listed the other way round under a mirroring transform).
-  template <class Emit>
-  void mesh_triangles(int mesh, const glm::dmat4& world, const Emit& emit) {
-    const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
+  // Drops the meshes no instance places (the emitting ones, placed as shapes), renumbering the instances'.
+  void keep_placed_meshes() {
+    std::vector<int> kept(out.meshes.size(), -1);
+    std::vector<GltfMesh> meshes;
+    for (GltfInstance& in : out.instances) {
+      if (kept[in.mesh] < 0) {
+        kept[in.mesh] = static_cast<int>(meshes.size());
+        meshes.push_back(std::move(out.meshes[in.mesh]));
+      }
+      in.mesh = static_cast<uint32_t>(kept[in.mesh]);
+    }
+    out.meshes = std::move(meshes);
+  }
+
+  void count_triangle(const std::string& where) {
+    if (++stored_triangles > kMaxMeshTriangles)
+      fail(where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
+  }
+
+  // The index in out.meshes of file mesh `mesh`, read on first use; −1 when it has no triangle to show.
+  int mesh_index(int mesh) {
+    if (read_mesh[mesh] == -2) return -1;
+    if (read_mesh[mesh] >= 0) return read_mesh[mesh];
+    GltfMesh g = read_triangles(mesh);
+    if (g.mesh.index.empty()) {
+      read_mesh[mesh] = -2;
+      return -1;
+    }
+    read_mesh[mesh] = static_cast<int>(out.meshes.size());
+    out.meshes.push_back(std::move(g));
+    return read_mesh[mesh];
+  }
+
+  // File mesh `mesh` as an indexed mesh: its primitives' vertices one after the other (normals made unit, zero
+  // where the file's cannot be; zero for a primitive without them, whose faces stay flat as the specification
+  // asks), their triangles with a material slot each; zero-area triangles left out.
+  GltfMesh read_triangles(int mesh) {
+    GltfMesh g;
+    MeshDesc& out_mesh = g.mesh;
+    std::map<int, uint32_t> slot_of;  // file material → slot
     const tg::Mesh& me = m.meshes[mesh];
+    bool normals = false, uv = false;
+    for (const tg::Primitive& p : me.primitives) {
+      normals = normals || p.attributes.count("NORMAL");
+      uv = uv || p.attributes.count("TEXCOORD_0");
+    }
     for (size_t pi = 0; pi < me.primitives.size(); ++pi) {
       const tg::Primitive& p = me.primitives[pi];
       const std::string where = "meshes[" + std::to_string(mesh) + "].primitives[" + std::to_string(pi) + "]";
@@ -433,27 +481,29 @@ struct Reader {
         fail(where + ".mode", "mode " + std::to_string(p.mode) + " is not supported (only triangles, mode 4)");
       const auto pos = p.attributes.find("POSITION");
       if (pos == p.attributes.end()) fail(where + ".attributes", "no POSITION");
-      const std::vector<DVec3> local = positions(pos->second, where + ".attributes.POSITION");
-      // Vertex normals into the file's world by the inverse transpose of the node's linear part; a primitive
-      // without them is flat-shaded, as the specification asks.
-      std::vector<Vec3> normals;
+      const size_t first = out_mesh.position.size();
+      append_positions(pos->second, where + ".attributes.POSITION", out_mesh.position);
+      const size_t count = out_mesh.position.size() - first;
       if (const auto it = p.attributes.find("NORMAL"); it != p.attributes.end()) {
-        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
-        for (const Vec3& n : attribute<3>(it->second, where + ".attributes.NORMAL", local.size())) {
-          const DVec3 wn = normal_matrix * DVec3(n);
-          const double len = glm::length(wn);
-          normals.push_back(len > 0.0 && std::isfinite(len) ? Vec3(wn / len) : Vec3(0.f));
+        for (const Vec3& n : attribute<3>(it->second, where + ".attributes.NORMAL", count)) {
+          const float len = glm::length(n);
+          out_mesh.normal.push_back(len > 0.f && std::isfinite(len) ? n / len : Vec3(0.f));
         }
+      } else if (normals) {
+        out_mesh.normal.resize(out_mesh.position.size(), Vec3(0.f));
       }
-      std::vector<Vec2> uv;
-      if (const auto it = p.attributes.find("TEXCOORD_0"); it != p.attributes.end())
-        uv = attribute<2>(it->second, where + ".attributes.TEXCOORD_0", local.size());
+      if (const auto it = p.attributes.find("TEXCOORD_0"); it != p.attributes.end()) {
+        const std::vector<Vec2> t = attribute<2>(it->second, where + ".attributes.TEXCOORD_0", count);
+        out_mesh.uv.insert(out_mesh.uv.end(), t.begin(), t.end());
+      } else if (uv) {
+        out_mesh.uv.resize(out_mesh.position.size(), Vec2(0.f));
+      }
       if (!p.targets.empty()) warn("morph targets are not read: meshes keep their base shape");
       std::vector<uint32_t> idx;
       if (p.indices >= 0) {
-        idx = indices(p.indices, where + ".indices", local.size());
+        idx = indices(p.indices, where + ".indices", count);
       } else {
-        idx.resize(local.size());
+        idx.resize(count);
         for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<uint32_t>(i);
       }
       if (idx.size() % 3 != 0)
@@ -466,34 +516,25 @@ struct Reader {
       } else {
         material = default_material();
       }
-      std::vector<DVec3> w(local.size());
-      for (size_t i = 0; i < local.size(); ++i) w[i] = DVec3(world * glm::dvec4(local[i], 1.0));
+      const auto [slot, added] = slot_of.emplace(material, static_cast<uint32_t>(g.slot_material.size()));
+      if (added) g.slot_material.push_back(material);
+      const std::vector<Vec3>& v = out_mesh.position;
       for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-        std::array<DVec3, 3> tri{w[idx[t]], w[idx[t + 1]], w[idx[t + 2]]};
-        TriangleShading shading;
-        for (int k = 0; k < 3; ++k) {
-          if (!normals.empty()) shading.normal[k] = normals[idx[t + k]];
-          if (!uv.empty()) shading.uv[k] = uv[idx[t + k]];
-        }
-        shading.has_uv = !uv.empty();
-        if (mirror) {
-          std::swap(tri[1], tri[2]);
-          std::swap(shading.normal[1], shading.normal[2]);
-          std::swap(shading.uv[1], shading.uv[2]);
-        }
-        if (degenerate_triangle(tri[0], tri[1], tri[2])) {
+        const std::array<uint32_t, 3> tri{static_cast<uint32_t>(first + idx[t]), static_cast<uint32_t>(first + idx[t + 1]),
+                                          static_cast<uint32_t>(first + idx[t + 2])};
+        if (degenerate_triangle(DVec3(v[tri[0]]), DVec3(v[tri[1]]), DVec3(v[tri[2]]))) {
           ++out.degenerate;
           continue;
         }
-        if (++stored_triangles > kMaxMeshTriangles)
-          fail(where, "more than " + std::to_string(kMaxMeshTriangles) + " triangles in the file");
-        if (shading.normal[0] == Vec3(0.f) || shading.normal[1] == Vec3(0.f) || shading.normal[2] == Vec3(0.f))
-          shading.normal = {};  // a zero normal: the face stays flat
-        emit(tri, shading, material);
+        count_triangle(where);
+        out_mesh.index.push_back(tri);
+        out_mesh.slot.push_back(slot->second);
       }
     }
+    out_mesh.slots = static_cast<uint32_t>(g.slot_material.size());
+    out_mesh.fit_box();
+    return g;
   }
-  size_t stored_triangles = 0;  // triangles held: placed ones and instanced meshes' own
 
   int default_index = -1;
   int default_material() {
@@ -587,8 +628,8 @@ struct Reader {
         if (!std::isfinite(world[c][r])) fail(where, "its transform is not finite");
     if (n.skin >= 0) warn("skins are not read: skinned meshes keep their bind pose");
     if (n.mesh >= 0) add_mesh(n.mesh, world, where);
-    if (n.camera >= 0 && !counting) add_camera(n.camera, world, where);
-    if (const tg::Value* ext = extension(n.extensions, "KHR_lights_punctual"); ext && !counting) add_light(*ext, world, where);
+    if (n.camera >= 0) add_camera(n.camera, world, where);
+    if (const tg::Value* ext = extension(n.extensions, "KHR_lights_punctual")) add_light(*ext, world, where);
     on_path[node] = true;
     for (int child : n.children) visit(child, world, on_path, depth + 1);
     on_path[node] = false;
@@ -613,12 +654,9 @@ struct Reader {
         if (!child[i]) roots.push_back(static_cast<int>(i));
     }
     std::vector<bool> on_path(m.nodes.size(), false);
-    mesh_uses.assign(m.meshes.size(), 0);
-    instanced_mesh.assign(m.meshes.size(), -1);
-    counting = true;
+    read_mesh.assign(m.meshes.size(), -1);
     for (int r : roots) visit(r, glm::dmat4(1.0), on_path, 0);
-    counting = false;
-    for (int r : roots) visit(r, glm::dmat4(1.0), on_path, 0);
+    keep_placed_meshes();
     if (out.triangles.empty() && out.instances.empty()) throw SceneError(path + ": no triangles to show");
     // The materials: the file's, names made unique, then the default if a primitive used it.
     std::set<std::string> names;
@@ -665,6 +703,12 @@ bool keep_encoded(tg::Image* image, const int, std::string*, std::string*, int, 
 
 }  // namespace
 
+void flatten_gltf(GltfContents& g) {
+  for (const GltfInstance& in : g.instances) place_mesh_triangles(g.meshes[in.mesh], in.transform, g);
+  g.instances.clear();
+  g.meshes.clear();
+}
+
 bool is_gltf_file(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -688,6 +732,7 @@ GltfContents load_gltf(const std::string& path) {
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   const bool ok = binary ? parser.LoadBinaryFromMemory(&model, &err, &warn, data, static_cast<unsigned>(bytes.size()), base_dir)
                          : parser.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned>(bytes.size()), base_dir);
+  std::string().swap(bytes);  // the parser keeps its own copy of the buffers
   if (!ok || !err.empty()) {
     while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
     throw SceneError(path + ": not a valid glTF 2.0 file: " + (err.empty() ? std::string("the parser refused it") : err));

@@ -263,23 +263,29 @@ std::string validate_instances(const SceneDesc& s, double& farthest) {
     const std::string path = "meshes[" + std::to_string(i) + "]";
     if (!s.meshes[i]) return path + ": missing";
     const MeshDesc& m = *s.meshes[i];
-    if (m.triangles.empty() || m.slot.size() != m.triangles.size() || m.slots == 0)
+    const size_t vertices = m.position.size();
+    if (m.index.empty() || m.slot.size() != m.index.size() || m.slots == 0)
       return path + ": no triangles, or not one material slot per triangle";
-    if (!m.shading.empty() && m.shading.size() != m.triangles.size()) return path + ": shading not one per triangle";
-    DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (size_t t = 0; t < m.triangles.size(); ++t) {
-      const auto& v = m.triangles[t];
-      if (m.slot[t] >= m.slots) return path + ".slot: past the mesh's slots";
-      for (const DVec3& p : v) {
-        if (!finite3(p)) return path + ": a vertex is not finite";
-        lo = glm::min(lo, p), hi = glm::max(hi, p);
-      }
-      if (degenerate_triangle(v[0], v[1], v[2])) return path + ": degenerate triangle " + std::to_string(t);
-      if (!m.shading.empty())
-        for (const Vec3& n : m.shading[t].normal)
-          if (!finite3(n)) return path + ": a vertex normal is not finite";
+    if ((!m.normal.empty() && m.normal.size() != vertices) || (!m.uv.empty() && m.uv.size() != vertices))
+      return path + ": normals or uv not one per vertex";
+    Vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+    for (const Vec3& p : m.position) {
+      if (!finite3(p)) return path + ": a vertex is not finite";
+      lo = glm::min(lo, p), hi = glm::max(hi, p);
     }
     if (lo != m.lo || hi != m.hi) return path + ": its box is not its vertices' bounds (MeshDesc::fit_box)";
+    for (const Vec3& n : m.normal)
+      if (!finite3(n)) return path + ": a vertex normal is not finite";
+    for (const Vec2& t : m.uv)
+      if (!std::isfinite(t.x) || !std::isfinite(t.y)) return path + ": a texture coordinate is not finite";
+    for (size_t t = 0; t < m.index.size(); ++t) {
+      const std::array<uint32_t, 3>& v = m.index[t];
+      if (m.slot[t] >= m.slots) return path + ".slot: past the mesh's slots";
+      if (v[0] >= vertices || v[1] >= vertices || v[2] >= vertices)
+        return path + ": triangle " + std::to_string(t) + " names a vertex past its " + std::to_string(vertices);
+      if (degenerate_triangle(DVec3(m.position[v[0]]), DVec3(m.position[v[1]]), DVec3(m.position[v[2]])))
+        return path + ": degenerate triangle " + std::to_string(t);
+    }
   }
   size_t triangles = 0;
   for (size_t k = 0; k < s.instances.size(); ++k) {
@@ -291,9 +297,13 @@ std::string validate_instances(const SceneDesc& s, double& farthest) {
     if (in.materials.size() != m.slots) return path + ".materials: not one per material slot of its mesh";
     for (int mat : in.materials) {
       if (mat < 0 || mat >= static_cast<int>(s.materials.size())) return path + ".materials: no such material";
-      if (!is_black(s.materials[mat].emission))
-        return path + ".materials: " + shown_material(s, mat) +
-               " emits light, which an instanced mesh cannot do (its triangles are not among the lights)";
+      if (!is_black(s.materials[mat].emission)) {
+        const std::string where = in.object >= 0 ? "model \"" + s.objects[in.object].name + "\" (" + path + ".materials)"
+                                                 : path + ".materials";
+        return where + ": " + shown_material(s, mat) +
+               " emits light, which an instanced mesh cannot do (its triangles are not among the lights; a glTF "
+               "model's emitting meshes are lights when its own file gives them the emission)";
+      }
     }
     const glm::dmat4 world = instance_world(s, in);
     const double det = glm::determinant(glm::dmat3(world));
@@ -303,15 +313,16 @@ std::string validate_instances(const SceneDesc& s, double& farthest) {
     if (!finite || world[0][3] != 0.0 || world[1][3] != 0.0 || world[2][3] != 0.0 || world[3][3] != 1.0)
       return path + ".transform: must be a finite affine transform";
     if (!(std::abs(det) > 0.0 && std::isfinite(1.0 / det))) return path + ".transform: must be invertible";
+    const auto [lo, hi] = placed_box(s, in);
     for (int c = 0; c < 8; ++c) {
-      const DVec3 p = DVec3(world * glm::dvec4(box_corner(m.lo, m.hi, c), 1.0)) - s.camera.position;
+      const DVec3 p = box_corner(lo, hi, c) - s.camera.position;
       const double d = std::hypot(p.x, p.y, p.z);
       if (!(d <= kMaxCameraDistance))
         return path + ": the placed mesh reaches " + short_number(d) + " from the camera, beyond the " +
                short_number(kMaxCameraDistance) + " the tracer represents";
       farthest = std::max(farthest, d);
     }
-    triangles += m.triangles.size();
+    triangles += m.size();
     if (triangles > kMaxInstancedTriangles)
       return path + ": the instances place more than " + std::to_string(kMaxInstancedTriangles) + " triangles";
   }
@@ -325,7 +336,7 @@ std::pair<DVec3, DVec3> placed_box(const SceneDesc& s, const InstanceDesc& in) {
   const glm::dmat4 world = instance_world(s, in);
   DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
   for (int c = 0; c < 8; ++c) {
-    const DVec3 p(world * glm::dvec4(box_corner(m.lo, m.hi, c), 1.0));
+    const DVec3 p(world * glm::dvec4(box_corner(DVec3(m.lo), DVec3(m.hi), c), 1.0));
     lo = glm::min(lo, p), hi = glm::max(hi, p);
   }
   return {lo, hi};
@@ -479,23 +490,10 @@ class ShadingCompiler {
 };
 
 // A mesh that instances place, in its own coordinates, with its hierarchy (geometry/instances.h).
-std::shared_ptr<const MeshGeometry> compile_mesh(const MeshDesc& d) {
+std::shared_ptr<const MeshGeometry> compile_mesh(const std::shared_ptr<const MeshDesc>& d) {
   auto g = std::make_shared<MeshGeometry>();
-  const size_t n = d.triangles.size();
-  for (auto& v : g->v) v.reserve(n);
-  for (const std::array<DVec3, 3>& t : d.triangles) {
-    for (int k = 0; k < 3; ++k) g->v[k].push_back(Vec3(t[k]));
-    g->v[3].push_back(Vec3(t[0]));
-  }
-  g->triangle.assign(n, 1);
-  g->slot = d.slot;
-  const bool normals = std::any_of(d.shading.begin(), d.shading.end(), [](const TriangleShading& t) { return t.has_normals(); });
-  const bool uv = std::any_of(d.shading.begin(), d.shading.end(), [](const TriangleShading& t) { return t.has_uv; });
-  for (const TriangleShading& t : d.shading) {
-    if (normals) g->normal.push_back(t.normal);
-    if (uv) g->uv.push_back(t.uv);
-  }
-  g->bvh = build_polygon_bvh(g->v, g->triangle);
+  g->mesh = d;
+  g->bvh = build_mesh_bvh(*d);
   return g;
 }
 
@@ -511,8 +509,8 @@ void compile_instances(const SceneDesc& desc, Scene& s) {
     const MeshDesc& mesh = *desc.meshes[d.mesh];
     if (geometry_of[d.mesh] < 0) {
       geometry_of[d.mesh] = static_cast<int>(set.meshes.size());
-      set.meshes.push_back(compile_mesh(mesh));
-      s.features.smooth_shading = s.features.smooth_shading || !set.meshes.back()->normal.empty();
+      set.meshes.push_back(compile_mesh(desc.meshes[d.mesh]));
+      s.features.smooth_shading = s.features.smooth_shading || mesh.any_normals();
     }
     Instance in;
     in.mesh = static_cast<uint32_t>(geometry_of[d.mesh]);
@@ -533,14 +531,14 @@ void compile_instances(const SceneDesc& desc, Scene& s) {
     // The placed box: its corners in double, rounded outwards to float.
     DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
     for (int c = 0; c < 8; ++c) {
-      const DVec3 p = in.to_world_linear * box_corner(mesh.lo, mesh.hi, c) + in.to_world_offset;
+      const DVec3 p = in.to_world_linear * box_corner(DVec3(mesh.lo), DVec3(mesh.hi), c) + in.to_world_offset;
       lo = glm::min(lo, p), hi = glm::max(hi, p);
     }
     for (int a = 0; a < 3; ++a) {
       in.lo[a] = next_float_down(static_cast<float>(lo[a]));
       in.hi[a] = next_float_up(static_cast<float>(hi[a]));
     }
-    next += static_cast<uint32_t>(mesh.triangles.size());
+    next += static_cast<uint32_t>(mesh.size());
     set.instances.push_back(std::move(in));
   }
   set.prim_end = next;

@@ -12,6 +12,7 @@
 #include "core/enum_table.h"
 #include "core/math.h"
 #include "geometry/alpha_mask.h"
+#include "geometry/triangle_mesh.h"
 #include "io/image_io.h"
 #include "materials/material.h"
 #include "materials/texture.h"
@@ -185,9 +186,9 @@ struct ShapeDesc {
 // triangles keep the file's materials until one is chosen for all). Its shapes are a contiguous
 // run of SceneDesc::shapes, in world coordinates like every shape (the renderer never sees objects); `transform`
 // places the object's own coordinates (the OBJ file's, or the group's shapes as the scene file writes them) in the
-// world. A shape outside every object stands alone (object_containing(), scene.h). A model's meshes used more
-// than once are not among its shapes but instances (InstanceDesc::object names the object): such an object may
-// hold no shape at all.
+// world. A shape outside every object stands alone (object_containing(), scene.h). A glTF model's meshes are not
+// among its shapes but instances (InstanceDesc::object names the object), save those whose materials emit light:
+// such an object may hold no shape at all.
 struct ObjectDesc {
   std::string name;
   ObjectKind kind = ObjectKind::Group;
@@ -197,22 +198,10 @@ struct ObjectDesc {
   std::string resolved_file;  // mesh: `file` relative to the scene file's directory (not saved)
 };
 
-// A triangle mesh that several instances place (a glTF mesh used by more than one node): stored once, in its
-// own coordinates, and shared, never changed, by every copy of the scene (the viewer's edits). Its triangles
-// have material slots, which each instance maps to the scene's materials.
-struct MeshDesc {
-  std::vector<std::array<DVec3, 3>> triangles;  // the file's vertex order
-  std::vector<uint32_t> slot;                   // per triangle, its material slot (< slots)
-  uint32_t slots = 1;
-  // Per triangle, its vertex normals and uv (in its vertex order), or empty when no triangle has either.
-  std::vector<TriangleShading> shading;
-  DVec3 lo{0.0}, hi{0.0};  // the vertices' bounds (set with the triangles: fit_box)
-  void fit_box() {
-    lo = DVec3(std::numeric_limits<double>::infinity()), hi = -lo;
-    for (const std::array<DVec3, 3>& t : triangles)
-      for (const DVec3& p : t) lo = glm::min(lo, p), hi = glm::max(hi, p);
-  }
-};
+// A triangle mesh that instances place (a glTF file's mesh): stored once, indexed, in its own coordinates
+// (geometry/triangle_mesh.h), and shared, never changed, by every copy of the scene (the viewer's edits) and by
+// the compiled scene. Its triangles have material slots, which each instance maps to the scene's materials.
+using MeshDesc = TriangleMesh;
 
 // One placement of a mesh: mesh → its object's coordinates (a glTF node's world transform), then the object's
 // transform (ObjectDesc), so that moving the object moves its instances. Instanced triangles never emit
@@ -302,7 +291,7 @@ struct SceneDesc {
   // The model files' vertex normals and texture coordinates (ShapeDesc::shading indexes it); null when no shape
   // has any. Shared, never changed: copies of a scene (the viewer's edits) share it.
   std::shared_ptr<const std::vector<TriangleShading>> shading;
-  // Meshes placed by instances (model files' meshes used more than once), and their placements.
+  // Meshes placed by instances (glTF files' meshes whose materials do not emit), and their placements.
   std::vector<std::shared_ptr<const MeshDesc>> meshes;
   std::vector<InstanceDesc> instances;
   // Some triangle has vertex normals.
@@ -311,8 +300,7 @@ struct SceneDesc {
       for (const TriangleShading& t : *shading)
         if (t.has_normals()) return true;
     for (const std::shared_ptr<const MeshDesc>& m : meshes)
-      for (const TriangleShading& t : m->shading)
-        if (t.has_normals()) return true;
+      if (m->any_normals()) return true;
     return false;
   }
 };

@@ -9,6 +9,18 @@
 
 namespace pt {
 
+namespace {
+
+// An array of floats or 32-bit integers by its bytes, which are its little-endian encoding on the machines the
+// tracer runs on (the assertion says so), as put_le_* would write them.
+template <class T>
+uint64_t hash_array(const std::vector<T>& v, uint64_t h) {
+  static_assert(std::endian::native == std::endian::little, "the scene hash reads arrays as little-endian bytes");
+  return fnv1a(reinterpret_cast<const unsigned char*>(v.data()), v.size() * sizeof(T), h);
+}
+
+}  // namespace
+
 uint64_t scene_content_hash(const SceneDesc& scene) {
   // Everything but the shapes goes through the scene writer, with the seed set to 0 (it is kept apart: renders
   // with other seeds may still be merged). The shapes, which meshes make numerous, go in by their bits: writing
@@ -43,17 +55,14 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   for (const std::shared_ptr<const MeshDesc>& m : scene.meshes) {
     record.clear();
     put_le_u32(record, m->slots);
-    for (size_t t = 0; t < m->triangles.size(); ++t) {
-      put_le_u32(record, m->slot[t]);
-      for (const DVec3& p : m->triangles[t])
-        for (int a = 0; a < 3; ++a) put_le_f64(record, p[a]);
-      if (!m->shading.empty())
-        for (int k = 0; k < 3; ++k) {
-          for (int a = 0; a < 3; ++a) put_le_u32(record, std::bit_cast<uint32_t>(m->shading[t].normal[k][a]));
-          for (int a = 0; a < 2; ++a) put_le_u32(record, std::bit_cast<uint32_t>(m->shading[t].uv[k][a]));
-        }
-    }
+    for (size_t n : {m->position.size(), m->normal.size(), m->uv.size(), m->index.size()})
+      put_le_u64(record, n);
     h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
+    h = hash_array(m->position, h);
+    h = hash_array(m->normal, h);
+    h = hash_array(m->uv, h);
+    h = hash_array(m->index, h);
+    h = hash_array(m->slot, h);
   }
   for (const InstanceDesc& in : scene.instances) {
     record.clear();
@@ -78,9 +87,9 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   return h;
 }
 
-FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name) {
+FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name, bool hash) {
   FilmStateInfo info;
-  info.scene_hash = scene_content_hash(scene);
+  info.scene_hash = hash ? scene_content_hash(scene) : 0;
   info.seed = scene.render.seed;
   info.estimator = static_cast<uint32_t>(scene.render.estimator);
   info.sampler = static_cast<uint32_t>(scene.render.sampler);

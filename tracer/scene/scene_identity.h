@@ -14,7 +14,9 @@ namespace pt {
 // Russian roulette), continued over each shape's binary record (docs/scale-out.md); the seed is compared on its
 // own. An environment map enters by its file name, not its pixels.
 uint64_t scene_content_hash(const SceneDesc& scene);
-FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name);
+// The state's description of a render of `scene`; without `hash` its scene_hash stays 0 (a film whose state is
+// never written need not pay for hashing a large mesh).
+FilmStateInfo state_info_for(const SceneDesc& scene, const std::string& scene_name, bool hash = true);
 
 // "" when a state of `info` may continue rendering `scene` (same content hash and seed, resumable), else the reason.
 std::string resume_problem(const FilmStateInfo& info, const SceneDesc& scene);

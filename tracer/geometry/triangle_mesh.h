@@ -1,0 +1,48 @@
+// An indexed triangle mesh in its own coordinates, as glTF stores one: float vertex positions (a glTF file's own
+// numbers, so nothing is rounded), per-vertex normals and texture coordinates, three vertex indices per
+// triangle and a material slot per triangle. Instances place it in the scene (instances.h); it is stored once
+// and shared, never changed, by the scene's description, its copies (the viewer's edits) and the compiled scene.
+// About 32 bytes a triangle where a triangle placed as a shape takes some 400 (docs/performance.md, "Meshes").
+#pragma once
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "core/math.h"
+
+namespace pt {
+
+struct TriangleMesh {
+  std::vector<Vec3> position;                    // per vertex
+  std::vector<Vec3> normal;                      // per vertex, unit (zero: faces there stay flat), or empty
+  std::vector<Vec2> uv;                          // per vertex, v downwards (materials/texture.h), or empty
+  std::vector<std::array<uint32_t, 3>> index;    // per triangle, its vertices, counter-clockwise seen from the front
+  std::vector<uint32_t> slot;                    // per triangle, its material slot (< slots)
+  uint32_t slots = 1;
+  Vec3 lo{0.f}, hi{0.f};                         // the positions' bounds (fit_box)
+
+  size_t size() const { return index.size(); }
+  Vec3 vertex(size_t triangle, int k) const { return position[index[triangle][k]]; }
+  // Triangle t's vertex normals, or false where the mesh has none or one of them is zero (the face stays flat,
+  // as glTF asks of a primitive without normals).
+  bool vertex_normals(size_t t, std::array<Vec3, 3>& n) const {
+    if (normal.empty()) return false;
+    for (int k = 0; k < 3; ++k) {
+      n[k] = normal[index[t][k]];
+      if (n[k] == Vec3(0.f)) return false;
+    }
+    return true;
+  }
+  bool any_normals() const {
+    for (const Vec3& n : normal)
+      if (n != Vec3(0.f)) return true;
+    return false;
+  }
+  void fit_box() {
+    lo = Vec3(std::numeric_limits<float>::infinity()), hi = -lo;
+    for (const Vec3& p : position) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  }
+};
+
+}  // namespace pt
