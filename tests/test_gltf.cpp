@@ -546,6 +546,30 @@ TEST_CASE("gltf: NORMAL follows the node transform by its inverse transpose and 
   CHECK(load_error(dir, nan).find("TEXCOORD_0") != std::string::npos);
 }
 
+TEST_CASE("gltf: TANGENT is read per vertex and made unit with its handedness as +-1 and refused unless float VEC4") {
+  TempDir dir;
+  std::string buf;
+  append(buf, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+  append(buf, std::vector<float>{2, 0, 0, 1, 0, 3, 0, -0.5f, 0, 0, 0, 1});  // the last one is unusable
+  const auto file = [&](const std::string& type) {
+    return R"({"asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 84, "uri": "data:application/octet-stream;base64,)" + base64(buf) + R"("}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 48}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": ")" + type + R"("}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TANGENT": 1}}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})";
+  };
+  const GltfContents g = load_gltf(dir.write("t.gltf", file("VEC4")));
+  REQUIRE(g.meshes.size() == 1);
+  const std::vector<Vec4>& t = g.meshes[0].mesh.tangent;
+  REQUIRE(t.size() == 3);
+  CHECK(t[0] == Vec4(1, 0, 0, 1));
+  CHECK(t[1] == Vec4(0, 1, 0, -1));
+  CHECK(t[2] == Vec4(0.f));
+  CHECK(load_error(dir, file("VEC3")).find("meshes[0].primitives[0].attributes.TANGENT: must be float VEC4") != std::string::npos);
+}
+
 TEST_CASE("gltf: a model file alone is one object that a saved scene refers to, normals, texture and edits kept") {
   // Debian's textured box with normals: saved from its standalone scene, the file names the model instead of
   // listing its triangles, and reads back to the same shapes, vertex normals and texture; an edited material

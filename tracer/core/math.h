@@ -14,6 +14,7 @@ namespace pt {
 using Vec2 = glm::vec2;
 using Vec3 = glm::vec3;
 using DVec3 = glm::dvec3;
+using Vec4 = glm::vec4;
 using Rgb = glm::vec3;  // linear RGB radiance or reflectance
 
 inline constexpr float kPi = 3.14159265358979323846f;

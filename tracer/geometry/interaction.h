@@ -27,6 +27,10 @@ struct Interaction {
   Vec2 uv{0.f};         // texture coordinates
   Vec3 du_dp{0.f}, dv_dp{0.f};  // gradients of u and v along the surface: a step δp in it moves uv by (du_dp·δp, dv_dp·δp)
   Vec3 lift{0.f};       // shadow-terminator offset: rays leaving on ng's side start from p + lift
+  // A normal map's tangent frame from the file (glTF TANGENT, interpolated): xyz the direction of growing u
+  // (not unit), w = ±1 with bitangent = w·(ns × tangent); zero where the file gives none (normal_map.h then
+  // takes it from the uv mapping).
+  Vec4 tangent{0.f};
   bool lifted = false;  // lift is not zero
 };
 
@@ -40,12 +44,20 @@ struct Interaction {
 //   where it lies below it, and the lifts are blended with the barycentrics, p' = p − Σ bₖ·min(0, (p − vₖ)·nₖ)·nₖ.
 //   Shadow rays from it no longer hit the neighbouring faces of the flat triangle, which drew the terminator as
 //   a jagged dark band. Kept only when it leaves towards ng's side (never into the surface).
+// - tangents (when given: the vertices' file tangents, w their handedness) are interpolated like the normals;
+//   the handedness follows ns when ns was turned to ng's side, so the bitangent w·(ns × t) keeps its direction.
 inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 3>& uv, const Vec3 v[3], float b0,
-                           float b1, float b2, const std::array<Vec3, 2>& dual, Interaction& it) {
+                           float b1, float b2, const std::array<Vec3, 2>& dual, Interaction& it,
+                           const std::array<Vec4, 3>* tangent = nullptr) {
   const Vec3 sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
   const float len2 = glm::dot(sum, sum);
   const float side = glm::dot(sum, it.ng) < 0.f ? -1.f : 1.f;
   if (len2 > 1e-12f) it.ns = sum * (side / std::sqrt(len2));
+  if (tangent) {
+    const std::array<Vec4, 3>& t = *tangent;
+    const Vec4 mix = b0 * t[0] + b1 * t[1] + b2 * t[2];
+    if (mix.w != 0.f) it.tangent = Vec4(Vec3(mix), (mix.w < 0.f ? -1.f : 1.f) * side);
+  }
   it.uv = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
   // u = u0 + b1·(u1 − u0) + b2·(u2 − u0), and b1, b2 have the gradients `dual` (PolygonSoA::dual).
   const Vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
@@ -137,7 +149,19 @@ inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h,
         if (smooth) n[k] = glm::normalize(in.normal_to_world * file_n[order[k]]);
         if (!m.uv.empty()) uv[k] = m.uv[m.index[i][order[k]]];
       }
-      vertex_shading(n, uv, v, b[0], b[1], b[2], dual[0], it);
+      if (m.tangent.empty()) {
+        vertex_shading(n, uv, v, b[0], b[1], b[2], dual[0], it);
+      } else {
+        // Tangents are directions in the surface: the placement's linear part maps them; a mirroring one turns
+        // the frame's handedness around.
+        const glm::mat3 linear(in.to_world_linear);
+        std::array<Vec4, 3> t;
+        for (int k = 0; k < 3; ++k) {
+          const Vec4 f = m.tangent[m.index[i][order[k]]];
+          t[k] = Vec4(linear * Vec3(f), in.mirrors ? -f.w : f.w);
+        }
+        vertex_shading(n, uv, v, b[0], b[1], b[2], dual[0], it, &t);
+      }
     }
   }
 }

@@ -17,6 +17,9 @@ struct TriangleMesh {
   std::vector<Vec3> position;                    // per vertex
   std::vector<Vec3> normal;                      // per vertex, unit (zero: faces there stay flat), or empty
   std::vector<Vec2> uv;                          // per vertex, v downwards (materials/texture.h), or empty
+  // Per vertex, or empty: a normal map's tangent (glTF TANGENT): xyz the unit direction in which u grows, w = ±1
+  // the bitangent's handedness (bitangent = w·(normal × tangent)); zero where the file's is unusable.
+  std::vector<Vec4> tangent;
   std::vector<std::array<uint32_t, 3>> index;    // per triangle, its vertices, counter-clockwise seen from the front
   std::vector<uint32_t> slot;                    // per triangle, its material slot (< slots)
   uint32_t slots = 1;

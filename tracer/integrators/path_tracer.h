@@ -158,7 +158,8 @@ template <MaterialSet kM>
       if (const TextureSlot& em = m.emission_map; em.texture && !s.shading.empty() && it.prim < s.sphere_begin())
         out.emission = m.emission * texture_at(*em.texture, em.uv_transform, it.uv);
       if (const TextureSlot& nm = m.normal_map; nm.texture)
-        it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, lookup(*nm.texture, nm.uv_transform), m.normal_scale);
+        it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, it.tangent, lookup(*nm.texture, nm.uv_transform),
+                              m.normal_scale);
       return out;
     }
   }

@@ -142,18 +142,20 @@ struct Reader {
     }
   }
 
-  // A per-vertex attribute of N components (NORMAL: float VEC3; TEXCOORD_0: VEC2 of floats, or of normalized
-  // unsigned bytes or shorts), one element per vertex.
+  // A per-vertex attribute of N components (NORMAL: float VEC3; TANGENT: float VEC4; TEXCOORD_0: VEC2 of floats,
+  // or of normalized unsigned bytes or shorts), one element per vertex.
   template <int N>
   std::vector<glm::vec<N, float>> attribute(int index, const std::string& where, size_t vertex_count) const {
     const tg::Accessor* a = index >= 0 && static_cast<size_t>(index) < m.accessors.size() ? &m.accessors[index] : nullptr;
     size_t bytes = 4;
     if (a) {
-      const int type = N == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC2;
+      const int type = N == 4 ? TINYGLTF_TYPE_VEC4 : N == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC2;
       const bool normalized_int = N == 2 && a->normalized && (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
                                                               a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
       if (a->type != type || (a->componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !normalized_int))
-        fail(where, N == 3 ? "must be float VEC3" : "must be VEC2 of floats or of normalized unsigned bytes or shorts");
+        fail(where, N == 4   ? "must be float VEC4"
+                    : N == 3 ? "must be float VEC3"
+                             : "must be VEC2 of floats or of normalized unsigned bytes or shorts");
       if (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) bytes = 1;
       if (a->componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) bytes = 2;
     }
@@ -469,10 +471,11 @@ struct Reader {
     MeshDesc& out_mesh = g.mesh;
     std::map<int, uint32_t> slot_of;  // file material → slot
     const tg::Mesh& me = m.meshes[mesh];
-    bool normals = false, uv = false;
+    bool normals = false, uv = false, tangents = false;
     for (const tg::Primitive& p : me.primitives) {
       normals = normals || p.attributes.count("NORMAL");
       uv = uv || p.attributes.count("TEXCOORD_0");
+      tangents = tangents || p.attributes.count("TANGENT");
     }
     for (size_t pi = 0; pi < me.primitives.size(); ++pi) {
       const tg::Primitive& p = me.primitives[pi];
@@ -497,6 +500,17 @@ struct Reader {
         out_mesh.uv.insert(out_mesh.uv.end(), t.begin(), t.end());
       } else if (uv) {
         out_mesh.uv.resize(out_mesh.position.size(), Vec2(0.f));
+      }
+      // TANGENT: xyz made unit, w its sign (±1, the bitangent's handedness); zero where unusable, and for a
+      // primitive without it (normal maps there take their frame from the uv mapping).
+      if (const auto it = p.attributes.find("TANGENT"); it != p.attributes.end()) {
+        for (const Vec4& t : attribute<4>(it->second, where + ".attributes.TANGENT", count)) {
+          const float len = glm::length(Vec3(t));
+          out_mesh.tangent.push_back(len > 0.f && std::isfinite(len) ? Vec4(Vec3(t) / len, t.w < 0.f ? -1.f : 1.f)
+                                                                      : Vec4(0.f));
+        }
+      } else if (tangents) {
+        out_mesh.tangent.resize(out_mesh.position.size(), Vec4(0.f));
       }
       if (!p.targets.empty()) warn("morph targets are not read: meshes keep their base shape");
       std::vector<uint32_t> idx;

@@ -22,8 +22,9 @@
 //   intensity read one to one as W/sr (point, spot) and W/m² (directional), never divided by 683; the spot's
 //   cone angles; `range` is passed over (the inverse-square law holds everywhere), said once as a warning.
 // - metallicRoughnessTexture (roughness × green, metallic × blue, linear) and normalTexture with its scale
-//   (a tangent-space normal map: materials/normal_map.h, whose per-face tangents come from the uv mapping, so
-//   TANGENT is passed over), each with its own KHR_texture_transform.
+//   (a tangent-space normal map: materials/normal_map.h, in the frame of the TANGENT attribute, or where a
+//   primitive has none, or its mesh emits and is placed as triangles, the per-face frame of the uv mapping),
+//   each with its own KHR_texture_transform.
 // - alpha mode MASK: cut-outs (geometry/alpha_mask.h) where baseColorFactor's alpha × the base colour
 //   texture's alpha falls below alphaCutoff; BLEND: partial transparency, the surface there with probability
 //   that alpha (stochastic transparency).

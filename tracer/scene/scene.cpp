@@ -266,8 +266,9 @@ std::string validate_instances(const SceneDesc& s, double& farthest) {
     const size_t vertices = m.position.size();
     if (m.index.empty() || m.slot.size() != m.index.size() || m.slots == 0)
       return path + ": no triangles, or not one material slot per triangle";
-    if ((!m.normal.empty() && m.normal.size() != vertices) || (!m.uv.empty() && m.uv.size() != vertices))
-      return path + ": normals or uv not one per vertex";
+    if ((!m.normal.empty() && m.normal.size() != vertices) || (!m.uv.empty() && m.uv.size() != vertices) ||
+        (!m.tangent.empty() && m.tangent.size() != vertices))
+      return path + ": normals, uv or tangents not one per vertex";
     Vec3 lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
     for (const Vec3& p : m.position) {
       if (!finite3(p)) return path + ": a vertex is not finite";
@@ -278,6 +279,9 @@ std::string validate_instances(const SceneDesc& s, double& farthest) {
       if (!finite3(n)) return path + ": a vertex normal is not finite";
     for (const Vec2& t : m.uv)
       if (!std::isfinite(t.x) || !std::isfinite(t.y)) return path + ": a texture coordinate is not finite";
+    for (const Vec4& t : m.tangent)
+      if (!finite3(Vec3(t)) || !(t.w == 0.f || t.w == 1.f || t.w == -1.f))
+        return path + ": a tangent is not finite or its handedness not ±1";
     for (size_t t = 0; t < m.index.size(); ++t) {
       const std::array<uint32_t, 3>& v = m.index[t];
       if (m.slot[t] >= m.slots) return path + ".slot: past the mesh's slots";

@@ -55,12 +55,13 @@ uint64_t scene_content_hash(const SceneDesc& scene) {
   for (const std::shared_ptr<const MeshDesc>& m : scene.meshes) {
     record.clear();
     put_le_u32(record, m->slots);
-    for (size_t n : {m->position.size(), m->normal.size(), m->uv.size(), m->index.size()})
+    for (size_t n : {m->position.size(), m->normal.size(), m->uv.size(), m->tangent.size(), m->index.size()})
       put_le_u64(record, n);
     h = fnv1a(reinterpret_cast<const unsigned char*>(record.data()), record.size(), h);
     h = hash_array(m->position, h);
     h = hash_array(m->normal, h);
     h = hash_array(m->uv, h);
+    h = hash_array(m->tangent, h);
     h = hash_array(m->index, h);
     h = hash_array(m->slot, h);
   }
