@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Builds everything and runs the whole test suite (doctest cases through ctest, all cores).
-# With CI=true (as in CI) or with --sanitize, then also builds the tracer and its tests with AddressSanitizer and
-# UndefinedBehaviorSanitizer (build-asan/) and runs the fast suites under them: scene files, intersection,
-# sampling, film, materials, furnace, determinism, CLI error paths, film states and merges; and runs each
-# libFuzzer target (scene loader, image readers, geometry files, film states) for 30 s under ASan/UBSan
-# (tools/fuzz.sh; a finding fails the run).
+# With CI=true (as in CI) or with --sanitize, then also builds the tracer and its tests with clang 14,
+# AddressSanitizer and UndefinedBehaviorSanitizer (build-asan/, beside the libFuzzer targets) and runs the fast
+# suites under them: scene files, intersection, sampling, film, materials, furnace, determinism, CLI error paths,
+# film states and merges; and runs each libFuzzer target (scene loader, image readers, geometry files, film
+# states, glTF, textures) for 30 s under ASan/UBSan (tools/fuzz.sh; a finding fails the run).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 "$here/tools/bootstrap.sh"
@@ -12,8 +12,10 @@ cd "$here/build"
 ctest -j"$(nproc)" --output-on-failure --timeout 600
 
 if [ "${CI:-}" = "true" ] || [ "${1:-}" = "--sanitize" ]; then
-  echo "== sanitizer build (ASan + UBSan) =="
-  cmake -S "$here" -B "$here/build-asan" -DPT_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+  echo "== sanitizer build (clang, ASan + UBSan) =="
+  "$here/tools/install_packages.sh" clang-14 libclang-rt-14-dev
+  cmake -S "$here" -B "$here/build-asan" -DPT_FUZZ=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
   cmake --build "$here/build-asan" -j"$(nproc)" --target tracer_tests pathtracer
   cd "$here/build-asan"
   ctest -j"$(nproc)" --output-on-failure --timeout 900 \

@@ -506,7 +506,7 @@ std::vector<ChainFold> chain_folds(const SpecularSphere& sph, uint64_t seed, int
           bool ok = true;
           while (ok && hi - lo > 1e-12) {
             const double m1 = hi - 0.618033988749895 * (hi - lo), m2 = lo + 0.618033988749895 * (hi - lo);
-            double c1, c2;
+            double c1 = 0.0, c2 = 0.0;
             ok = coord(m1, c1) && coord(m2, c2);
             if ((c1 > c2) == f.maximum) hi = m2;
             else lo = m1;
@@ -699,7 +699,8 @@ TEST_CASE("render region: bdpt in a region converges to the whole film's image t
   // (seeds 1 and 2), |z| ≤ 5 per channel (two-sided p ≈ 6e-7 each).
   const SceneDesc d = lit_floor();
   const PixelRect region{16, 8, 32, 24};
-  for (const auto& [s, t] : {std::pair{2, 1}, std::pair{-1, -1}}) {  // light tracing alone, then every strategy
+  for (const std::pair<int, int>& st : {std::pair{2, 1}, std::pair{-1, -1}}) {  // light tracing alone, then all
+    const int s = st.first, t = st.second;  // not a structured binding: INFO captures them
     SceneDesc a = d, b = d;
     for (SceneDesc* x : {&a, &b}) {
       x->render.estimator = Estimator::Bdpt;

@@ -201,7 +201,8 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
   // uniform now.
   double worst_ratio = 0;
   std::string worst;
-  for (const auto& [name, pts] : series) {
+  for (const auto& [name_, pts_] : series) {
+    const auto& name = name_; const auto& pts = pts_;  // clang 14: lambdas cannot capture bindings
     INFO(name);
     REQUIRE(pts.size() == 4);
     // Non-decreasing: on a loaded machine one pass may run past two budgets (they then share a point).

@@ -104,7 +104,8 @@ TEST_CASE("cut-outs: a black square cut in its left half shows the bright backgr
   s.shading = shading;
   for (Estimator est : {Estimator::Cosine, Estimator::Mis}) {
     s.render.estimator = est;
-    const auto [left, right] = halves(test::render_film(s, 16, 2), s.width, s.height);
+    const auto [left_, right_] = halves(test::render_film(s, 16, 2), s.width, s.height);
+    const auto& left = left_; const auto& right = right_;  // clang 14: lambdas cannot capture bindings
     INFO(std::string(to_string(est)) << ": left " << left << ", right " << right);
     CHECK(left == doctest::Approx(1.0));  // through the cut: the background
     CHECK(right == 0.0);                  // the black surface (its own reflections see nothing but black)
@@ -186,14 +187,16 @@ TEST_CASE("cut-outs: a BLEND surface of alpha 0.3 shows 0.7 of what is behind it
   const double se = std::sqrt(0.21 / (kSpp * 64.0));
   for (Estimator est : {Estimator::Cosine, Estimator::Mis}) {
     s.render.estimator = est;
-    const auto [left, right] = halves(test::render_film(s, kSpp, 2), s.width, s.height);
+    const auto [left_, right_] = halves(test::render_film(s, kSpp, 2), s.width, s.height);
+    const auto& left = left_; const auto& right = right_;  // clang 14: lambdas cannot capture bindings
     INFO(std::string(to_string(est)) << ": " << 0.5 * (left + right) << " (0.7 expected, SE " << se << ")");
     CHECK(std::abs(0.5 * (left + right) - 0.7) <= 4.5 * se);
   }
 
   const SceneDesc lit = sunlit_floor_under(blend(0.3f));
   const double full = 0.5 / glm::pi<double>() * 2.0;  // ρ/π · E without the blocker
-  const auto [left, right] = halves(test::render_film(lit, kSpp, 2), lit.width, lit.height);
+  const auto [left_, right_] = halves(test::render_film(lit, kSpp, 2), lit.width, lit.height);
+  const auto& left = left_; const auto& right = right_;  // clang 14: lambdas cannot capture bindings
   INFO("floor: " << 0.5 * (left + right) << ", expected " << 0.7 * full);
   CHECK(std::abs(0.5 * (left + right) - 0.7 * full) <= 4.5 * se * full);
 }

@@ -126,7 +126,8 @@ TEST_CASE("denoiser: the regression reproduces a linear ramp up to the image's b
 TEST_CASE("denoiser: both filters take images smaller than their windows, and non-finite variances") {
   // 1×1, 3×2 and 1×40: the window and the patch reach past every border. The variance of one pixel is NaN
   // and of another +inf (a film below 2 samples reports no estimate); the output stays finite.
-  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{3, 2}, std::pair{1, 40}}) {
+  for (const auto& [w_, h_] : {std::pair{1, 1}, std::pair{3, 2}, std::pair{1, 40}}) {
+    const auto& w = w_; const auto& h = h_;  // clang 14: lambdas cannot capture bindings
     const size_t n = static_cast<size_t>(w) * h;
     std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n, 0.5f), normal(3 * n), depth(n, 2.f);
     for (size_t i = 0; i < n; ++i) {
@@ -337,7 +338,8 @@ TEST_CASE("cli: render --exr writes the layers exrheader lists, --exr-half halve
       {"--denoise --denoiser nfor", "--denoiser"},
       {"--exr " + stem + "_x.exr --aov denoised", "--aov denoised: needs --denoise"},
   };
-  for (const auto& [args, reason] : refused) {
+  for (const auto& [args_, reason_] : refused) {
+    const auto& args = args_; const auto& reason = reason_;  // clang 14: lambdas cannot capture bindings
     CAPTURE(args);
     const auto r = test::run_pathtracer("", "render -q --scene cornell --spp 1 " + args);
     CHECK(r.status == 2);

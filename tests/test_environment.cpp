@@ -274,7 +274,8 @@ TEST_CASE("environment: lat-long convention (rows from +y down, centre column fa
 
 TEST_CASE("environment: a constant map has pdf 1/(4 pi) and its samples integrate exactly") {
   const Rgb c(0.5f, 1.f, 2.f);
-  for (const auto& [W, H, rot] : {std::tuple{64, 32, 0.f}, std::tuple{7, 3, 33.f}, std::tuple{1, 1, 0.f}}) {
+  for (const auto& [W_, H_, rot_] : {std::tuple{64, 32, 0.f}, std::tuple{7, 3, 33.f}, std::tuple{1, 1, 0.f}}) {
+    const auto& W = W_; const auto& H = H_; const auto& rot = rot_;  // clang 14: lambdas cannot capture bindings
     Image img{W, H, {}};
     for (int k = 0; k < W * H; ++k) img.rgb.insert(img.rgb.end(), {c.x, c.y, c.z});
     const float scale = 3.f;
@@ -373,7 +374,7 @@ TEST_CASE("environment: chi-square of EnvironmentMap::sample against pdf (unrota
   for (const auto& [w, h, rot] : {std::tuple{64, 32, 0.f}, std::tuple{64, 32, 37.5f}, std::tuple{12, 6, -50.f}}) {
     const EnvironmentMap env(test_map(w, h), 1.f, rot);
     double integral = 0;
-    const auto r = env_chi2(env, 1000000, 1234 + static_cast<uint64_t>(rot), &integral);
+    const auto r = env_chi2(env, 1000000, 1234 + static_cast<uint64_t>(static_cast<int64_t>(rot)), &integral);
     MESSAGE("EnvironmentMap " << w << "x" << h << ", rotation " << rot << ": chi2 " << r.statistic << " dof " << r.dof << " p " << r.p_value
                                        << ", integral of pdf " << integral);
     CHECK(integral == rel(1.0, 1e-5));
@@ -407,7 +408,8 @@ TEST_CASE("environment: invalid environment map inputs are rejected") {
 TEST_CASE("environment: Preetham zenith luminance and chromaticity match the paper's formulas") {
   // (T, sun zenith angle in degrees). Expected values are evaluated here from Preetham et al. 1999,
   // Appendix A.2, independently of the code under test.
-  for (const auto& [T, theta_deg] : {std::pair{3.0, 45.0}, std::pair{6.0, 70.0}, std::pair{2.0, 10.0}}) {
+  for (const auto& [T_, theta_deg_] : {std::pair{3.0, 45.0}, std::pair{6.0, 70.0}, std::pair{2.0, 10.0}}) {
+    const auto& T = T_; const auto& theta_deg = theta_deg_;  // clang 14: lambdas cannot capture bindings
     CAPTURE(T);
     CAPTURE(theta_deg);
     const double ts = theta_deg * kPiD / 180.0;
@@ -439,7 +441,8 @@ TEST_CASE("environment: Preetham zenith luminance and chromaticity match the pap
 
     // Off the zenith: Perez F(θ, γ) with the Appendix A.2 coefficients; value = zenith value × F(θ, γ)/F(0, θs).
     // Views (zenith angle, azimuth from the sun) chosen with γ far from θs so that every coefficient matters.
-    for (const auto& [th_deg, dphi_deg] : {std::pair{80.0, 150.0}, std::pair{60.0, 100.0}, std::pair{30.0, 5.0}, std::pair{85.0, 0.0}}) {
+    for (const auto& [th_deg_, dphi_deg_] : {std::pair{80.0, 150.0}, std::pair{60.0, 100.0}, std::pair{30.0, 5.0}, std::pair{85.0, 0.0}}) {
+      const auto& th_deg = th_deg_; const auto& dphi_deg = dphi_deg_;  // clang 14: lambdas cannot capture bindings
       CAPTURE(th_deg);
       CAPTURE(dphi_deg);
       const double th = th_deg * kPiD / 180.0, dphi = dphi_deg * kPiD / 180.0;
@@ -652,9 +655,10 @@ Image small_image() {
 TEST_CASE("environment: HDR images round-trip through EXR, Radiance HDR and PFM") {
   const TempDir tmp;
   const Image img = small_image();
-  for (const auto& [name, opts] : {std::pair{"float.exr", ExrWriteOptions{false, false}},
+  for (const auto& [name_, opts_] : {std::pair{"float.exr", ExrWriteOptions{false, false}},
                                    std::pair{"half_rgba.exr", ExrWriteOptions{true, true}},
                                    std::pair{"UPPER.EXR", ExrWriteOptions{true, false}}}) {
+    const auto& name = name_; const auto& opts = opts_;  // clang 14: lambdas cannot capture bindings
     CAPTURE(name);
     write_exr(tmp.file(name), img, opts);
     const HdrImageResult r = read_hdr_image(tmp.file(name));

@@ -284,7 +284,7 @@ int check_bvh_against_brute_force(const Soup& soup, const std::vector<std::pair<
   const uint32_t n = static_cast<uint32_t>(soup.triangle.size());
   int hits = 0;
   for (size_t r = 0; r < rays.size(); ++r) {
-    const auto [o, d] = rays[r];
+    const Vec3 o = rays[r].first, d = rays[r].second;  // not a structured binding: lambdas below capture them
     const RayShear shear(d);
     const uint32_t skip = skips && r % 3 == 0 ? static_cast<uint32_t>(r * 7919 % n) : ~0u;
     float best = kInfinity;

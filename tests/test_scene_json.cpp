@@ -839,7 +839,8 @@ TEST_CASE("scene_json: each material type reads, writes and refuses exactly the 
     if (key == "albedo" || key == "eta" || key == "k") return "[0.5, 0.5, 0.5]";
     return key == "ior" ? "1.4" : key == "g" ? "0.3" : "0.2";
   };
-  for (const auto& [type, keys] : expected) {
+  for (const auto& [type_, keys_] : expected) {
+    const auto& type = type_; const auto& keys = keys_;  // clang 14: lambdas cannot capture bindings
     for (const std::string& key : all) {
       const bool takes_it = std::find(keys.begin(), keys.end(), key) != keys.end();
       std::string text(builtin_scene_json("cornell").value());
