@@ -170,6 +170,12 @@ TEST_CASE("gltf: the first perspective camera gives position, view direction, fi
   // No camera: one that frames the triangle, looking at the centre of its bounds.
   const SceneDesc framed = gltf_scene(dir.write("nocam.gltf", triangle_gltf(R"({"mesh": 0})", "0")));
   check_vertex(framed.camera.look_at, DVec3(0.5, 0.5, 0));
+  // Turned 45° about +z by its node, it is framed by its vertices as placed, (0, 0), (√½, √½), (−√½, √½): not by
+  // its turned box, whose centre would sit at y = √½.
+  const std::string q = std::to_string(std::sin(glm::pi<double>() / 8)), w = std::to_string(std::cos(glm::pi<double>() / 8));
+  const SceneDesc turned = gltf_scene(dir.write("turned.gltf", triangle_gltf(R"({"mesh": 0, "rotation": [0, 0, )" + q + ", " + w + "]}", "0")));
+  CHECK(std::abs(turned.camera.look_at.x) < 1e-6);
+  CHECK(turned.camera.look_at.y == doctest::Approx(0.5 * std::sqrt(0.5)).epsilon(1e-6));
 }
 
 TEST_CASE("gltf: materials map to the metallic-roughness BRDF or glass and emitters decide the background") {

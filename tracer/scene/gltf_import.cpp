@@ -796,8 +796,22 @@ SceneDesc gltf_scene(const std::string& path) {
     in.object = 0;
     in.materials = g.meshes[gi.mesh].slot_material;  // the scene's materials are the file's, in order
     s.instances.push_back(std::move(in));
-    const auto [ilo, ihi] = placed_box(s, s.instances.back());
-    lo = glm::min(lo, ilo), hi = glm::max(hi, ihi);
+  }
+  // The framing camera frames the vertices as placed (a rotated mesh's box would frame it loosely), unless that
+  // means more than kExactFramingVertices transforms; then the placed boxes.
+  constexpr size_t kExactFramingVertices = size_t{1} << 22;
+  size_t placed_vertices = 0;
+  for (const InstanceDesc& in : s.instances) placed_vertices += s.meshes[in.mesh]->position.size();
+  for (const InstanceDesc& in : s.instances) {
+    if (placed_vertices <= kExactFramingVertices) {
+      for (const Vec3& p : s.meshes[in.mesh]->position) {
+        const DVec3 w(in.transform * glm::dvec4(DVec3(p), 1.0));
+        lo = glm::min(lo, w), hi = glm::max(hi, w);
+      }
+    } else {
+      const auto [ilo, ihi] = placed_box(s, in);
+      lo = glm::min(lo, ilo), hi = glm::max(hi, ihi);
+    }
   }
   s.camera = g.camera ? *g.camera : framing_camera(lo, hi);
   s.punctual_lights = std::move(g.lights);
