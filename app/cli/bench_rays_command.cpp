@@ -30,6 +30,18 @@ void write_triangle_file(const std::string& path, const SceneDesc& desc, const S
     tris.push_back({world(p.v[0][i]), world(p.v[1][i]), world(p.v[2][i])});
     if (!p.triangle[i]) tris.push_back({world(p.v[0][i]), world(p.v[2][i]), world(p.v[3][i])});
   }
+  // Instanced meshes (a glTF model's), each triangle placed as make_interaction places it (in double), so the
+  // peer traces the same triangles without instancing.
+  for (const Instance& in : s.instances.instances) {
+    const MeshGeometry& mesh = *s.instances.meshes[in.mesh];
+    for (uint32_t t = 0; t < mesh.size(); ++t) {
+      std::array<Vec3, 3> tri;
+      for (int k = 0; k < 3; ++k)
+        tri[k] = Vec3(in.to_world_linear * DVec3(mesh.vertex(t, k)) + in.to_world_offset + s.world_origin);
+      if (in.mirrors) std::swap(tri[1], tri[2]);
+      tris.push_back(tri);
+    }
+  }
   std::string out = "PTTRIS01";
   for (const DVec3& v : {desc.camera.position, desc.camera.look_at, desc.camera.up})
     for (int k = 0; k < 3; ++k) put_le_f32(out, static_cast<float>(v[k]));
@@ -63,7 +75,7 @@ void add_bench_rays_command(CLI::App& bench, BenchRaysOptions& o) {
       ->check(whole_in(1, 1000))
       ->capture_default_str();
   r->add_option("--export-tris", o.tris_file,
-                "Also write the scene's polygons (as the tracer holds them, meshes included) as the triangle file "
+                "Also write the scene's polygons (as the tracer holds them, meshes and instances included) as the triangle file "
                 "of ../shared/peers/embree_rays (PTTRIS01), so Embree traces the same geometry");
   r->add_flag("--packets", o.packets,
               "Query as many consecutive rays at a time as the SIMD width (16 with AVX-512): one polygon per step for all");
