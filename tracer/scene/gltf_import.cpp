@@ -396,6 +396,7 @@ struct Reader {
   // file's world as shapes, which light sampling knows (instanced triangles are not lights).
   std::vector<int> read_mesh;  // per file mesh, its index in out.meshes, −1 while not read
   size_t stored_triangles = 0;  // triangles held: the meshes' own and the placed ones
+  size_t stored_vertices = 0;   // the meshes' vertices
 
   bool mesh_emits(const tg::Mesh& me) const {
     for (const tg::Primitive& p : me.primitives) {
@@ -487,6 +488,11 @@ struct Reader {
       const size_t first = out_mesh.position.size();
       append_positions(pos->second, where + ".attributes.POSITION", out_mesh.position);
       const size_t count = out_mesh.position.size() - first;
+      // Vertices beyond three per triangle the file may hold serve nothing; the bound also keeps a mesh's
+      // indices within 32 bits.
+      stored_vertices += count;
+      if (stored_vertices > 3 * kMaxMeshTriangles)
+        fail(where + ".attributes.POSITION", "more than " + std::to_string(3 * kMaxMeshTriangles) + " vertices in the file");
       if (const auto it = p.attributes.find("NORMAL"); it != p.attributes.end()) {
         for (const Vec3& n : attribute<3>(it->second, where + ".attributes.NORMAL", count)) {
           const float len = glm::length(n);
