@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
@@ -132,7 +133,12 @@ std::string apply_script_action(ViewerModel& model, const ScriptAction& a) {
       return model.status();
     }
     case ScriptVerb::Screenshot: return "";
-    case ScriptVerb::Quit: model.request_quit(); return "";
+    case ScriptVerb::Quit:
+      // A script runs unattended: it never waits on the unsaved-edits question (Esc's), and its edits, never
+      // written anywhere, are dropped with a note.
+      if (model.has_unsaved_edits()) std::fprintf(stderr, "note: --script quit: the scene's unsaved edits are discarded\n");
+      model.quit_requested = true;
+      return "";
   }
   return "";
 }

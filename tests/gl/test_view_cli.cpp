@@ -312,6 +312,22 @@ run away "$d/away.json" & run off cornell --script "$d/off.txt" & wait
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("view cli: a script's quit after a live edit quits at once with a note instead of waiting on a question") {
+  if (!have_xvfb_run()) {
+    pt::test::skip_for_missing("xvfb-run", "the scripted quit test");
+    return;
+  }
+  // Switching the light off is an unsaved scene edit; Esc would then ask before quitting, and a script that
+  // quit the same way waited for an answer nobody gives (seen: killed by its timeout, status 124).
+  const std::string file = "view_quit_" + std::to_string(getpid()) + ".txt";
+  std::ofstream(file) << "0.5 emission light 0\n1.5 quit\n";
+  const Run r = run("timeout 60 xvfb-run -a -s '-screen 0 1280x800x24'", "view cornell --threads 1 --script " + file);
+  INFO(r.out << r.err);
+  CHECK(r.status == 0);
+  CHECK(r.err.find("unsaved edits are discarded") != std::string::npos);
+  std::filesystem::remove(file);
+}
+
 TEST_CASE("view cli: following the window, a window resize changes the render's size") {
   if (!have_xvfb_run() || std::system("command -v xdotool > /dev/null") != 0) {
     pt::test::skip_for_missing("xvfb-run or xdotool", "the resize test");
