@@ -793,7 +793,7 @@ SceneDesc gltf_scene(const std::string& path) {
     for (int k = 0; k < 3; ++k) lo = glm::min(lo, g.triangles[i][k]), hi = glm::max(hi, g.triangles[i][k]);
   }
   if (!g.shading.empty()) s.shading = std::make_shared<const std::vector<TriangleShading>>(std::move(g.shading));
-  // Meshes several nodes show: stored once, placed by instances of the model's object.
+  // The meshes (all but the emitting ones): stored once, placed by instances of the model's object.
   for (GltfMesh& m : g.meshes) s.meshes.push_back(std::make_shared<const MeshDesc>(std::move(m.mesh)));
   for (const GltfInstance& gi : g.instances) {
     InstanceDesc in;

@@ -861,7 +861,7 @@ struct StreamedShapes {
       add(s, override_name ? std::string_view(*override_name) : std::string_view(names[model.triangle_material[t]]), index);
     }
     o.shape_count = shapes.size() - o.first_shape;
-    // Meshes several nodes show: stored once, placed by instances of this object (its transform applies).
+    // Its meshes (all but the emitting ones): stored once, placed by instances of this object (its transform applies).
     const size_t first_mesh = meshes.size();
     for (GltfMesh& g : model.meshes) meshes.push_back(std::make_shared<const MeshDesc>(std::move(g.mesh)));
     for (const GltfInstance& gi : model.instances) {
@@ -953,7 +953,7 @@ struct StreamedShapes {
   }
 
   std::vector<ObjectDesc> objects;  // in shape order
-  std::vector<std::shared_ptr<const MeshDesc>> meshes;  // glTF models' meshes shown by several nodes
+  std::vector<std::shared_ptr<const MeshDesc>> meshes;  // glTF models' meshes (instanced)
   std::vector<InstanceDesc> instances;                  // their placements (materials as name ids until resolve)
   std::vector<PunctualLightDesc> lights;  // glTF models' punctual lights
   std::string base_dir;  // where relative mesh paths start (the scene file's directory)
