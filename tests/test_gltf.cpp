@@ -444,8 +444,8 @@ TEST_CASE("gltf: a scene file places a glTF model with a transform, its material
   SceneDesc small = s;
   small.width = small.height = 16;
   const std::shared_ptr<Scene> compiled = compile_scene(small);
-  CHECK(compiled->polygons.size() == 1);
-  CHECK(compiled->instances.instances.size() == 1);
+  CHECK(compiled->polygons.size() == 2);  // a triangle: placed as a polygon (instances_as_polygons)
+  CHECK(compiled->polygon_instance == std::vector<uint32_t>{Scene::kNoInstance, 0});
   // Errors name the shape: a missing file, a name with '/'.
   try {
     parse_scene(scene_json("", "").replace(scene_json("", "").find("model.gltf"), 10, "none.gltf"), "bad.json",

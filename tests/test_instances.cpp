@@ -325,6 +325,40 @@ TEST_CASE("instances: 1,000 placements store the mesh once") {
   }
 }
 
+TEST_CASE("instances: a small scene places its instanced triangles as polygons with the flattened scene's image bits") {
+  // Below kBvhMinPolygons in all, the instances' triangles become polygons (the brute-force loop and the
+  // wavefront: a small glTF model renders as fast as before it was instanced); the image is bit for bit the
+  // flattened scene's (the same placement in double), and each polygon remembers its instance (a pick finds
+  // the object).
+  SceneDesc desc = instanced_scene();
+  desc.meshes[0] = sphere_mesh(4, 6);
+  desc.instances.resize(2);
+  const size_t n = desc.meshes[0]->size();
+  REQUIRE(1 + 2 * n < kBvhMinPolygons);
+  REQUIRE(instances_as_polygons(desc));
+  const auto placed = compile_scene(desc);
+  CHECK(placed->instances.empty());
+  REQUIRE(placed->polygons.size() == 1 + 2 * n);
+  CHECK(placed->polygon_bvh.empty());
+  CHECK(placed->polygon_instance[0] == Scene::kNoInstance);
+  CHECK(placed->polygon_instance[1] == 0);
+  CHECK(placed->polygon_instance[1 + n] == 1);
+  const std::vector<uint32_t> shapes = primitive_shapes(desc);
+  CHECK(shapes.size() == placed->polygons.size());
+  desc.render.max_bounces = 2;
+  const Film a = test::render_film(desc, 8, 2), b = test::render_film(flattened(desc), 8, 2);
+  size_t differ = 0;
+  for (size_t i = 0; i < a.pixel_count(); ++i) differ += a.mean(i) != b.mean(i);
+  CHECK(differ == 0);
+  // A mesh with file tangents (polygons carry none), or more triangles than brute force serves, stays instanced.
+  auto tangents = std::make_shared<MeshDesc>(*desc.meshes[0]);
+  tangents->tangent.assign(tangents->position.size(), Vec4(1, 0, 0, 1));
+  SceneDesc with_tangents = desc;
+  with_tangents.meshes[0] = tangents;
+  CHECK_FALSE(instances_as_polygons(with_tangents));
+  CHECK_FALSE(instances_as_polygons(instanced_scene()));
+}
+
 TEST_CASE("instances: invalid placements and emitting materials are refused with their path") {
   SceneDesc desc = instanced_scene();
   CHECK(validate_scene(desc).empty());
@@ -389,7 +423,10 @@ TEST_CASE("gltf: a mesh several nodes show is stored once and placed by instance
   CHECK(s.instances.size() == 4);
   CHECK(s.instances[0].object == 0);
   const auto compiled = compile_scene(s);
-  CHECK(compiled->instances.instances.size() == 4);
+  // Six triangles in all: placed as polygons (instances_as_polygons), each remembering its instance.
+  CHECK(compiled->instances.instances.empty());
+  REQUIRE(compiled->polygons.size() == 6);
+  CHECK(compiled->polygon_instance == std::vector<uint32_t>{Scene::kNoInstance, Scene::kNoInstance, 0, 1, 2, 3});
   CHECK(compiled->lights.size() == 2);  // the two lamp triangles
 
   // Placed by a scene file's gltf element: its transform moves the instances with the object.

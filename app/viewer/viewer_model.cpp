@@ -266,9 +266,12 @@ std::optional<PickResult> ViewerModel::pick(double x, double y) {
   r.distance = hit.t;
   r.point = c.position + static_cast<double>(hit.t) * DVec3(ray.d);
   r.material = s.material_of(hit.prim);
-  if (s.instances.holds(hit.prim)) {
-    // An instanced mesh: the object that places it (its shapes, if it has any, stand for it).
-    const int o = scene_.instances[s.instances.instance_of(hit.prim).desc].object;
+  const bool placed = hit.prim < s.polygon_instance.size() && s.polygon_instance[hit.prim] != Scene::kNoInstance;
+  if (s.instances.holds(hit.prim) || placed) {
+    // An instanced mesh (or its triangles placed as polygons, instances_as_polygons): the object that places
+    // it (its shapes, if it has any, stand for it).
+    const uint32_t instance = placed ? s.polygon_instance[hit.prim] : s.instances.instance_of(hit.prim).desc;
+    const int o = scene_.instances[instance].object;
     if (o >= 0) r.object = static_cast<size_t>(o);
     r.shape = o >= 0 && scene_.objects[o].shape_count > 0 ? scene_.objects[o].first_shape : scene_.shapes.size();
     return r;

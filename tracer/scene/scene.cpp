@@ -501,6 +501,53 @@ std::shared_ptr<const MeshGeometry> compile_mesh(const std::shared_ptr<const Mes
   return g;
 }
 
+// The instances' triangles placed as polygons (instances_as_polygons): vertices in double by the placement, its
+// normals by the inverse transpose, listed the other way round under a mirror, as a model file's triangles are
+// placed as shapes; their vertex normals and uv into SceneGeometry::shading, which then covers every polygon.
+void add_instance_polygons(const SceneDesc& desc, Scene& s) {
+  const DVec3 o = s.world_origin;
+  s.polygon_instance.assign(s.polygons.size(), Scene::kNoInstance);
+  bool shaded = !s.shading.empty();
+  for (size_t k = 0; k < desc.instances.size(); ++k) {
+    const InstanceDesc& in = desc.instances[k];
+    const MeshDesc& m = *desc.meshes[in.mesh];
+    shaded = shaded || !m.normal.empty() || !m.uv.empty();
+  }
+  if (shaded && s.shading.empty())  // the shapes' polygons had none: their face normals, uv 0
+    for (const Vec3& ng : s.polygons.normal) {
+      s.shading.normal.push_back({ng, ng, ng});
+      s.shading.uv.push_back({Vec2(0.f), Vec2(0.f), Vec2(0.f)});
+    }
+  for (size_t k = 0; k < desc.instances.size(); ++k) {
+    const InstanceDesc& in = desc.instances[k];
+    const MeshDesc& m = *desc.meshes[in.mesh];
+    const glm::dmat4 world = instance_world(desc, in);
+    const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+    int order[3] = {0, 1, 2};
+    if (glm::determinant(glm::dmat3(world)) < 0.0) std::swap(order[1], order[2]);
+    for (size_t t = 0; t < m.size(); ++t) {
+      std::array<DVec3, 3> v;
+      for (int j = 0; j < 3; ++j) v[j] = DVec3(world * glm::dvec4(DVec3(m.vertex(t, order[j])), 1.0));
+      const uint32_t material = static_cast<uint32_t>(in.materials[m.slot[t]]);
+      add_polygon<3>(s.polygons, v, o, material);
+      s.material_used[material] = 1;
+      s.polygon_instance.push_back(static_cast<uint32_t>(k));
+      if (!shaded) continue;
+      const Vec3 ng = s.polygons.normal.back();
+      std::array<Vec3, 3> n{ng, ng, ng}, file_n;
+      std::array<Vec2, 3> uv{Vec2(0.f), Vec2(0.f), Vec2(0.f)};
+      const bool smooth = m.vertex_normals(t, file_n);
+      for (int j = 0; j < 3; ++j) {
+        if (smooth) n[j] = Vec3(glm::normalize(normal_matrix * DVec3(file_n[order[j]])));
+        if (!m.uv.empty()) uv[j] = m.uv[m.index[t][order[j]]];
+      }
+      s.shading.normal.push_back(n);
+      s.shading.uv.push_back(uv);
+      s.features.smooth_shading = s.features.smooth_shading || smooth;
+    }
+  }
+}
+
 // The instances (geometry/instances.h): each mesh compiled once, each placement camera-relative.
 void compile_instances(const SceneDesc& desc, Scene& s) {
   if (desc.instances.empty()) return;
@@ -814,6 +861,8 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     if (shading.active()) shading.add(desc, shape, s.polygons, polygons_before, s.shading);
   }
   s.features.smooth_shading = shading.smooth();
+  const bool instances_placed = instances_as_polygons(desc);
+  if (instances_placed) add_instance_polygons(desc, s);
   // Cut-outs (geometry/alpha_mask.h): the hierarchy's traversal applies them, so a scene with one always has it.
   if (std::any_of(desc.materials.begin(), desc.materials.end(), [](const MaterialDesc& m) { return m.cutout != nullptr; }))
     for (const MaterialDesc& m : desc.materials) s.material_mask.push_back(m.cutout);
@@ -823,7 +872,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
     s.polygon_lanes.assign(s.polygons.v, s.polygons.triangle);
   for (uint8_t tri : s.polygons.triangle) (tri ? s.features.triangles : s.features.quads) = true;
   s.features.spheres = s.spheres.size() > 0;
-  compile_instances(desc, s);
+  if (!instances_placed) compile_instances(desc, s);
 
   double r2 = 0.0;
   for (const auto& arr : s.polygons.v)
@@ -858,8 +907,34 @@ constexpr double kCameraRebaseRadii = 1.0;
 
 }  // namespace
 
+bool instances_as_polygons(const SceneDesc& desc) {
+  if (desc.instances.empty()) return false;
+  size_t polygons = 0;
+  for (const ShapeDesc& sh : desc.shapes)
+    if (sh.type != ShapeType::Sphere) polygons += sh.type == ShapeType::Quad && !is_planar_convex_quad(sh) ? 2 : 1;
+  for (const InstanceDesc& in : desc.instances) {
+    const MeshDesc& m = *desc.meshes[in.mesh];
+    if (!m.tangent.empty()) return false;
+    polygons += m.size();
+    if (polygons >= kBvhMinPolygons) return false;
+  }
+  // Each placed triangle must stay a triangle (a placement at an extreme scale could round one flat; the
+  // instance path never places it): then primitive ids match primitive_shapes one for one.
+  for (const InstanceDesc& in : desc.instances) {
+    const MeshDesc& m = *desc.meshes[in.mesh];
+    const glm::dmat4 world = instance_world(desc, in);
+    for (size_t t = 0; t < m.size(); ++t) {
+      std::array<DVec3, 3> v;
+      for (int k = 0; k < 3; ++k) v[k] = DVec3(world * glm::dvec4(DVec3(m.vertex(t, k)), 1.0));
+      if (degenerate_triangle(v[0], v[1], v[2])) return false;
+    }
+  }
+  return true;
+}
+
 std::vector<uint32_t> primitive_shapes(const SceneDesc& desc) {
   // The order of compile_scene's loop: polygons as they come (two for a quad that is not planar and convex),
+  // the instances' triangles where it places them as polygons (no shape: the shapes' count stands for them),
   // then the spheres.
   std::vector<uint32_t> polygons, spheres;
   for (size_t i = 0; i < desc.shapes.size(); ++i) {
@@ -871,6 +946,9 @@ std::vector<uint32_t> primitive_shapes(const SceneDesc& desc) {
       if (sh.type == ShapeType::Quad && !is_planar_convex_quad(sh)) polygons.push_back(id);
     }
   }
+  if (instances_as_polygons(desc))
+    for (const InstanceDesc& in : desc.instances)
+      polygons.insert(polygons.end(), desc.meshes[in.mesh]->size(), static_cast<uint32_t>(desc.shapes.size()));
   polygons.insert(polygons.end(), spheres.begin(), spheres.end());
   return polygons;
 }

@@ -88,6 +88,10 @@ class Scene : public SceneGeometry {
 
   std::vector<Light> lights;
   std::vector<int32_t> light_of_prim;  // light index of each of the scene's own primitives, −1 for non-emitters
+  // Per polygon, the SceneDesc::instances entry it was placed from (instances_as_polygons), kNoInstance for a
+  // shape's; empty when no instance was placed so.
+  std::vector<uint32_t> polygon_instance;
+  static constexpr uint32_t kNoInstance = ~0u;
   // The light a primitive is, −1 for none (instanced meshes never emit: validate_scene).
   int32_t light_of(uint32_t prim) const { return prim < light_of_prim.size() ? light_of_prim[prim] : -1; }
   std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
@@ -125,6 +129,12 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);
 // The SceneDesc::shapes index of every primitive id compile_scene(desc) makes (polygons, then spheres; a
 // non-planar quad is two triangles): what a pick reports as the object.
 std::vector<uint32_t> primitive_shapes(const SceneDesc& desc);
+
+// Whether compile_scene places the instances' triangles as polygons instead of instancing them: when all the
+// scene's polygons and instanced triangles together stay below kBvhMinPolygons (a small glTF model), where the
+// brute-force SIMD loop and the wavefront beat any hierarchy (a 12-triangle glTF box: 13.9 against 9.7 Mrays/s
+// through its instance), and no mesh has file tangents (polygons carry none). Memory is no concern there.
+bool instances_as_polygons(const SceneDesc& desc);
 
 // True when b has a's shapes, film size and number of materials: then the compiled geometry of a serves b, and
 // update_scene_appearance can apply the difference in place.
