@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "core/math.h"
@@ -47,5 +48,42 @@ struct TriangleMesh {
     for (const Vec3& p : position) lo = glm::min(lo, p), hi = glm::max(hi, p);
   }
 };
+
+// A mesh's placement in the world, in double: the transform, the normals' map (the inverse transpose of its
+// linear part) and whether it mirrors.
+struct MeshPlacement {
+  glm::dmat4 world;
+  glm::dmat3 normal_matrix;
+  bool mirrors;
+  explicit MeshPlacement(const glm::dmat4& w)
+      : world(w), normal_matrix(glm::transpose(glm::inverse(glm::dmat3(w)))), mirrors(glm::determinant(glm::dmat3(w)) < 0.0) {}
+};
+
+// A mesh triangle placed in the world as a shape or polygon holds it (instances place theirs at each hit
+// instead, interaction.h): vertices in double, unit normals by the normal map, and under a mirroring
+// placement the vertices (with their normals and uv) listed the other way round, so the front stays the
+// file's.
+struct PlacedTriangle {
+  std::array<DVec3, 3> v;
+  std::array<Vec3, 3> normal{};  // zero where the face is flat (TriangleMesh::vertex_normals)
+  std::array<Vec2, 3> uv{};      // zero without uv
+  bool smooth = false;
+};
+inline PlacedTriangle place_triangle(const TriangleMesh& m, size_t t, const MeshPlacement& p) {
+  PlacedTriangle out;
+  std::array<Vec3, 3> n;
+  out.smooth = m.vertex_normals(t, n);
+  for (int k = 0; k < 3; ++k) {
+    out.v[k] = DVec3(p.world * glm::dvec4(DVec3(m.vertex(t, k)), 1.0));
+    if (out.smooth) out.normal[k] = Vec3(glm::normalize(p.normal_matrix * DVec3(n[k])));
+    if (!m.uv.empty()) out.uv[k] = m.uv[m.index[t][k]];
+  }
+  if (p.mirrors) {
+    std::swap(out.v[1], out.v[2]);
+    std::swap(out.normal[1], out.normal[2]);
+    std::swap(out.uv[1], out.uv[2]);
+  }
+  return out;
+}
 
 }  // namespace pt

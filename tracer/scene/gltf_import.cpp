@@ -36,29 +36,18 @@ namespace {
 
 namespace tg = tinygltf;
 
-// Mesh g's triangles placed by `world` among out.triangles: vertices in double, normals by the inverse transpose
-// of its linear part, listed the other way round under a mirroring transform; those it makes degenerate are
-// left out (counted).
+// Mesh g's triangles placed by `world` among out.triangles (place_triangle, geometry/triangle_mesh.h); those it
+// makes degenerate are left out (counted).
 void place_mesh_triangles(const GltfMesh& g, const glm::dmat4& world, GltfContents& out) {
   const MeshDesc& me = g.mesh;
-  const bool mirror = glm::determinant(glm::dmat3(world)) < 0.0;
-  const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+  const MeshPlacement place(world);
   for (size_t t = 0; t < me.size(); ++t) {
-    std::array<DVec3, 3> tri;
+    const PlacedTriangle p = place_triangle(me, t, place);
+    const std::array<DVec3, 3>& tri = p.v;
     TriangleShading shading;
-    std::array<Vec3, 3> n;
-    const bool smooth = me.vertex_normals(t, n);
-    for (int k = 0; k < 3; ++k) {
-      tri[k] = DVec3(world * glm::dvec4(DVec3(me.vertex(t, k)), 1.0));
-      if (smooth) shading.normal[k] = Vec3(glm::normalize(normal_matrix * DVec3(n[k])));
-      if (!me.uv.empty()) shading.uv[k] = me.uv[me.index[t][k]];
-    }
+    shading.normal = p.normal;
+    shading.uv = p.uv;
     shading.has_uv = !me.uv.empty();
-    if (mirror) {
-      std::swap(tri[1], tri[2]);
-      std::swap(shading.normal[1], shading.normal[2]);
-      std::swap(shading.uv[1], shading.uv[2]);
-    }
     if (degenerate_triangle(tri[0], tri[1], tri[2])) {
       ++out.degenerate;
       continue;

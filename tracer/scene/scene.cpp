@@ -501,9 +501,9 @@ std::shared_ptr<const MeshGeometry> compile_mesh(const std::shared_ptr<const Mes
   return g;
 }
 
-// The instances' triangles placed as polygons (instances_as_polygons): vertices in double by the placement, its
-// normals by the inverse transpose, listed the other way round under a mirror, as a model file's triangles are
-// placed as shapes; their vertex normals and uv into SceneGeometry::shading, which then covers every polygon.
+// The instances' triangles placed as polygons (instances_as_polygons) by place_triangle (triangle_mesh.h), as a
+// model file's emitting triangles are placed as shapes; their vertex normals and uv into SceneGeometry::shading,
+// which then covers every polygon.
 void add_instance_polygons(const SceneDesc& desc, Scene& s) {
   const DVec3 o = s.world_origin;
   s.polygon_instance.assign(s.polygons.size(), Scene::kNoInstance);
@@ -521,29 +521,18 @@ void add_instance_polygons(const SceneDesc& desc, Scene& s) {
   for (size_t k = 0; k < desc.instances.size(); ++k) {
     const InstanceDesc& in = desc.instances[k];
     const MeshDesc& m = *desc.meshes[in.mesh];
-    const glm::dmat4 world = instance_world(desc, in);
-    const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
-    int order[3] = {0, 1, 2};
-    if (glm::determinant(glm::dmat3(world)) < 0.0) std::swap(order[1], order[2]);
+    const MeshPlacement place(instance_world(desc, in));
     for (size_t t = 0; t < m.size(); ++t) {
-      std::array<DVec3, 3> v;
-      for (int j = 0; j < 3; ++j) v[j] = DVec3(world * glm::dvec4(DVec3(m.vertex(t, order[j])), 1.0));
+      const PlacedTriangle p = place_triangle(m, t, place);
       const uint32_t material = static_cast<uint32_t>(in.materials[m.slot[t]]);
-      add_polygon<3>(s.polygons, v, o, material);
+      add_polygon<3>(s.polygons, p.v, o, material);
       s.material_used[material] = 1;
       s.polygon_instance.push_back(static_cast<uint32_t>(k));
       if (!shaded) continue;
       const Vec3 ng = s.polygons.normal.back();
-      std::array<Vec3, 3> n{ng, ng, ng}, file_n;
-      std::array<Vec2, 3> uv{Vec2(0.f), Vec2(0.f), Vec2(0.f)};
-      const bool smooth = m.vertex_normals(t, file_n);
-      for (int j = 0; j < 3; ++j) {
-        if (smooth) n[j] = Vec3(glm::normalize(normal_matrix * DVec3(file_n[order[j]])));
-        if (!m.uv.empty()) uv[j] = m.uv[m.index[t][order[j]]];
-      }
-      s.shading.normal.push_back(n);
-      s.shading.uv.push_back(uv);
-      s.features.smooth_shading = s.features.smooth_shading || smooth;
+      s.shading.normal.push_back(p.smooth ? p.normal : std::array<Vec3, 3>{ng, ng, ng});
+      s.shading.uv.push_back(p.uv);
+      s.features.smooth_shading = s.features.smooth_shading || p.smooth;
     }
   }
 }
@@ -922,10 +911,9 @@ bool instances_as_polygons(const SceneDesc& desc) {
   // instance path never places it): then primitive ids match primitive_shapes one for one.
   for (const InstanceDesc& in : desc.instances) {
     const MeshDesc& m = *desc.meshes[in.mesh];
-    const glm::dmat4 world = instance_world(desc, in);
+    const MeshPlacement place(instance_world(desc, in));
     for (size_t t = 0; t < m.size(); ++t) {
-      std::array<DVec3, 3> v;
-      for (int k = 0; k < 3; ++k) v[k] = DVec3(world * glm::dvec4(DVec3(m.vertex(t, k)), 1.0));
+      const std::array<DVec3, 3> v = place_triangle(m, t, place).v;
       if (degenerate_triangle(v[0], v[1], v[2])) return false;
     }
   }
