@@ -108,7 +108,7 @@ bool write_screenshot(const std::string& path, int w, int h) {
 
 // What --stats reports, in milliseconds.
 struct FrameTimes {
-  SampleSeries interval, work, upload, ui, swap, latency;
+  SampleSeries interval, work, poll, upload, ui, draw, swap, latency;
   SampleSeries clean_latency;  // edit to the first full-resolution denoised image
   // Clean preview frames (SessionSettings::preview_denoise): their whole time, and the filter's share of it
   // (variance, filter and upsampling over pass, guide, variance, filter and upsampling).
@@ -125,14 +125,18 @@ struct FrameTimes {
   void reserve(size_t n) {
     interval.reserve(n);
     work.reserve(n);
+    poll.reserve(n);
     ui.reserve(n);
+    draw.reserve(n);
     swap.reserve(n);
   }
   void print() const {
     std::printf("frame interval ms (between consecutive drawn frames): %s\n", interval.summary().c_str());
     std::printf("frame work ms (poll, upload, UI, draw, swap): %s\n", work.summary().c_str());
+    std::printf("  of which event polling ms: %s\n", poll.summary().c_str());
     std::printf("  of which image upload ms: %s\n", upload.summary().c_str());
     std::printf("  of which ImGui frame ms: %s\n", ui.summary().c_str());
+    std::printf("  of which GL draw calls ms (image and panels, recorded): %s\n", draw.summary().c_str());
     std::printf("  of which swap ms (the GL finishes drawing here; includes any vsync wait): %s\n",
                 swap.summary().c_str());
     std::printf("edit to first updated image ms: %s\n", latency.summary().c_str());
@@ -249,6 +253,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
   for (;;) {
     const Clock::time_point start = Clock::now();
     glfwPollEvents();
+    const double poll_ms = ms_between(start, Clock::now());
     if (g_close_requested.exchange(false)) model.request_quit();
     for (const std::string& path : g_dropped) model.open_file(path);
     g_dropped.clear();
@@ -322,11 +327,13 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       held = ui.held;
       times.ui.add(ms_between(ui_start, Clock::now()));
 
+      const Clock::time_point draw_start = Clock::now();
       glViewport(0, 0, fb_w, fb_h);
       glClearColor(0.08f, 0.08f, 0.09f, 1.f);
       glClear(GL_COLOR_BUFFER_BIT);
       presenter.draw(r.x, r.y, r.w, r.h, model.present);
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      times.draw.add(ms_between(draw_start, Clock::now()));
 
       if (model.save_requested) {
         model.save_requested = false;
@@ -354,6 +361,7 @@ int run_loop(GLFWwindow* window, ViewerModel& model, const ViewOptions& o, const
       times.swap.add(ms_between(swap_start, end));
       const double frame_ms = ms_between(start, end);
       times.work.add(frame_ms);
+      times.poll.add(poll_ms);
       smoothed_ms = smoothed_ms == 0.0 ? frame_ms : 0.9 * smoothed_ms + 0.1 * frame_ms;
       if (new_image) {
         if (auto latency = model.note_frame_shown(front.generation, end)) {
