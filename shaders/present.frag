@@ -2,7 +2,17 @@
 // The viewer's display transform. Colour mode mirrors tracer/tonemap.h exactly (exposure -> tone map -> sRGB
 // encoding, written to a plain 8-bit framebuffer, i.e. rounded to nearest like to_srgb8); the diagnostic modes
 // mirror app/display_transform.h. The GL tests compare both with the CPU definitions within 1/255.
-// PALETTE_SIZE is defined by the program that compiles this source (the size of kFalseColour).
+// PALETTE_SIZE and VARIANT are defined by the program that compiles this source (gl_presenter.cpp): the size of
+// kFalseColour, and which view this compiled program draws (PresentVariant's order, below). Each variant reads
+// only the textures its view needs: under a software GL such as llvmpipe each texture read over a 512² image
+// costs 1–2 ms, and neither a select nor a branch on a uniform spares the reads a pixel does not use
+// (docs/viewer.md, "The display pass").
+#define COLOUR_IMAGE 0     // the colour view of the film's mean
+#define COLOUR_DENOISED 1  // the colour view of the denoised image
+#define COLOUR_MIXED 2     // the colour view with a split (denoised, or an A/B snapshot)
+#define RELATIVE_ERROR 3
+#define DIFFERENCE 4       // to the snapshot
+#define SAMPLE_COUNT 5
 
 in vec2 v_uv;
 out vec4 frag_colour;
@@ -13,7 +23,6 @@ uniform sampler2D u_denoised;     // rgb: the denoised mean (when u_denoised_fro
 uniform float u_denoised_from_u;  // the colour view shows u_denoised where uv.x >= this (display_transform.h)
 uniform sampler2D u_snapshot;     // rgb: a kept snapshot's mean (A/B compare)
 uniform float u_snapshot_until_u; // the colour view shows u_snapshot where uv.x < this
-uniform int u_mode;               // 0 colour, 1 relative error, 2 sample count, 3 difference to the snapshot
 uniform float u_exposure_scale;   // 2^EV, computed on the CPU with std::exp2 as tonemap.h does
 uniform int u_tone_map;           // 0 clamp, 1 Reinhard, 2 ACES fitted (pt::ToneMap order)
 uniform vec2 u_error_log10_range; // log10 relative errors mapped to the ends of the colour map
@@ -45,24 +54,31 @@ vec3 false_colour(float t) {
   return mix(u_palette[i], u_palette[i + 1], t - float(i));
 }
 
+vec4 colour(vec3 mean) {
+  vec3 c = tone_map(mean);
+  return vec4(srgb_encode(c.r), srgb_encode(c.g), srgb_encode(c.b), 1.0);
+}
+
+float error_coordinate(float e) {
+  float l = log2(max(e, 1e-30)) * 0.30102999566;
+  return (l - u_error_log10_range.x) / (u_error_log10_range.y - u_error_log10_range.x);
+}
+
 void main() {
   vec2 uv = vec2(v_uv.x, 1.0 - v_uv.y);  // the film's first row is the top of the image
-  vec4 texel = texture(u_image, uv);
-  if (u_mode == 0) {
-    vec3 m = uv.x < u_snapshot_until_u ? texture(u_snapshot, uv).rgb
-           : uv.x >= u_denoised_from_u ? texture(u_denoised, uv).rgb : texel.rgb;
-    vec3 c = tone_map(m);
-    frag_colour = vec4(srgb_encode(c.r), srgb_encode(c.g), srgb_encode(c.b), 1.0);
-  } else if (u_mode == 1 || u_mode == 3) {
-    float e = texel.a;
-    if (u_mode == 3) {  // display_transform.h relative_difference
-      vec3 b = texture(u_snapshot, uv).rgb, d = texel.rgb - b;
-      e = sqrt(dot(d * d / (b * b + vec3(0.01)), vec3(1.0)) * (1.0 / 3.0));
-    }
-    float l = log2(max(e, 1e-30)) * 0.30102999566;
-    float t = (l - u_error_log10_range.x) / (u_error_log10_range.y - u_error_log10_range.x);
-    frag_colour = vec4(false_colour(t), 1.0);
-  } else {
-    frag_colour = vec4(false_colour(texture(u_count, uv).r / max(u_count_max, 1.0)), 1.0);
-  }
+#if VARIANT == COLOUR_IMAGE
+  frag_colour = colour(texture(u_image, uv).rgb);
+#elif VARIANT == COLOUR_DENOISED
+  frag_colour = colour(texture(u_denoised, uv).rgb);
+#elif VARIANT == COLOUR_MIXED
+  frag_colour = colour(uv.x < u_snapshot_until_u ? texture(u_snapshot, uv).rgb
+                       : uv.x >= u_denoised_from_u ? texture(u_denoised, uv).rgb : texture(u_image, uv).rgb);
+#elif VARIANT == RELATIVE_ERROR
+  frag_colour = vec4(false_colour(error_coordinate(texture(u_image, uv).a)), 1.0);
+#elif VARIANT == DIFFERENCE  // display_transform.h relative_difference
+  vec3 b = texture(u_snapshot, uv).rgb, d = texture(u_image, uv).rgb - b;
+  frag_colour = vec4(false_colour(error_coordinate(sqrt(dot(d * d / (b * b + vec3(0.01)), vec3(1.0)) * (1.0 / 3.0)))), 1.0);
+#else
+  frag_colour = vec4(false_colour(texture(u_count, uv).r / max(u_count_max, 1.0)), 1.0);
+#endif
 }

@@ -11,11 +11,13 @@ namespace pt {
 
 namespace {
 
-// present.frag sizes its palette array with PALETTE_SIZE; the define goes right after the #version line.
-std::string with_palette_size(std::string_view src) {
+// present.frag sizes its palette array with PALETTE_SIZE and draws the view VARIANT; the defines go right after
+// the #version line.
+std::string with_defines(std::string_view src, int variant) {
   const size_t eol = src.find('\n');
   std::string out(src.substr(0, eol + 1));
   out += "#define PALETTE_SIZE " + std::to_string(kFalseColour.size()) + "\n";
+  out += "#define VARIANT " + std::to_string(variant) + "\n";
   out += src.substr(eol + 1);
   return out;
 }
@@ -51,48 +53,13 @@ GLuint make_texture() {
 }  // namespace
 
 GlPresenter::GlPresenter() {
-  const GLuint vs = compile(GL_VERTEX_SHADER, std::string(shader_source("fullscreen")), "shaders/fullscreen.vert");
-  GLuint fs = 0;
+  vertex_shader_ = compile(GL_VERTEX_SHADER, std::string(shader_source("fullscreen")), "shaders/fullscreen.vert");
   try {
-    fs = compile(GL_FRAGMENT_SHADER, with_palette_size(shader_source("present")), "shaders/present.frag");
+    program(Variant::ColourImage);  // the default view: a shader that does not compile fails here, not mid-run
   } catch (...) {
-    glDeleteShader(vs);
+    glDeleteShader(vertex_shader_);
     throw;
   }
-  program_ = glCreateProgram();
-  glAttachShader(program_, vs);
-  glAttachShader(program_, fs);
-  glLinkProgram(program_);
-  glDeleteShader(vs);  // flagged; freed with the program
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char log[4096] = {};
-    glGetProgramInfoLog(program_, sizeof log, nullptr, log);
-    glDeleteProgram(program_);
-    throw GlError(std::string("cannot link the display shaders: ") + log);
-  }
-  loc_mode_ = glGetUniformLocation(program_, "u_mode");
-  loc_exposure_ = glGetUniformLocation(program_, "u_exposure_scale");
-  loc_tone_map_ = glGetUniformLocation(program_, "u_tone_map");
-  loc_error_range_ = glGetUniformLocation(program_, "u_error_log10_range");
-  loc_count_max_ = glGetUniformLocation(program_, "u_count_max");
-  loc_denoised_from_u_ = glGetUniformLocation(program_, "u_denoised_from_u");
-  loc_snapshot_until_u_ = glGetUniformLocation(program_, "u_snapshot_until_u");
-
-  // Constant uniforms are set once.
-  glUseProgram(program_);
-  glUniform1i(glGetUniformLocation(program_, "u_image"), 0);
-  glUniform1i(glGetUniformLocation(program_, "u_count"), 1);
-  glUniform1i(glGetUniformLocation(program_, "u_denoised"), 2);
-  glUniform1i(glGetUniformLocation(program_, "u_snapshot"), 3);
-  float palette[3 * kFalseColour.size()];
-  for (size_t i = 0; i < kFalseColour.size(); ++i)
-    for (int c = 0; c < 3; ++c) palette[3 * i + c] = static_cast<float>(kFalseColour[i][c]) / 255.f;
-  glUniform3fv(glGetUniformLocation(program_, "u_palette"), static_cast<GLsizei>(kFalseColour.size()), palette);
-  glUseProgram(0);
-
   glGenVertexArrays(1, &vao_);  // core profile draws need a bound VAO, even an empty one
   image_tex_ = make_texture();
   count_tex_ = make_texture();
@@ -103,6 +70,49 @@ GlPresenter::GlPresenter() {
   glGenFramebuffers(1, &display_fbo_);
 }
 
+const GlPresenter::Program& GlPresenter::program(Variant v) {
+  Program& p = programs_[static_cast<int>(v)];
+  if (p.id != 0) return p;
+  const GLuint fs =
+      compile(GL_FRAGMENT_SHADER, with_defines(shader_source("present"), static_cast<int>(v)), "shaders/present.frag");
+  const GLuint id = glCreateProgram();
+  glAttachShader(id, vertex_shader_);
+  glAttachShader(id, fs);
+  glLinkProgram(id);
+  glDetachShader(id, vertex_shader_);  // kept for the other variants
+  glDeleteShader(fs);                  // flagged; freed with the program
+  GLint ok = 0;
+  glGetProgramiv(id, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[4096] = {};
+    glGetProgramInfoLog(id, sizeof log, nullptr, log);
+    glDeleteProgram(id);
+    throw GlError(std::string("cannot link the display shaders: ") + log);
+  }
+  p.id = id;
+  // Uniforms a variant does not use are compiled out: their location is −1, which glUniform ignores.
+  p.exposure = glGetUniformLocation(id, "u_exposure_scale");
+  p.tone_map = glGetUniformLocation(id, "u_tone_map");
+  p.error_range = glGetUniformLocation(id, "u_error_log10_range");
+  p.count_max = glGetUniformLocation(id, "u_count_max");
+  p.denoised_from_u = glGetUniformLocation(id, "u_denoised_from_u");
+  p.snapshot_until_u = glGetUniformLocation(id, "u_snapshot_until_u");
+  // Constant uniforms are set once.
+  GLint previous = 0;
+  glGetIntegerv(GL_CURRENT_PROGRAM, &previous);
+  glUseProgram(id);
+  glUniform1i(glGetUniformLocation(id, "u_image"), 0);
+  glUniform1i(glGetUniformLocation(id, "u_count"), 1);
+  glUniform1i(glGetUniformLocation(id, "u_denoised"), 2);
+  glUniform1i(glGetUniformLocation(id, "u_snapshot"), 3);
+  float palette[3 * kFalseColour.size()];
+  for (size_t i = 0; i < kFalseColour.size(); ++i)
+    for (int c = 0; c < 3; ++c) palette[3 * i + c] = static_cast<float>(kFalseColour[i][c]) / 255.f;
+  glUniform3fv(glGetUniformLocation(id, "u_palette"), static_cast<GLsizei>(kFalseColour.size()), palette);
+  glUseProgram(static_cast<GLuint>(previous));
+  return p;
+}
+
 GlPresenter::~GlPresenter() {
   glDeleteFramebuffers(1, &display_fbo_);
   glDeleteTextures(1, &display_tex_);
@@ -111,7 +121,9 @@ GlPresenter::~GlPresenter() {
   glDeleteTextures(1, &denoised_tex_);
   glDeleteTextures(1, &snapshot_tex_);
   glDeleteVertexArrays(1, &vao_);
-  glDeleteProgram(program_);
+  for (const Program& p : programs_)
+    if (p.id != 0) glDeleteProgram(p.id);
+  glDeleteShader(vertex_shader_);
 }
 
 void GlPresenter::upload(const DisplayFrame& f) {
@@ -189,16 +201,27 @@ void GlPresenter::update_display(const PresentSettings& s) {
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_SCISSOR_TEST);
   glDisable(GL_FRAMEBUFFER_SRGB);  // the shader encodes sRGB itself, as tonemap.h does
-  glUseProgram(program_);
   // Without a snapshot of this image's size, the A/B views fall back to the live colour view.
   const bool snapshot = has_snapshot();
-  glUniform1i(loc_mode_, static_cast<int>(!snapshot && s.mode == ViewMode::Difference ? ViewMode::Colour : s.mode));
-  glUniform1f(loc_snapshot_until_u_, snapshot ? snapshot_until_u(s.snapshot_view) : -1.f);
-  glUniform1f(loc_exposure_, std::exp2(s.display.exposure_ev));
-  glUniform1i(loc_tone_map_, static_cast<int>(s.display.tone_map));
-  glUniform2f(loc_error_range_, s.error_log10_min, s.error_log10_max);
-  glUniform1f(loc_count_max_, max_count_);
-  glUniform1f(loc_denoised_from_u_, has_denoised_ && s.denoise ? denoised_from_u(s.denoise_view) : 2.f);
+  const ViewMode mode = !snapshot && s.mode == ViewMode::Difference ? ViewMode::Colour : s.mode;
+  const float snapshot_u = snapshot ? snapshot_until_u(s.snapshot_view) : -1.f;  // u < this: the snapshot
+  const float denoised_u = has_denoised_ && s.denoise ? denoised_from_u(s.denoise_view) : 2.f;  // u ≥ this
+  Variant v = Variant::SampleCount;
+  if (mode == ViewMode::Colour)
+    v = snapshot_u > 0.f ? Variant::ColourMixed
+        : denoised_u <= 0.f ? Variant::ColourDenoised
+        : denoised_u > 1.f  ? Variant::ColourImage
+                            : Variant::ColourMixed;
+  else if (mode == ViewMode::RelativeError) v = Variant::RelativeError;
+  else if (mode == ViewMode::Difference) v = Variant::Difference;
+  const Program& p = program(v);
+  glUseProgram(p.id);
+  glUniform1f(p.snapshot_until_u, snapshot_u);
+  glUniform1f(p.exposure, std::exp2(s.display.exposure_ev));
+  glUniform1i(p.tone_map, static_cast<int>(s.display.tone_map));
+  glUniform2f(p.error_range, s.error_log10_min, s.error_log10_max);
+  glUniform1f(p.count_max, max_count_);
+  glUniform1f(p.denoised_from_u, denoised_u);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, image_tex_);
   glActiveTexture(GL_TEXTURE1);

@@ -22,7 +22,7 @@ struct GlError : std::runtime_error {
 
 class GlPresenter {
  public:
-  GlPresenter();  // compiles and links the shaders; throws GlError with the driver's log
+  GlPresenter();  // compiles and links the colour view's shaders; throws GlError with the driver's log
   ~GlPresenter();
   GlPresenter(const GlPresenter&) = delete;
   GlPresenter& operator=(const GlPresenter&) = delete;
@@ -47,9 +47,20 @@ class GlPresenter {
   void read_image(const PresentSettings& settings, std::vector<uint8_t>& rgba);
 
  private:
+  // The views present.frag is compiled for, one program each (its VARIANT, in this order), so that a view reads
+  // only the textures it shows.
+  enum class Variant { ColourImage, ColourDenoised, ColourMixed, RelativeError, Difference, SampleCount };
+  static constexpr int kVariants = 6;
+  struct Program {
+    unsigned id = 0;
+    int exposure = -1, tone_map = -1, error_range = -1, count_max = -1, denoised_from_u = -1, snapshot_until_u = -1;
+  };
   void update_display(const PresentSettings& settings);  // runs the shader if the frame or settings changed
+  const Program& program(Variant v);                     // compiled and linked on first use
 
-  unsigned program_ = 0, vao_ = 0, image_tex_ = 0, count_tex_ = 0, denoised_tex_ = 0;
+  Program programs_[kVariants];
+  unsigned vertex_shader_ = 0;
+  unsigned vao_ = 0, image_tex_ = 0, count_tex_ = 0, denoised_tex_ = 0;
   bool has_denoised_ = false;  // the last frame uploaded had a denoised image
   bool denoised_allocated_ = false;  // denoised_tex_ has the image's size
   unsigned display_tex_ = 0, display_fbo_ = 0;  // the shader's output, RGBA8, the image's size
@@ -58,8 +69,6 @@ class GlPresenter {
   int width_ = 0, height_ = 0;
   bool preview_ = false;
   float max_count_ = 0;
-  int loc_mode_ = -1, loc_exposure_ = -1, loc_tone_map_ = -1, loc_error_range_ = -1, loc_count_max_ = -1;
-  int loc_denoised_from_u_ = -1, loc_snapshot_until_u_ = -1;
   unsigned snapshot_tex_ = 0;
   int snapshot_width_ = 0, snapshot_height_ = 0;
 };
