@@ -163,6 +163,25 @@ TEST_CASE("denoiser: the regression stops when cancelled and returns nothing") {
   CHECK(denoise_regression(input, RegressionSettings{}, pool, &cancel).size() == color.size());
 }
 
+TEST_CASE("denoiser: the fast filter stops when cancelled and leaves its output as it was") {
+  const int w = 40, h = 40;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> color(3 * n), variance(3 * n, 1e-2f), albedo(3 * n, 0.5f), normal(3 * n), depth(n, 2.f);
+  for (size_t i = 0; i < n; ++i) color[3 * i] = color[3 * i + 1] = color[3 * i + 2] = 0.25f + 0.5f * (i % 7 == 0);
+  for (size_t i = 0; i < n; ++i) normal[3 * i + 2] = 1.f;
+  ThreadPool pool(2);
+  const DenoiseInput input{w, h, &color, &variance, &albedo, &normal, &depth};
+  Denoiser denoiser;
+  std::vector<float> out(5, -1.f);  // what an earlier frame left there
+  std::atomic<bool> cancel{true};
+  CHECK_FALSE(denoiser.run(input, DenoiseSettings{}, pool, out, &cancel));
+  CHECK(out == std::vector<float>(5, -1.f));
+  // Not cancelled, the same working planes give the image a fresh filter gives.
+  cancel = false;
+  CHECK(denoiser.run(input, DenoiseSettings{}, pool, out, &cancel));
+  CHECK(out == denoise(input, DenoiseSettings{}, pool));
+}
+
 TEST_CASE("denoiser: both filters leave a converged image as it is and bring a noisy one close to it") {
   SceneDesc desc = load_scene("cornell");
   desc.width = desc.height = 64;

@@ -154,7 +154,8 @@ std::vector<float> denoise(const DenoiseInput& in, const DenoiseSettings& st, Th
   return out;
 }
 
-void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool& pool, std::vector<float>& out) {
+bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool& pool, std::vector<float>& out,
+                   const std::atomic<bool>* cancel) {
   check_denoise_input(in);
   using Wide = stdx::native_simd<float>;
   constexpr int kWide = static_cast<int>(Wide::size());
@@ -177,16 +178,21 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
   std::vector<float>& modulation = sc.modulation;
   const int rows_per_task = 8;
   const int tasks = (h + rows_per_task - 1) / rows_per_task;
+  const auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+  // A pass over the rows; false when cancelled (before or during it: the remaining tasks return at once).
   auto for_rows = [&](const std::function<void(int y)>& row) {
+    if (cancelled()) return false;
     pool.parallel_for(tasks, [&](int task, int) {
+      if (cancelled()) return;
       const FlushDenormals flush;
       const int y_end = std::min(h, (task + 1) * rows_per_task);
       for (int y = task * rows_per_task; y < y_end; ++y) row(y);
     });
+    return !cancelled();
   };
 
   // Demodulate and arrange the guides.
-  for_rows([&](int y) {
+  const bool arranged = for_rows([&](int y) {
     std::vector<float>* albedo[3] = {&g.a0, &g.a1, &g.a2};
     std::vector<float>* illum[3] = {&a.e0, &a.e1, &a.e2};
     for (int x = 0; x < w; ++x) {
@@ -209,8 +215,9 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
       a.vl[j] = sd_l * sd_l;
     }
   });
+  if (!arranged) return false;
   // Depth gradient: the smaller one-sided difference, so that a silhouette does not look like a steep slope.
-  for_rows([&](int y) {
+  const bool gradients = for_rows([&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t j = L.at(x, y);
       const float z = g.z[j];
@@ -223,6 +230,7 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
       g.gy[j] = gy < 1e30f ? gy : 0.f;
     }
   });
+  if (!gradients) return false;
 
   const float inv_sigma_a2 = 1.f / (st.sigma_albedo * st.sigma_albedo);
   Illumination* cur = &a;
@@ -231,7 +239,7 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
     const int step = 1 << level;
     Illumination& c = *cur;
     // The 3×3 binomial blur of the luminance variance that makes σ̂_l usable at a few samples per pixel.
-    for_rows([&](int y) {
+    const bool blurred = for_rows([&](int y) {
       for (int x = 0; x < w; ++x) {
         float sum = 0.f, wsum = 0.f;
         for (int dy = -1; dy <= 1; ++dy)
@@ -245,27 +253,34 @@ void Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
         c.var_l[L.at(x, y)] = sum / wsum;
       }
     });
+    if (!blurred) return false;
     const ChunkInput ci{g.n0.data(), g.n1.data(), g.n2.data(), g.a0.data(), g.a1.data(),
                         g.a2.data(), g.z.data(),  g.gx.data(), g.gy.data(), c.e0.data(),
                         c.e1.data(), c.e2.data(), c.vl.data(), c.var_l.data()};
     const ChunkOutput co{next->e0.data(), next->e1.data(), next->e2.data(), next->vl.data()};
-    for_rows([&](int y) {
+    const bool filtered = for_rows([&](int y) {
       for (int x = 0; x < w; x += kWide)
         filter_chunk<Wide>(ci, co, L, x, y, step, inv_sigma_a2, st.sigma_depth, st.sigma_luminance);
     });
+    if (!filtered) return false;
     std::swap(cur, next);
   }
 
+  if (cancelled()) return false;  // `out` untouched
   out.resize(3 * static_cast<size_t>(w) * h);
   const Illumination& r = *cur;
-  for_rows([&](int y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
-      const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
-      for (int c = 0; c < 3; ++c)
-        out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
-    }
+  pool.parallel_for(tasks, [&](int task, int) {  // not cancellable: `out` is written whole
+    const FlushDenormals flush;
+    const int y_end = std::min(h, (task + 1) * rows_per_task);
+    for (int y = task * rows_per_task; y < y_end; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
+        const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
+        for (int c = 0; c < 3; ++c)
+          out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
+      }
   });
+  return true;
 }
 
 }  // namespace pt

@@ -100,8 +100,11 @@ class Denoiser {
   Denoiser(Denoiser&&) noexcept;
   Denoiser& operator=(Denoiser&&) noexcept;
   // Writes the denoised RGB image (3 floats per pixel) to `out`. Runs its rows on `pool`. Throws
-  // std::invalid_argument when an input is missing or of the wrong size.
-  void run(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool, std::vector<float>& out);
+  // std::invalid_argument when an input is missing or of the wrong size. If `cancel` becomes true it stops
+  // within a few rows (polled between its passes and per task of 8 rows), leaves `out` as it was and returns
+  // false: the viewer's edits do not wait for a denoise of an image they made stale.
+  bool run(const DenoiseInput& input, const DenoiseSettings& settings, ThreadPool& pool, std::vector<float>& out,
+           const std::atomic<bool>* cancel = nullptr);
 
  private:
   struct Scratch;

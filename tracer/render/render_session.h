@@ -152,7 +152,7 @@ class RenderSession {
   void republish(Worker& w);
   void run_film_tasks(Worker& w);
   void make_clean_preview(Worker& w, double pass_seconds);
-  void denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
+  bool denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds);
   void publish_locked(Worker& w, bool preview, uint32_t min_count, double relmse, double seconds, uint64_t samples,
                       uint64_t rays);
   bool stop_met_locked(std::string& reason) const;
