@@ -93,8 +93,7 @@ inline bool connectible(const Scene& s, const BdptVertex& v) {
 // link(v, to).
 inline float pdf_light(const Scene& s, const BdptVertex& v, const Link& l, const BdptVertex& to) {
   if (v.infinite) {
-    const float r = emission_disk_radius(s);
-    float pdf = 1.f / (kPi * r * r);
+    float pdf = infinite_emission_pdf_pos(s, v.it.ng, to.it.p);
     if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, v.it.ng));
     return pdf;
   }

@@ -7,7 +7,12 @@
 //   |cos θ|/2π).
 // - Infinite lights: a direction from the light's own density (the map's, 1/4π for a constant environment, the
 //   sun's cone), then a point uniform on the disk of radius R perpendicular to it that covers the scene's
-//   bounding sphere (pdf_pos = 1/πR²), the ray starting R outside.
+//   bounding sphere (pdf_pos = 1/πR²), the ray starting R outside. When the scene has an emission focus
+//   (Scene::emission_focus_radius > 0: the surfaces that can focus light into caustics), half of the points are
+//   drawn instead on the disk that covers the focus sphere, and pdf_pos is the mixture's density there. Without
+//   it a sun over a large ground plane (`sky`: a 2·10⁶ wide quad) aimed its light paths at the whole plane, and
+//   almost none ever reached the glass and gold balls: their caustics on the ground were left to camera paths
+//   that hit the sun by chance, as fireflies.
 //
 // The same densities serve the MIS weights of every strategy that reaches a light (bdpt_connect.h). The
 // bidirectional estimator's light-sampling strategy (s = 1) samples infinite lights with these direction
@@ -74,6 +79,23 @@ inline float infinite_lights_origin_pdf(const Scene& s, Vec3 w) {
 // Radius of the disk infinite lights emit from: the scene's bounding sphere (centred at the camera).
 inline float emission_disk_radius(const Scene& s) { return static_cast<float>(std::max(s.bounding_radius, 1e-30)); }
 
+// The share of infinite lights' emitted rays aimed at the emission focus, when the scene has one.
+inline constexpr float kEmissionFocusShare = 0.5f;
+
+// Density per unit area, on the disk perpendicular to d, with which an infinite light's emission starts a ray
+// travelling along d (unit) through point p: the whole disk's 1/πR², mixed with the focus disk's where the ray
+// passes within the focus sphere's radius of its centre.
+inline float infinite_emission_pdf_pos(const Scene& s, Vec3 d, Vec3 p) {
+  const float R = emission_disk_radius(s);
+  const float whole = 1.f / (kPi * R * R);
+  const float rf = s.emission_focus_radius;
+  if (!(rf > 0.f)) return whole;
+  const Vec3 q = p - s.emission_focus_center;
+  const Vec3 across = q - glm::dot(q, d) * d;  // the offset from the axis, without cancelling squares far away
+  const bool within = glm::dot(across, across) <= rf * rf;
+  return (1.f - kEmissionFocusShare) * whole + (within ? kEmissionFocusShare / (kPi * rf * rf) : 0.f);
+}
+
 // Samples light l's emission with u_pos (the point) and u_dir (the direction). False when nothing usable came out.
 template <uint32_t F = kAllFeatures>
 inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_dir, EmissionSample& es) {
@@ -82,12 +104,23 @@ inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_d
     if (!sample_infinite_light_direction(s, l, u_dir, w, es.Le, es.pdf_dir)) return false;
     const float r = emission_disk_radius(s);
     const Frame f = Frame::from_normal(w);
-    const Vec2 disk = sample_uniform_disk_concentric(u_pos);
     es.d = -w;
     es.n = es.d;
-    es.p = r * (w + f.s * disk.x + f.t * disk.y);
     es.p_error = Vec3(0.f);
-    es.pdf_pos = 1.f / (kPi * r * r);
+    Vec2 u = u_pos;
+    if (s.emission_focus_radius > 0.f && u.x < kEmissionFocusShare) {  // the focus disk, R + |c| outside c
+      u.x = std::min(u.x / kEmissionFocusShare, kOneMinusEpsilon);
+      const Vec2 disk = sample_uniform_disk_concentric(u);
+      const Vec3 c = s.emission_focus_center;
+      const float rf = s.emission_focus_radius;
+      es.p = c + (r + glm::length(c)) * w + rf * (f.s * disk.x + f.t * disk.y);
+    } else {
+      if (s.emission_focus_radius > 0.f)
+        u.x = std::min((u.x - kEmissionFocusShare) / (1.f - kEmissionFocusShare), kOneMinusEpsilon);
+      const Vec2 disk = sample_uniform_disk_concentric(u);
+      es.p = r * (w + f.s * disk.x + f.t * disk.y);
+    }
+    es.pdf_pos = infinite_emission_pdf_pos(s, es.d, es.p);
     return es.pdf_pos > 0.f && std::isfinite(es.pdf_pos);
   }
   if (l.kind == LightKind::Sphere) {

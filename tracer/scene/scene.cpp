@@ -8,6 +8,7 @@
 
 #include <glm/gtx/component_wise.hpp>
 #include <algorithm>
+#include <limits>
 
 #include <sstream>
 #include <stdexcept>
@@ -721,6 +722,42 @@ void compile_punctual_lights(const SceneDesc& desc, Scene& s) {
   }
 }
 
+// Scene::emission_focus_*: a sphere around the box of every polygon and sphere whose material has a glossy or
+// specular lobe, and of every instanced mesh (its slots' materials are not looked at: a finite object either way).
+// Instanced triangles placed as polygons count as polygons.
+void compile_emission_focus(Scene& s) {
+  s.emission_focus_center = Vec3(0.f);
+  s.emission_focus_radius = 0.f;
+  if (s.infinite_lights.empty()) return;  // only infinite lights emit from a disk
+  DVec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  const auto focuses = [&](uint32_t material) {
+    return any(bsdf_flags(s.materials[material]) & (BsdfFlags::Glossy | BsdfFlags::Specular));
+  };
+  const PolygonSoA& P = s.polygons;
+  for (size_t i = 0; i < P.size(); ++i) {
+    if (!focuses(P.material[i])) continue;
+    for (int k = 0; k < (P.triangle[i] ? 3 : 4); ++k) {
+      lo = glm::min(lo, DVec3(P.v[k][i]));
+      hi = glm::max(hi, DVec3(P.v[k][i]));
+    }
+  }
+  for (size_t i = 0; i < s.spheres.size(); ++i) {
+    if (!focuses(s.spheres.material[i])) continue;
+    lo = glm::min(lo, s.spheres.center[i] - DVec3(s.spheres.radius[i]));
+    hi = glm::max(hi, s.spheres.center[i] + DVec3(s.spheres.radius[i]));
+  }
+  for (const Instance& in : s.instances.instances) {
+    lo = glm::min(lo, DVec3(in.lo));
+    hi = glm::max(hi, DVec3(in.hi));
+  }
+  if (!(lo.x <= hi.x)) return;  // nothing that focuses light
+  const double radius = 0.5 * glm::length(hi - lo);
+  // Aiming half the paths at a disk of more than a quarter of the whole one's area gains little.
+  if (!(radius > 0.0) || radius > 0.5 * s.bounding_radius) return;
+  s.emission_focus_center = Vec3(0.5 * (lo + hi));
+  s.emission_focus_radius = static_cast<float>(radius) * (1.f + 1e-5f);  // float rounding must not cut the box
+}
+
 void compile_lights(Scene& s) {
   s.lights.clear();
   s.light_pmf.clear();
@@ -811,6 +848,7 @@ void compile_lights(Scene& s) {
     s.light_cdf.push_back(static_cast<float>(running / total));
   }
   if (!s.light_cdf.empty()) s.light_cdf.back() = 1.f;
+  compile_emission_focus(s);
 }
 
 }  // namespace

@@ -99,6 +99,11 @@ class Scene : public SceneGeometry {
   std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
   std::vector<Light> punctual_lights;     // compiled from SceneDesc::punctual_lights; compile_lights adds them
   double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
+  // Where infinite lights aim half of their light paths (lights/light_emission.h): a sphere around every surface
+  // with a glossy or specular lobe (what can focus light into a caustic) and every instanced mesh; radius 0 when
+  // there is none, or when it would cover a quarter of the bounding sphere's disk or more (no gain).
+  Vec3 emission_focus_center{0.f};
+  float emission_focus_radius = 0.f;
 
   uint32_t kernel_features() const {
     return (features.triangles || features.quads ? kFeaturePolygons : 0u) | (features.spheres ? kFeatureSpheres : 0u) |
