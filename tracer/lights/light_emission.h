@@ -9,7 +9,10 @@
 //   sun's cone), then a point uniform on the disk of radius R perpendicular to it that covers the scene's
 //   bounding sphere (pdf_pos = 1/πR²), the ray starting R outside. When the scene has an emission focus
 //   (Scene::emission_focus_radius > 0: the surfaces that can focus light into caustics), half of the points are
-//   drawn instead on the disk that covers the focus sphere, and pdf_pos is the mixture's density there. Without
+//   drawn instead on the disk that covers the focus sphere, with a density that falls to zero at its rim
+//   (2(1 − ρ²/r²)/πr² at distance ρ from its centre), and pdf_pos is the mixture's density there: continuous, so
+//   that the MIS weights, which evaluate it at the ray's hit point (rounded, far from the light's disk), agree
+//   with the density the ray was drawn with also next to the rim (a hard-edged disk jumped there). Without
 //   it a sun over a large ground plane (`sky`: a 2·10⁶ wide quad) aimed its light paths at the whole plane, and
 //   almost none ever reached the glass and gold balls: their caustics on the ground were left to camera paths
 //   that hit the sun by chance, as fireflies.
@@ -83,8 +86,8 @@ inline float emission_disk_radius(const Scene& s) { return static_cast<float>(st
 inline constexpr float kEmissionFocusShare = 0.5f;
 
 // Density per unit area, on the disk perpendicular to d, with which an infinite light's emission starts a ray
-// travelling along d (unit) through point p: the whole disk's 1/πR², mixed with the focus disk's where the ray
-// passes within the focus sphere's radius of its centre.
+// travelling along d (unit) through point p: the whole disk's 1/πR², mixed with the focus disk's
+// 2(1 − ρ²/r_f²)/πr_f², ρ the ray's distance from the focus's centre (zero from ρ = r_f on).
 inline float infinite_emission_pdf_pos(const Scene& s, Vec3 d, Vec3 p) {
   const float R = emission_disk_radius(s);
   const float whole = 1.f / (kPi * R * R);
@@ -92,8 +95,17 @@ inline float infinite_emission_pdf_pos(const Scene& s, Vec3 d, Vec3 p) {
   if (!(rf > 0.f)) return whole;
   const Vec3 q = p - s.emission_focus_center;
   const Vec3 across = q - glm::dot(q, d) * d;  // the offset from the axis, without cancelling squares far away
-  const bool within = glm::dot(across, across) <= rf * rf;
-  return (1.f - kEmissionFocusShare) * whole + (within ? kEmissionFocusShare / (kPi * rf * rf) : 0.f);
+  const float rho2 = glm::dot(across, across) / (rf * rf);
+  const float focus = rho2 < 1.f ? 2.f * (1.f - rho2) / (kPi * rf * rf) : 0.f;
+  return (1.f - kEmissionFocusShare) * whole + kEmissionFocusShare * focus;
+}
+
+// A point of the focus disk's density 2(1 − ρ²/r²)/πr² on the unit disk (r = 1): its radial CDF is 1 − (1 − ρ²)²,
+// so ρ² = 1 − √(1 − u.x); the angle is uniform.
+inline Vec2 sample_focus_disk(Vec2 u) {
+  const float rho = std::sqrt(std::max(0.f, 1.f - std::sqrt(1.f - u.x)));
+  const float phi = 2.f * kPi * u.y;
+  return {rho * std::cos(phi), rho * std::sin(phi)};
 }
 
 // Samples light l's emission with u_pos (the point) and u_dir (the direction). False when nothing usable came out.
@@ -107,20 +119,24 @@ inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_d
     es.d = -w;
     es.n = es.d;
     es.p_error = Vec3(0.f);
+    // The point on the disk (in the plane through its centre, where the density is evaluated: far out along w
+    // the subtraction in infinite_emission_pdf_pos would round), and the ray's start outside the scene.
     Vec2 u = u_pos;
-    if (s.emission_focus_radius > 0.f && u.x < kEmissionFocusShare) {  // the focus disk, R + |c| outside c
+    Vec3 on_disk;
+    if (s.emission_focus_radius > 0.f && u.x < kEmissionFocusShare) {  // the focus disk
       u.x = std::min(u.x / kEmissionFocusShare, kOneMinusEpsilon);
-      const Vec2 disk = sample_uniform_disk_concentric(u);
+      const Vec2 disk = sample_focus_disk(u);
       const Vec3 c = s.emission_focus_center;
-      const float rf = s.emission_focus_radius;
-      es.p = c + (r + glm::length(c)) * w + rf * (f.s * disk.x + f.t * disk.y);
+      on_disk = c + s.emission_focus_radius * (f.s * disk.x + f.t * disk.y);
+      es.p = on_disk + (r + glm::length(c)) * w;  // c is inside the bounding sphere: this starts beyond it
     } else {
       if (s.emission_focus_radius > 0.f)
         u.x = std::min((u.x - kEmissionFocusShare) / (1.f - kEmissionFocusShare), kOneMinusEpsilon);
       const Vec2 disk = sample_uniform_disk_concentric(u);
-      es.p = r * (w + f.s * disk.x + f.t * disk.y);
+      on_disk = r * (f.s * disk.x + f.t * disk.y);
+      es.p = r * (w + f.s * disk.x + f.t * disk.y);  // as before the focus existed: the same bits without one
     }
-    es.pdf_pos = infinite_emission_pdf_pos(s, es.d, es.p);
+    es.pdf_pos = infinite_emission_pdf_pos(s, es.d, on_disk);
     return es.pdf_pos > 0.f && std::isfinite(es.pdf_pos);
   }
   if (l.kind == LightKind::Sphere) {
