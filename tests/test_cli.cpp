@@ -375,13 +375,16 @@ TEST_CASE("cli: --sampler and --rr-depth change the image as they say, and the d
   CHECK(file_bytes("s_sobol.pfm") != file_bytes("s_indep.pfm"));
   CHECK(run(base + "--sampler sobol --pfm s_sobol2.pfm").status == 0);
   CHECK(file_bytes("s_sobol.pfm") == file_bytes("s_sobol2.pfm"));
-  // Roulette from bounce 3 is the Cornell box's setting: --rr-depth 3 is the same image, other depths are not.
+  // The Cornell box's setting is "auto", roulette from bounce 5 under its mis: --rr-depth 5 is the same image,
+  // other depths are not.
+  REQUIRE(run(base + "--rr-depth 5 --pfm rr5.pfm").status == 0);
   REQUIRE(run(base + "--rr-depth 3 --pfm rr3.pfm").status == 0);
   REQUIRE(run(base + "--rr-depth -1 --pfm rr_off.pfm").status == 0);
   REQUIRE(run(base + "--rr-depth 0 --pfm rr0.pfm").status == 0);
-  CHECK(file_bytes("rr3.pfm") == file_bytes("s_sobol.pfm"));
-  CHECK(file_bytes("rr_off.pfm") != file_bytes("rr3.pfm"));
-  CHECK(file_bytes("rr0.pfm") != file_bytes("rr3.pfm"));
+  CHECK(file_bytes("rr5.pfm") == file_bytes("s_sobol.pfm"));
+  CHECK(file_bytes("rr3.pfm") != file_bytes("rr5.pfm"));
+  CHECK(file_bytes("rr_off.pfm") != file_bytes("rr5.pfm"));
+  CHECK(file_bytes("rr0.pfm") != file_bytes("rr5.pfm"));
   CHECK(file_bytes("rr0.pfm") != file_bytes("rr_off.pfm"));
 }
 

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "scene/scene.h"
+#include "integrators/russian_roulette.h"
 #include "scene/scene_json.h"
 
 using namespace pt;
@@ -321,6 +322,35 @@ TEST_CASE("scene_json: defaults of optional fields") {
   CHECK(s.shapes[0].material == 2);
 }
 
+TEST_CASE("scene_json: russian_roulette_depth \"auto\" is the default, resolves per estimator and round-trips") {
+  const auto with = [](const std::string& value) {
+    return R"({"camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_deg": 40},
+      "render": {"russian_roulette_depth": )" + value + R"(}, "materials": {"d": {"type": "diffuse"}},
+      "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "d"}]})";
+  };
+  const SceneDesc a = parse_scene(with(R"("auto")"), "auto");
+  CHECK(a.render.russian_roulette_depth == kRouletteDepthAuto);
+  CHECK(SceneDesc{}.render.russian_roulette_depth == kRouletteDepthAuto);  // absent = auto
+  CHECK(parse_scene(scene_to_json(a), "again").render.russian_roulette_depth == kRouletteDepthAuto);
+  CHECK(scene_to_json(a).find(R"("russian_roulette_depth": "auto")") != std::string::npos);
+  CHECK(parse_scene(with("4"), "four").render.russian_roulette_depth == 4);
+  // Resolved by the estimator that traces: path tracing from bounce 5, bdpt from 3; a number stays itself.
+  CHECK(roulette_depth(kRouletteDepthAuto, false) == 5);
+  CHECK(roulette_depth(kRouletteDepthAuto, true) == 3);
+  CHECK(roulette_depth(4, true) == 4);
+  CHECK(roulette_depth(-1, false) == -1);
+  // Neither another word nor the sentinel's number is accepted.
+  for (const std::string bad : {R"("automatic")", "-2"}) {
+    CAPTURE(bad);
+    try {
+      parse_scene(with(bad), "bad");
+      FAIL("accepted");
+    } catch (const std::exception& e) {
+      CHECK(std::string(e.what()).find("render.russian_roulette_depth") != std::string::npos);
+    }
+  }
+}
+
 TEST_CASE("scene_json: integral numbers are accepted for integer fields, in any JSON spelling") {
   const std::string text = replaced(replaced(kBase, R"("width": 64)", R"("width": 64.0)"), R"("seed": 7)",
                                     R"("seed": 18446744073709551615)");
@@ -370,7 +400,7 @@ TEST_CASE("scene_json: cornell is the Cornell box data") {
   CHECK(s.height == 512);
   CHECK(s.render.max_bounces == 64);
   CHECK(s.render.estimator == Estimator::Auto);
-  CHECK(s.render.russian_roulette_depth == 3);
+  CHECK(s.render.russian_roulette_depth == kRouletteDepthAuto);
   CHECK(s.environment.radiance == Rgb(0.f));
   const int white = material_index(s, "white"), red = material_index(s, "red"), green = material_index(s, "green"),
             light = material_index(s, "light");

@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "integrators/russian_roulette.h"
 #include "scene/scene_json.h"
 #include "core/thread_pool.h"
 #include "viewer/relmse_axis.h"
@@ -289,7 +290,27 @@ void render_section(ViewerModel& model, PanelState& state) {
     if (tip && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", tip);
   };
   render_field("max bounces", &RenderSettings::max_bounces, nullptr);
-  render_field("RR from bounce", &RenderSettings::russian_roulette_depth, "Russian roulette from this bounce on; -1 = off");
+  // Russian roulette: auto (the estimator's measured default, integrators/russian_roulette.h) or a typed bounce.
+  {
+    RenderSettings edited = model.scene().render;
+    bool automatic = edited.russian_roulette_depth == kRouletteDepthAuto;
+    const Estimator traced = edited.estimator == Estimator::Auto ? model.estimator_choice().estimator : edited.estimator;
+    const int auto_depth = roulette_depth(kRouletteDepthAuto, traced == Estimator::Bdpt);
+    if (ImGui::Checkbox("RR auto", &automatic)) {
+      edited.russian_roulette_depth = automatic ? kRouletteDepthAuto : auto_depth;
+      model.set_render(edited);
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("Russian roulette from the estimator's measured best bounce: %d for path tracing, %d for bdpt",
+                        kPathRouletteDepth, kBdptRouletteDepth);
+    if (automatic) {
+      ImGui::SameLine();
+      ImGui::TextDisabled("from bounce %d", auto_depth);
+    } else {
+      render_field("RR from bounce", &RenderSettings::russian_roulette_depth,
+                   "Russian roulette from this bounce on; -1 = off");
+    }
+  }
 
   // Threads and stop conditions: typed values apply on Enter (a negative one is refused, never clamped).
   auto session_field = [&](const char* label, auto SessionSettings::*group, auto member, auto draw, const char* rule) {

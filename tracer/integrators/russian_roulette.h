@@ -11,10 +11,22 @@
 #include <algorithm>
 
 #include "core/math.h"
+#include "scene/scene_desc.h"
 
 namespace pt {
 
 inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
+
+// The first roulette bounce `auto` (kRouletteDepthAuto, scene/scene_desc.h) stands for, each estimator's
+// measured best in same-time error (docs/performance.md, "Russian roulette's first depth"): 5 for the path
+// tracers (under mis 9–23 % lower error than 3 on cornell, cornell-bunny and shadertoy, equal on materials and
+// torus-and-gem, 2–5 % higher on cornell-gltf; Mitsuba 3's default too), 3 for bdpt, whose two subpaths are
+// long already (5 costs 9 % on cornell-spheres, 21 % on materials).
+inline constexpr int kPathRouletteDepth = 5, kBdptRouletteDepth = 3;
+inline int roulette_depth(int setting, bool bidirectional) {
+  if (setting != kRouletteDepthAuto) return setting;
+  return bidirectional ? kBdptRouletteDepth : kPathRouletteDepth;
+}
 
 // Whether roulette is played at scattering event `depth` (rr_depth < 0: never).
 inline bool roulette_applies(int depth, int rr_depth) { return rr_depth >= 0 && depth >= rr_depth; }

@@ -153,7 +153,8 @@ std::string validate_film_size(int width, int height) {
 
 std::string validate_render_settings(const RenderSettings& r) {
   if (r.max_bounces < 0) return "render.max_bounces: must be >= 0";
-  if (r.russian_roulette_depth < -1) return "render.russian_roulette_depth: must be >= 0, or -1 for off";
+  if (r.russian_roulette_depth < -1 && r.russian_roulette_depth != kRouletteDepthAuto)
+    return "render.russian_roulette_depth: must be >= 0, -1 for off, or \"auto\"";
   if (r.estimator == Estimator::Bdpt && r.max_bounces > kMaxBdptBounces)
     return "render.max_bounces: bdpt traces at most " + std::to_string(kMaxBdptBounces) +
            " bounces (it stores both subpaths and connects every pair of vertices); use mis for longer paths";

@@ -245,11 +245,16 @@ struct CameraDesc {
 // per sample), so it traces at most this many bounces; render settings asking for more are refused.
 inline constexpr int kMaxBdptBounces = 1024;
 
+// RenderSettings::russian_roulette_depth's "auto": each estimator's own measured default
+// (integrators/russian_roulette.h, roulette_depth).
+inline constexpr int kRouletteDepthAuto = -2;
+
 struct RenderSettings {
   int max_bounces = 8;             // scattering events after the camera ray's first hit (0 = emitters only)
   Estimator estimator = Estimator::Auto;
   SamplerType sampler = SamplerType::Sobol;
-  int russian_roulette_depth = 3;  // bounce index from which Russian roulette runs; -1 = off
+  // Bounce index from which Russian roulette runs; -1 = off; kRouletteDepthAuto = the estimator's default.
+  int russian_roulette_depth = kRouletteDepthAuto;
   uint64_t seed = 0;
   // Diagnostic, not part of scene files: run the kernel compiled for every geometry kind instead of the one for
   // the scene's own (same image; for instruction-count comparisons, `render --generic-kernel`).

@@ -568,8 +568,15 @@ RenderSettings read_render(const Json& j, const std::string& path) {
     r.estimator = read_enum<Estimator>(*v, member(path, "estimator"), "estimator");
   if (const Json* v = optional_key(j, "sampler"))
     r.sampler = read_enum<SamplerType>(*v, member(path, "sampler"), "sampler");
-  if (const Json* v = optional_key(j, "russian_roulette_depth"))
-    r.russian_roulette_depth = read_int(*v, member(path, "russian_roulette_depth"));
+  if (const Json* v = optional_key(j, "russian_roulette_depth")) {
+    const std::string where = member(path, "russian_roulette_depth");
+    if (v->is_string() && v->get<std::string>() == "auto") {
+      r.russian_roulette_depth = kRouletteDepthAuto;
+    } else {
+      r.russian_roulette_depth = read_int(*v, where);
+      if (r.russian_roulette_depth < -1) fail(where, "must be >= 0, -1 for off, or \"auto\"");
+    }
+  }
   if (const Json* v = optional_key(j, "seed")) r.seed = read_uint64(*v, member(path, "seed"));
   return r;
 }
@@ -1130,7 +1137,9 @@ Json to_json(const SceneDesc& s, const std::optional<std::string>& destination_d
   root["render"] = {{"max_bounces", s.render.max_bounces},
                     {"estimator", to_string(s.render.estimator)},
                     {"sampler", to_string(s.render.sampler)},
-                    {"russian_roulette_depth", s.render.russian_roulette_depth},
+                    {"russian_roulette_depth", s.render.russian_roulette_depth == kRouletteDepthAuto
+                                                   ? Json("auto")
+                                                   : Json(s.render.russian_roulette_depth)},
                     {"seed", s.render.seed}};
   const EnvironmentDesc& e = s.environment;
   if (e.type == EnvironmentType::Constant) {
