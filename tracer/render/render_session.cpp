@@ -549,7 +549,7 @@ void RenderSession::republish(Worker& w) {
 // final-frame filter); else the last denoised image (the fast filter's) again. Runs on the render thread, off the
 // UI thread, using the render threads' pool. False when an edit (or the session's end) made the frame stale
 // meanwhile: the denoise stops within a few rows and the frame is dropped, so that the edit's first image does not
-// wait for it (the fast filter takes ~50 ms at 512² on 2 threads: a quarter of the edits came during one).
+// wait for it (the fast filter takes ~50 ms at 512² on 2 threads and runs every few passes).
 bool RenderSession::denoise_frame(Worker& w, DisplayFrame& f, double relmse, double pass_seconds) {
   bool final_pass;
   {
