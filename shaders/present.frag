@@ -3,7 +3,7 @@
 // encoding, written to a plain 8-bit framebuffer, i.e. rounded to nearest like to_srgb8); the diagnostic modes
 // mirror app/display_transform.h. The GL tests compare both with the CPU definitions within 1/255.
 // PALETTE_SIZE and VARIANT are defined by the program that compiles this source (gl_presenter.cpp): the size of
-// kFalseColour, and which view this compiled program draws (PresentVariant's order, below). Each variant reads
+// kFalseColour, and which view this compiled program draws (GlPresenter::Variant's order, below). Each variant reads
 // only the textures its view needs: under a software GL such as llvmpipe each texture read over a 512² image
 // costs 1–2 ms, and neither a select nor a branch on a uniform spares the reads a pixel does not use
 // (docs/viewer.md, "The display pass").

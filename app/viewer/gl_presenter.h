@@ -50,7 +50,7 @@ class GlPresenter {
   // The views present.frag is compiled for, one program each (its VARIANT, in this order), so that a view reads
   // only the textures it shows.
   enum class Variant { ColourImage, ColourDenoised, ColourMixed, RelativeError, Difference, SampleCount };
-  static constexpr int kVariants = 6;
+  static constexpr int kVariants = static_cast<int>(Variant::SampleCount) + 1;
   struct Program {
     unsigned id = 0;
     int exposure = -1, tone_map = -1, error_range = -1, count_max = -1, denoised_from_u = -1, snapshot_until_u = -1;

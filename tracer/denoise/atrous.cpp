@@ -179,16 +179,17 @@ bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
   const int rows_per_task = 8;
   const int tasks = (h + rows_per_task - 1) / rows_per_task;
   const auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
-  // A pass over the rows; false when cancelled (before or during it: the remaining tasks return at once).
-  auto for_rows = [&](const std::function<void(int y)>& row) {
-    if (cancelled()) return false;
+  // A pass over the rows; false when cancelled (before or during it: the remaining tasks return at once). The
+  // last pass, which writes `out`, is not cancellable: `out` is written whole or not at all.
+  auto for_rows = [&](const std::function<void(int y)>& row, bool cancellable = true) {
+    if (cancellable && cancelled()) return false;
     pool.parallel_for(tasks, [&](int task, int) {
-      if (cancelled()) return;
+      if (cancellable && cancelled()) return;
       const FlushDenormals flush;
       const int y_end = std::min(h, (task + 1) * rows_per_task);
       for (int y = task * rows_per_task; y < y_end; ++y) row(y);
     });
-    return !cancelled();
+    return !cancellable || !cancelled();
   };
 
   // Demodulate and arrange the guides.
@@ -269,17 +270,16 @@ bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
   if (cancelled()) return false;  // `out` untouched
   out.resize(3 * static_cast<size_t>(w) * h);
   const Illumination& r = *cur;
-  pool.parallel_for(tasks, [&](int task, int) {  // not cancellable: `out` is written whole
-    const FlushDenormals flush;
-    const int y_end = std::min(h, (task + 1) * rows_per_task);
-    for (int y = task * rows_per_task; y < y_end; ++y)
-      for (int x = 0; x < w; ++x) {
-        const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
-        const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
-        for (int c = 0; c < 3; ++c)
-          out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
-      }
-  });
+  for_rows(
+      [&](int y) {
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
+          const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
+          for (int c = 0; c < 3; ++c)
+            out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
+        }
+      },
+      false);
   return true;
 }
 
