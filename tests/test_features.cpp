@@ -154,6 +154,39 @@ TEST_CASE("features: room albedo exact, floor normal (0,1,0), back-wall depth an
   }
 }
 
+TEST_CASE("features: through glass, the emission layer never exceeds the image (bdpt's lobe-summed chains)") {
+  // The room's ceiling behind the camera is one big lamp, so the glass ball's Fresnel reflection shows it. The
+  // emission layer is the part of each pixel the denoiser adds back unfiltered: it must be part of the image.
+  // Every contribution to a sample is non-negative, so per pixel emission ≤ image holds exactly when the layer
+  // counts what the image counts. bdpt sums a pure-specular chain's lobes (specular_chain_emission), so the image
+  // has F·Le in every sample; before the fix the layer took the one lobe the walk sampled, Le in the ~1 sample of
+  // 8 that reflected, which made isolated pixels brighter than the image there.
+  for (const Estimator est : {Estimator::Mis, Estimator::Bdpt}) {
+    CAPTURE(std::string(to_string(est)));
+    SceneDesc desc = room_scene(est, Specular::GlassBall);
+    desc.shapes[6] = quad({-2, 2.99, 0}, {2, 2.99, 0}, {2, 2.99, 3}, {-2, 2.99, 3}, 3);  // facing down
+    desc.width = desc.height = 48;
+    const auto scene = compile_scene(desc);
+    const Film film = render_with_features(desc, 8);
+    const std::vector<float> image = film.mean_image(), emission = film.emission_image();
+    int ball_pixels = 0, lit = 0;
+    for (int y = 0; y < desc.height; ++y)
+      for (int x = 0; x < desc.width; ++x) {
+        if (ball_coverage(scene->camera, x, y, kBallCenter) != Coverage::Inside) continue;
+        ++ball_pixels;
+        const size_t i = static_cast<size_t>(y) * desc.width + x;
+        for (int c = 0; c < 3; ++c) {
+          CHECK(emission[3 * i + c] <= image[3 * i + c] * (1.f + 1e-5f));
+          lit += c == 0 && emission[3 * i] > 0.f;
+        }
+      }
+    CHECK(ball_pixels >= 4);
+    // bdpt's layer has the reflection in every ball pixel that shows it, so the check above is not vacuous there;
+    // mis's has it only in the samples whose lobe choice fell under F.
+    if (est == Estimator::Bdpt) CHECK(lit >= 2);
+  }
+}
+
 TEST_CASE("features: gathering them leaves the image bit for bit, and both path loops gather the same") {
   // The room with a glass ball (general materials), and cornell, whose Lambertian polygons the wavefront loop
   // shades on SIMD lanes once a path's features are recorded (integrators/lambert_lanes.h).

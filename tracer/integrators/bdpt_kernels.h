@@ -580,7 +580,16 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   const bool only = o.only_s >= 0;
   // The eye's pure-specular chains to a light, summed over their lobes (off for a single strategy's image).
   const bool chains = !only;
-  if (chains) L += specular_chain_emission<Sampler, F>(s, o, rng, camera, scratch.branches, count);
+  if (chains) {
+    const Rgb chain = specular_chain_emission<Sampler, F>(s, o, rng, camera, scratch.branches, count);
+    L += chain;
+    // The emission feature (features.h) of a first hit that is pure specular is what the image counts for its
+    // chains, the lobes summed, not the emission of the one lobe the walk sampled: with that, a Fresnel
+    // reflection of the lamp that 1 sample in 25 picks became a lone bright pixel in the feature, which the
+    // denoiser adds back unfiltered over an image that has it 25 times weaker.
+    if (features && camera.size() >= 2 && camera[1].kind == VertexKind::Surface && pure_specular(s, camera[1].it))
+      features->emission = (camera[1].emits() ? camera[1].beta * emitted(s, camera[1]) : Rgb(0.f)) + chain;
+  }
   // The strategies with t camera vertices, their contributions scaled by `scale` (a branch's probability).
   const auto strategies = [&](int t, float scale) {
     if (o.manifold && t >= 3 && manifold_vertex(s, camera, t - 1))
