@@ -101,5 +101,20 @@ TEST_CASE("metrics: block errors count the blocks whose mean luminance is off th
   CHECK(block_errors(black, black, 4, 0.03).off == 0);
   Image lit = black;
   lit.rgb[5] = 1e-6f;
-  CHECK(block_errors(lit, black, 4, 0.03).off == 1);
+  e = block_errors(lit, black, 4, 0.03);
+  CHECK(e.off == 1);
+  CHECK(e.black_off == 1);
+  CHECK(e.black_worst == doctest::Approx(kLuminanceWeights[2] * 1e-6 / 16).epsilon(1e-4));
+  // A black block beside a lit one: the worst relative difference is the lit block's, not an infinity.
+  Image wide{8, 4, std::vector<float>(96, 0.5f)}, shown = wide;
+  for (int y = 0; y < 4; ++y)
+    for (int px = 0; px < 4; ++px)
+      for (int c = 0; c < 3; ++c) wide.rgb[3 * (y * 8 + px) + c] = 0.f;
+  shown.rgb[3 * 1] = 0.1f;                                  // light in the reference's black block
+  for (int c = 0; c < 3; ++c) shown.rgb[3 * 6 + c] = 0.5f * 1.16f;  // the lit block 1 % high
+  e = block_errors(shown, wide, 4, 0.03);
+  CHECK(e.off == 1);
+  CHECK(e.black_off == 1);
+  CHECK(e.worst == doctest::Approx(0.01).epsilon(1e-4));
+  CHECK(e.worst_x == 4);
 }

@@ -43,7 +43,11 @@ int run_compare(const CompareOptions& o) {
       const BlockErrors b = block_errors(img, ref, o.blocks, o.block_tolerance);
       std::printf("blocks %dx%d: %d of %d off the reference's mean luminance by more than %g %%", o.blocks, o.blocks,
                   b.off, b.blocks, 100 * o.block_tolerance);
-      if (b.blocks > 0) std::printf(", worst %+.1f %% at pixel (%d, %d)", 100 * b.worst, b.worst_x, b.worst_y);
+      if (b.blocks > b.black_off)
+        std::printf(", worst %+.1f %% at pixel (%d, %d)", 100 * b.worst, b.worst_x, b.worst_y);
+      if (b.black_off > 0)
+        std::printf("; %d black in the reference but not in the image (mean luminance up to %.3g)", b.black_off,
+                    b.black_worst);
       std::printf("\n");
     }
     return 0;

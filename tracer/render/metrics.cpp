@@ -49,8 +49,14 @@ BlockErrors block_errors(const Image& x, const Image& ref, int block, double tol
           sx += luminance(x.at(px, y));
           sr += luminance(ref.at(px, y));
         }
-      const double rel = sr > 0 ? (sx - sr) / sr : (sx == sr ? 0.0 : std::copysign(std::numeric_limits<double>::infinity(), sx - sr));
       ++e.blocks;
+      if (sr == 0.0 && sx != 0.0) {
+        ++e.off;
+        ++e.black_off;
+        e.black_worst = std::max(e.black_worst, sx / (block * block));
+        continue;
+      }
+      const double rel = sr > 0 ? (sx - sr) / sr : 0.0;
       if (!(std::abs(rel) <= tolerance)) ++e.off;  // NaN (non-finite input) counts as off
       if (!(std::abs(rel) <= std::abs(e.worst))) {
         e.worst = rel;
