@@ -123,6 +123,33 @@ TEST_CASE("denoiser: the regression reproduces a linear ramp up to the image's b
   CHECK(worst < 1e-4f);
 }
 
+TEST_CASE("denoiser: the regression spreads a firefly over its window and keeps the image's energy") {
+  // A flat image (0.2, small variance) with one pixel 25× brighter whose mean rests on one sample (deviation ≈ its
+  // mean), and whose normal differs from its neighbours' as a surface seen through glass would: the normal kernel
+  // keeps the neighbours out of its fit, so without the firefly step the spike stays (3.5 at the pixel
+  // with firefly_ratio = 0). With it the pixel ends within 10 % of the flat value and the image's sum is kept.
+  const int w = 40, h = 40, fx = 20, fy = 17;
+  const size_t n = static_cast<size_t>(w) * h, f = static_cast<size_t>(fy) * w + fx;
+  std::vector<float> color(3 * n, 0.2f), variance(3 * n, 1e-4f), albedo(3 * n, 0.5f), normal(3 * n, 0.f),
+      depth(n, 2.f);
+  for (size_t i = 0; i < n; ++i) normal[3 * i + 2] = 1.f;
+  for (int c = 0; c < 3; ++c) {
+    color[3 * f + c] = 5.f;
+    variance[3 * f + c] = 4.5f * 4.5f;
+    normal[3 * f + c] = c == 0 ? 0.6f : c == 2 ? 0.8f : 0.f;
+  }
+  ThreadPool pool(2);
+  const DenoiseInput input{w, h, &color, &variance, &albedo, &normal, &depth};
+  const std::vector<float> out = denoise_regression(input, RegressionSettings{}, pool);
+  double in_sum = 0.0, out_sum = 0.0;
+  for (size_t k = 0; k < out.size(); ++k) in_sum += color[k], out_sum += out[k];
+  for (int c = 0; c < 3; ++c) CHECK(out[3 * f + c] == doctest::Approx(0.2 + 4.8 / 289).epsilon(0.1));
+  CHECK(out_sum == doctest::Approx(in_sum).epsilon(1e-3));
+  RegressionSettings off;
+  off.firefly_ratio = 0.f;
+  CHECK(denoise_regression(input, off, pool)[3 * f] > 3.f);  // the spike the step removes
+}
+
 TEST_CASE("denoiser: both filters take images smaller than their windows, and non-finite variances") {
   // 1×1, 3×2 and 1×40: the window and the patch reach past every border. The variance of one pixel is NaN
   // and of another +inf (a film below 2 samples reports no estimate); the output stays finite.

@@ -73,8 +73,16 @@ struct DenoiseSettings {
 struct RegressionSettings {
   int radius = 8;       // window radius R: 17×17 neighbours
   int patch = 1;        // patch radius P of the colour distance: 3×3
-  float k = 0.7f;       // k of the distance: larger accepts more dissimilar neighbours
+  float k = 0.9f;       // k of the distance: larger accepts more dissimilar neighbours
   float ridge = 0.05f;  // λ: ridge on the feature slopes, relative to the sum of the weights
+  // Feature kernels multiplied into the weights, exp(−|Δn|²/σ_n² − |Δa|²/σ_a²) (0: none): a neighbour across a
+  // crease or a material edge leaves the fit even where the colour noise hides the difference.
+  float sigma_normal = 0.3f;
+  float sigma_albedo = 0.3f;
+  // Fireflies: a pixel brighter than firefly_ratio × the second-brightest of its 8 neighbours whose mean's
+  // standard deviation exceeds firefly_deviation × its mean has the excess spread over its window (0: off).
+  float firefly_ratio = 1.5f;
+  float firefly_deviation = 0.5f;
 };
 // Returns an empty vector if `cancel` was set before it finished (polled per 16×16 tile).
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool,

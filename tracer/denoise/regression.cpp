@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "denoise/denoiser.h"
+#include "core/math.h"
 #include "denoise/exp_neg.h"
 
 namespace pt {
@@ -59,35 +60,30 @@ struct Planes {
   size_t at(int x, int y) const { return static_cast<size_t>(y + margin) * stride + static_cast<size_t>(x + margin); }
 };
 
-// The work of one tile: pixel distances over the tile and its margin, their box sums, the normal equations.
+// The work of one tile. Phase 1 keeps, for every window offset, the patch distance of each of the tile's pixels to
+// its neighbour at that offset (~300 KB for R = 8: written once, read once, in L2); phase 2 then takes the tile a
+// row of 16 pixels at a time through every offset, so that row's normal equations (85 sums × 16 pixels, 5.4 KB)
+// stay in L1 instead of streaming the whole tile's (87 KB) through L2 at every offset.
 struct TileScratch {
-  std::vector<float> distance, row_sum;
-  std::array<std::array<float, kTilePixels>, kPairs> matrix;
-  std::array<std::array<float, kTilePixels>, 3 * kDims> rhs;
+  std::vector<float> distance, row_sum, patch_distance;
 };
 
-void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty, TileScratch& sc,
-                  std::vector<float>& out) {
-  const int R = st.radius, P = st.patch, side = kTile + 2 * P;
-  const int x0 = tx * kTile, y0 = ty * kTile;
+// Row of 16 pixels: plain arrays that GCC turns into one AVX-512 (or two AVX2) operations per statement.
+using Row = float[kTile];
+
+float inverse_square(float sigma) { return sigma > 0.f ? 1.f / (sigma * sigma) : 0.f; }
+
+constexpr float kOutside = 1e30f;  // patch distance of a neighbour outside the image: weight 0
+
+// Phase 1: D(p, p + o) for the tile's pixels p and every window offset o, into sc.patch_distance[o][p].
+void tile_patch_distances(const Planes& in, const RegressionSettings& st, int x0, int y0, TileScratch& sc) {
+  const int R = st.radius, P = st.patch, side = kTile + 2 * P, width = 2 * R + 1;
   const float k2 = st.k * st.k;
   const float inv_patch = 1.f / (3.f * static_cast<float>((2 * P + 1) * (2 * P + 1)));
   const ptrdiff_t stride = static_cast<ptrdiff_t>(in.stride);
   sc.distance.resize(static_cast<size_t>(side) * side);
   sc.row_sum.resize(static_cast<size_t>(side) * kTile);
-  for (auto& m : sc.matrix) m.fill(0.f);
-  for (auto& r : sc.rhs) r.fill(0.f);
-
-  // The tile's own features (pixels beyond the image read the pads; they are not written out).
-  alignas(64) float own[7][kTilePixels], inv_depth[kTilePixels];
-  for (int j = 0; j < kTilePixels; ++j) {
-    const size_t i = in.at(std::min(x0 + j % kTile, in.w - 1), std::min(y0 + j / kTile, in.h - 1));
-    for (int f = 0; f < 7; ++f) own[f][j] = in.feature[f][i];
-    inv_depth[j] = 1.f / std::max(own[6][j], kMinDepth);
-  }
-  alignas(64) float x[kDims][kTilePixels], wgt[kTilePixels], y[3][kTilePixels];
-  for (int j = 0; j < kTilePixels; ++j) x[0][j] = 1.f;
-
+  sc.patch_distance.resize(static_cast<size_t>(width) * width * kTilePixels);
   for (int oy = -R; oy <= R; ++oy)
     for (int ox = -R; ox <= R; ++ox) {
       const ptrdiff_t shift = oy * stride + ox;
@@ -114,8 +110,9 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
         for (int k = 1; k <= 2 * P; ++k)
           for (int px = 0; px < kTile; ++px) r[px] += d[px + k];
       }
+      float* out = &sc.patch_distance[static_cast<size_t>((oy + R) * width + (ox + R)) * kTilePixels];
       for (int py = 0; py < kTile; ++py) {
-        float* w = &wgt[py * kTile];
+        float* w = &out[py * kTile];
         for (int px = 0; px < kTile; ++px) w[px] = sc.row_sum[static_cast<size_t>(py) * kTile + px];
         for (int k = 1; k <= 2 * P; ++k)
           for (int px = 0; px < kTile; ++px) w[px] += sc.row_sum[static_cast<size_t>(py + k) * kTile + px];
@@ -124,113 +121,227 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
         const bool row_inside = qy >= 0 && qy < in.h;
         for (int px = 0; px < kTile; ++px) {
           const int qx = x0 + px + ox;
-          const float keep = row_inside && qx >= 0 && qx < in.w ? 1.f : 0.f;
-          w[px] = keep * exp_neg(std::max(0.f, w[px] * inv_patch));
+          w[px] = row_inside && qx >= 0 && qx < in.w ? std::max(0.f, w[px] * inv_patch) : kOutside;
         }
       }
-      // The neighbours' regressors and values.
+    }
+}
+
+// Solves the row's 16 systems (Cholesky, in double, the 16 pixels side by side so the loops vectorise) from their
+// sums (upper triangle of Σ w x xᵀ in `matrix`, Σ w x yᵀ in `rhs`) and writes each intercept, clamped to ≥ 0. A
+// pixel whose system is not positive definite gets the weighted mean; one whose result is not finite keeps its
+// own value.
+void solve_row(const Planes& in, const RegressionSettings& st, const Row* matrix, const Row* rhs, int x0, int y,
+               std::vector<float>& out) {
+  using DRow = double[kTile];
+  alignas(64) DRow L[kDims][kDims], z[3][kDims], total;
+  alignas(64) bool ok[kTile];
+  int e = 0;
+  for (int a = 0; a < kDims; ++a)
+    for (int b = a; b < kDims; ++b, ++e)
+      for (int px = 0; px < kTile; ++px) L[b][a][px] = matrix[e][px];  // lower triangle: L[row][col]
+  for (int px = 0; px < kTile; ++px) {
+    total[px] = L[0][0][px];
+    ok[px] = total[px] > 0.0;
+  }
+  // The feature slopes get the ridge; the screen-offset slopes only a trace of it (kOffsetRidge) to keep the
+  // system solvable: shrinking them would bend ramps at the image border, where the window is one-sided.
+  for (int a = 1; a < kDims; ++a) {
+    const double ridge = a < 3 ? kOffsetRidge : static_cast<double>(st.ridge);
+    for (int px = 0; px < kTile; ++px) L[a][a][px] += ridge * total[px];
+  }
+  // A = L Lᵀ in place.
+  for (int a = 0; a < kDims; ++a)
+    for (int b = 0; b <= a; ++b) {
+      alignas(64) DRow v;
+      for (int px = 0; px < kTile; ++px) v[px] = L[a][b][px];
+      for (int k = 0; k < b; ++k)
+        for (int px = 0; px < kTile; ++px) v[px] -= L[a][k][px] * L[b][k][px];
+      if (a == b) {
+        for (int px = 0; px < kTile; ++px) {
+          ok[px] = ok[px] && v[px] > 0.0;
+          L[a][a][px] = ok[px] ? std::sqrt(v[px]) : 1.0;
+        }
+      } else {
+        for (int px = 0; px < kTile; ++px) L[a][b][px] = v[px] / L[b][b][px];
+      }
+    }
+  for (int c = 0; c < 3; ++c) {
+    for (int a = 0; a < kDims; ++a) {
+      alignas(64) DRow v;
+      for (int px = 0; px < kTile; ++px) v[px] = rhs[3 * a + c][px];
+      for (int k = 0; k < a; ++k)
+        for (int px = 0; px < kTile; ++px) v[px] -= L[a][k][px] * z[c][k][px];
+      for (int px = 0; px < kTile; ++px) z[c][a][px] = v[px] / L[a][a][px];
+    }
+    for (int a = kDims - 1; a >= 0; --a) {
+      alignas(64) DRow v;
+      for (int px = 0; px < kTile; ++px) v[px] = z[c][a][px];
+      for (int k = a + 1; k < kDims; ++k)
+        for (int px = 0; px < kTile; ++px) v[px] -= L[k][a][px] * z[c][k][px];
+      for (int px = 0; px < kTile; ++px) z[c][a][px] = v[px] / L[a][a][px];
+    }
+  }
+  for (int px = 0; px < kTile && x0 + px < in.w; ++px) {
+    const size_t i = in.at(x0 + px, y);
+    const size_t o = static_cast<size_t>(y) * static_cast<size_t>(in.w) + static_cast<size_t>(x0 + px);
+    for (int c = 0; c < 3; ++c) {
+      double r = in.color[c][i];
+      if (total[px] > 0.0) r = ok[px] ? z[c][0][px] : static_cast<double>(rhs[c][px]) / total[px];
+      const double v = std::isfinite(r) ? std::max(0.0, r) : static_cast<double>(in.color[c][i]);
+      out[3 * o + c] = static_cast<float>(v);
+    }
+  }
+}
+
+// Phase 2 for one row of 16 pixels: every offset's neighbour adds w · x xᵀ and w · x yᵀ to the row's sums.
+void regress_row(const Planes& in, const RegressionSettings& st, const TileScratch& sc, int x0, int y, int py,
+                 std::vector<float>& out) {
+  const int R = st.radius, width = 2 * R + 1;
+  const ptrdiff_t stride = static_cast<ptrdiff_t>(in.stride);
+  alignas(64) Row own[7], inv_depth;
+  for (int px = 0; px < kTile; ++px) {
+    const size_t i = in.at(std::min(x0 + px, in.w - 1), std::min(y, in.h - 1));
+    for (int f = 0; f < 7; ++f) own[f][px] = in.feature[f][i];
+    inv_depth[px] = 1.f / std::max(own[6][px], kMinDepth);
+  }
+  alignas(64) Row matrix[kPairs], rhs[3 * kDims];
+  for (auto& m : matrix) std::fill(m, m + kTile, 0.f);
+  for (auto& r : rhs) std::fill(r, r + kTile, 0.f);
+  const size_t base = in.at(x0, y);
+  const float inv_sn2 = inverse_square(st.sigma_normal), inv_sa2 = inverse_square(st.sigma_albedo);
+  for (int oy = -R; oy <= R; ++oy)
+    for (int ox = -R; ox <= R; ++ox) {
+      const size_t q = static_cast<size_t>(static_cast<ptrdiff_t>(base) + oy * stride + ox);
+      const float* dist = &sc.patch_distance[static_cast<size_t>((oy + R) * width + (ox + R)) * kTilePixels +
+                                             static_cast<size_t>(py) * kTile];
+      alignas(64) Row x[kDims], y3[3], wgt;
       const float off_x = static_cast<float>(ox) / static_cast<float>(R);
       const float off_y = static_cast<float>(oy) / static_cast<float>(R);
-      for (int py = 0; py < kTile; ++py) {
-        const size_t q = static_cast<size_t>(static_cast<ptrdiff_t>(in.at(x0, y0 + py)) + shift);
-        const int j0 = py * kTile;
-        for (int px = 0; px < kTile; ++px) {
-          x[1][j0 + px] = off_x;
-          x[2][j0 + px] = off_y;
-        }
-        for (int f = 0; f < 6; ++f) {
-          const float* src = &in.feature[f][q];
-          for (int px = 0; px < kTile; ++px) x[3 + f][j0 + px] = src[px] - own[f][j0 + px];
-        }
-        const float* depth = &in.feature[6][q];
-        for (int px = 0; px < kTile; ++px) x[9][j0 + px] = (depth[px] - own[6][j0 + px]) * inv_depth[j0 + px];
-        for (int c = 0; c < 3; ++c) {
-          const float* src = &in.color[c][q];
-          for (int px = 0; px < kTile; ++px) y[c][j0 + px] = src[px];
-        }
+      for (int px = 0; px < kTile; ++px) {
+        x[0][px] = 1.f;
+        x[1][px] = off_x;
+        x[2][px] = off_y;
+      }
+      for (int f = 0; f < 6; ++f) {
+        const float* src = &in.feature[f][q];
+        for (int px = 0; px < kTile; ++px) x[3 + f][px] = src[px] - own[f][px];
+      }
+      const float* depth = &in.feature[6][q];
+      for (int px = 0; px < kTile; ++px) x[9][px] = (depth[px] - own[6][px]) * inv_depth[px];
+      for (int c = 0; c < 3; ++c) {
+        const float* src = &in.color[c][q];
+        for (int px = 0; px < kTile; ++px) y3[c][px] = src[px];
+      }
+      // The weight: non-local means on the colour times the feature kernels.
+      for (int px = 0; px < kTile; ++px) {
+        const float da = x[3][px] * x[3][px] + x[4][px] * x[4][px] + x[5][px] * x[5][px];
+        const float dn = x[6][px] * x[6][px] + x[7][px] * x[7][px] + x[8][px] * x[8][px];
+        wgt[px] = dist[px] < kOutside ? exp_neg(dist[px] + dn * inv_sn2 + da * inv_sa2) : 0.f;
       }
       // Normal equations: Σ w x xᵀ (upper triangle) and Σ w x yᵀ.
       int e = 0;
       for (int a = 0; a < kDims; ++a) {
-        alignas(64) float wx[kTilePixels];
-        for (int j = 0; j < kTilePixels; ++j) wx[j] = wgt[j] * x[a][j];
-        for (int b = a; b < kDims; ++b, ++e) {
-          float* m = sc.matrix[e].data();
-          for (int j = 0; j < kTilePixels; ++j) m[j] += wx[j] * x[b][j];
-        }
-        for (int c = 0; c < 3; ++c) {
-          float* r = sc.rhs[3 * a + c].data();
-          for (int j = 0; j < kTilePixels; ++j) r[j] += wx[j] * y[c][j];
-        }
+        alignas(64) Row wx;
+        for (int px = 0; px < kTile; ++px) wx[px] = wgt[px] * x[a][px];
+        for (int b = a; b < kDims; ++b, ++e)
+          for (int px = 0; px < kTile; ++px) matrix[e][px] += wx[px] * x[b][px];
+        for (int c = 0; c < 3; ++c)
+          for (int px = 0; px < kTile; ++px) rhs[3 * a + c][px] += wx[px] * y3[c][px];
       }
     }
+  solve_row(in, st, matrix, rhs, x0, y, out);
+}
 
-  // Solve each pixel's system (Cholesky, in double) and keep the intercept.
-  for (int j = 0; j < kTilePixels; ++j) {
-    const int px = x0 + j % kTile, py = y0 + j / kTile;
-    if (px >= in.w || py >= in.h) continue;
-    double A[kDims][kDims], B[kDims][3];
-    int e = 0;
-    for (int a = 0; a < kDims; ++a)
-      for (int b = a; b < kDims; ++b, ++e) A[a][b] = A[b][a] = sc.matrix[e][j];
-    const double total = A[0][0];
-    const size_t i = in.at(px, py);
-    double result[3] = {in.color[0][i], in.color[1][i], in.color[2][i]};
-    if (total > 0.0) {
-      // The feature slopes get the ridge; the screen-offset slopes only a trace of it (kOffsetRidge) to keep the
-      // system solvable: shrinking them would bend ramps at the image border, where the window is one-sided.
-      for (int a = 1; a < kDims; ++a) A[a][a] += (a < 3 ? kOffsetRidge : st.ridge) * total;
-      for (int a = 0; a < kDims; ++a)
-        for (int c = 0; c < 3; ++c) B[a][c] = sc.rhs[3 * a + c][j];
-      // A = L Lᵀ in place (lower triangle).
-      bool ok = true;
-      for (int a = 0; a < kDims && ok; ++a) {
-        for (int b = 0; b <= a; ++b) {
-          double v = A[a][b];
-          for (int k = 0; k < b; ++k) v -= A[a][k] * A[b][k];
-          if (a == b) {
-            if (!(v > 0.0)) ok = false;
-            else A[a][a] = std::sqrt(v);
-          } else {
-            A[a][b] = v / A[b][b];
-          }
+void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty, TileScratch& sc,
+                  std::vector<float>& out) {
+  const int x0 = tx * kTile, y0 = ty * kTile;
+  tile_patch_distances(in, st, x0, y0, sc);
+  for (int py = 0; py < kTile && y0 + py < in.h; ++py) regress_row(in, st, sc, x0, y0 + py, py, out);
+}
+
+
+// Fireflies: a pixel far brighter than its neighbours whose brightness rests on a few samples (its mean's standard
+// deviation is a large part of the mean) would stay a spike: its own regressors (noisy features seen through glass
+// or glossy lobes) let its fit follow it. Its excess over firefly_ratio × the second-brightest of its 8 neighbours
+// (the second, so that two fireflies side by side are both caught) is taken out of the filtered radiance and spread
+// evenly over the (2R+1)² window around it, so the image keeps its energy and the spike becomes a faint wash.
+// Returns the spread excess (3 floats per pixel; empty when there is none) and lowers `radiance` where it cut.
+std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, std::vector<float>& radiance,
+                                   const std::vector<float>& variance) {
+  if (!(st.firefly_ratio > 0.f)) return {};
+  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  const auto at = [w](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x); };
+  std::vector<float> lum(n);
+  for (size_t i = 0; i < n; ++i) lum[i] = luminance(Rgb(radiance[3 * i], radiance[3 * i + 1], radiance[3 * i + 2]));
+  std::vector<float> spike(3 * n, 0.f);
+  bool any = false;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float first = 0.f, second = 0.f;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          const float l = lum[at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1))];
+          if (l > first) second = first, first = l;
+          else if (l > second) second = l;
         }
+      const size_t i = at(x, y);
+      const float limit = st.firefly_ratio * second, l = lum[i];
+      if (!(l > limit)) continue;
+      // A rough deviation of the luminance (the channels' variances weighted like the channels): the test only
+      // asks whether a few samples carry the pixel. A NaN or infinite variance (below 2 samples) counts as large.
+      const float v = luminance(Rgb(variance[3 * i], variance[3 * i + 1], variance[3 * i + 2]));
+      if (!(std::isnan(v) || std::sqrt(std::max(0.f, v)) > st.firefly_deviation * l)) continue;
+      const float keep = limit / l;
+      for (int c = 0; c < 3; ++c) {
+        spike[3 * i + c] = radiance[3 * i + c] * (1.f - keep);
+        radiance[3 * i + c] *= keep;
       }
-      if (ok) {
-        for (int c = 0; c < 3; ++c) {
-          double z[kDims];
-          for (int a = 0; a < kDims; ++a) {
-            double v = B[a][c];
-            for (int k = 0; k < a; ++k) v -= A[a][k] * z[k];
-            z[a] = v / A[a][a];
-          }
-          for (int a = kDims - 1; a >= 0; --a) {
-            double v = z[a];
-            for (int k = a + 1; k < kDims; ++k) v -= A[k][a] * z[k];
-            z[a] = v / A[a][a];
-          }
-          result[c] = z[0];
-        }
-      } else {
-        for (int c = 0; c < 3; ++c) result[c] = B[0][c] / total;  // the weighted mean
-      }
+      any = true;
     }
-    const size_t o = static_cast<size_t>(py) * in.w + px;
+  if (!any) return {};
+  // Each spike divided by the number of in-image pixels of its window, then box-summed over the window (running
+  // sums along the rows, then down the columns, in double).
+  const int R = st.radius;
+  const auto window = [R](int p, int size) { return std::min(p + R, size - 1) - std::max(p - R, 0) + 1; };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) spike[3 * at(x, y) + c] /= static_cast<float>(window(x, w) * window(y, h));
+  std::vector<float> rows(3 * n), spread(3 * n);
+  for (int y = 0; y < h; ++y)
     for (int c = 0; c < 3; ++c) {
-      const double v = std::isfinite(result[c]) ? std::max(0.0, result[c]) : static_cast<double>(in.color[c][i]);
-      out[3 * o + c] = static_cast<float>(v);
+      double sum = 0.0;
+      for (int x = 0; x < std::min(R, w); ++x) sum += spike[3 * at(x, y) + c];
+      for (int x = 0; x < w; ++x) {
+        if (x + R < w) sum += spike[3 * at(x + R, y) + c];
+        if (x - R - 1 >= 0) sum -= spike[3 * at(x - R - 1, y) + c];
+        rows[3 * at(x, y) + c] = static_cast<float>(sum);
+      }
     }
-  }
+  for (int x = 0; x < w; ++x)
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0.0;
+      for (int y = 0; y < std::min(R, h); ++y) sum += rows[3 * at(x, y) + c];
+      for (int y = 0; y < h; ++y) {
+        if (y + R < h) sum += rows[3 * at(x, y + R) + c];
+        if (y - R - 1 >= 0) sum -= rows[3 * at(x, y - R - 1) + c];
+        spread[3 * at(x, y) + c] = static_cast<float>(std::max(0.0, sum));
+      }
+    }
+  return spread;
 }
 
 }  // namespace
 
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
                                       const std::atomic<bool>* cancel) {
+
   const int w = input.width, h = input.height;
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
   check_denoise_input(input);
-  if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f))
+  if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f) || !(st.sigma_normal >= 0.f) ||
+      !(st.sigma_albedo >= 0.f) || !(st.firefly_ratio >= 0.f) || !(st.firefly_deviation >= 0.f))
     throw std::invalid_argument("denoise: bad regression settings");
 
   Planes in;
@@ -240,6 +351,9 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   for (auto& p : in.color) p.resize(padded);
   for (auto& p : in.variance) p.resize(padded);
   for (auto& p : in.feature) p.resize(padded);
+  std::vector<float> radiance(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) radiance[i] = (*input.color)[i] - (input.emission ? (*input.emission)[i] : 0.f);
+  const std::vector<float> excess = split_fireflies(w, h, st, radiance, *input.variance);
   pool.parallel_for(in.height_padded(), [&](int row, int) {
     const int y = std::clamp(row - in.margin, 0, h - 1);
     for (int col = 0; col < in.width_padded(); ++col) {
@@ -248,8 +362,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
       const float* nrm = &(*input.normal)[3 * i];
       const float inv = inverse_normal_length(nrm);
       for (int c = 0; c < 3; ++c) {
-        const float emitted = input.emission ? (*input.emission)[3 * i + c] : 0.f;
-        in.color[c][j] = (*input.color)[3 * i + c] - emitted;
+        in.color[c][j] = radiance[3 * i + c];
         const float v = (*input.variance)[3 * i + c];
         in.variance[c][j] = std::isfinite(v) ? v : 0.f;  // below 2 samples: no estimate
         in.feature[c][j] = (*input.albedo)[3 * i + c];
@@ -267,7 +380,8 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
     regress_tile(in, st, task % tiles_x, task / tiles_x, scratch[static_cast<size_t>(thread)], out);
   });
   if (cancel && cancel->load(std::memory_order_relaxed)) return {};
-  for (size_t i = 0; i < 3 * n; ++i) out[i] += input.emission ? (*input.emission)[i] : 0.f;
+  for (size_t i = 0; i < 3 * n; ++i)
+    out[i] += (excess.empty() ? 0.f : excess[i]) + (input.emission ? (*input.emission)[i] : 0.f);
   return out;
 }
 
