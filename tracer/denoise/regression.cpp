@@ -5,65 +5,71 @@
 // (locally weighted regression as in Moon et al. 2014, "Adaptive Rendering Based on Weighted Local Regression";
 // Bitterli et al. 2016, "Nonlinearly Weighted First-order Regression for Denoising Monte Carlo Renderings", §4):
 //   minimise Σ_q w(p, q) ‖y_q − βᵀ x_q‖² + Σ_{k≥1} λ_k β_k² (Σ_q w),  output β₀,
-//   x_q = (1, (q − p)/R, a_q − a_p, n_q − n_p, (z_q − z_p)/z_p)   (10 regressors: screen offset, albedo, normal,
-//                                                                   relative depth; a first-order Taylor model)
+//   x_q = (1, (q − p)/R, a_q − a_p, n_q − n_p)   (9 regressors: screen offset, albedo, normal; a first-order
+//                                                  Taylor model)
 // with the ridge λ_k = λ on the feature slopes (noisy features, e.g. seen through glossy surfaces, should not
-// carry the fit) and 1e-4 on the offset slopes.
-// A first-order fit follows the radiance across texture, normal and depth edges and along smooth gradients, where
-// a weighted mean (the à-trous filter) averages across them; and the weighted residuals of a fit with an
-// intercept sum to zero, so the window's energy stays where it was.
+// carry the fit) and 1e-4 on the offset slopes. (A relative-depth regressor was dropped: with the others it
+// changed relMSE by < 0.1 % on cornell, cornell-spheres and materials and cost 15 % of the sums.)
+// A first-order fit follows the radiance across texture and normal edges and along smooth gradients, where a
+// weighted mean (the à-trous filter) averages across them; and the weighted residuals of a fit with an intercept
+// sum to zero, so the window's energy stays where it was.
 //
 // The weights are non-local means on the colour, with the per-pixel variance of the mean (Rousselle, Knaus and
 // Zwicker 2012, "Adaptive Rendering with Non-Local Means Filtering", eq. 6–7; the distance NFOR uses, §5.1):
 //   d²_c(s, t) = ((u_s − u_t)² − (v_s + min(v_s, v_t))) / (ε + k²(v_s + v_t))  per channel,
 //   D²(p, q) = mean over channels and over the (2P+1)² patch offsets s of d²_c(p + s, q + s),
-//   w(p, q) = exp(−max(0, D²)).
+//   w(p, q) = exp(−max(0, D²) − |n_q − n_p|²/σ_n² − |a_q − a_p|²/σ_a²)
+// (the feature kernels are the cross-bilateral part of Moon et al. 2014's weights).
 // Subtracting the variances makes the expected distance of two pixels of the same mean 0 whatever their noise.
 //
-// Layout: padded planes (no bounds checks); the image is cut into 16×16 tiles. Per tile and window offset, the pixel distances of the tile and its
-// patch margin are computed once and box-filtered, then every pixel of the tile adds its neighbour's row to its
-// normal equations (55 + 30 sums per pixel, kept for the tile: ~90 KB, in L2). Loops over the tile's pixels are
-// plain arrays of 256 floats, which the compiler vectorises. Then each pixel's 10×10 system is solved by Cholesky
-// in double.
+// Layout: padded planes (no bounds checks); the image is cut into 16×16 tiles. Per tile, phase 1 computes the patch
+// distance of every pixel to its neighbour at every window offset; phase 2 takes one row of 16 pixels through all
+// offsets, adding each neighbour to the row's normal equations (45 + 27 sums per pixel, 4.6 KB: in L1), and solves
+// the row's 9×9 systems side by side by Cholesky in double. Loops over 16 pixels are plain arrays, which the
+// compiler vectorises.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <experimental/simd>
 #include <stdexcept>
 #include <vector>
 
-#include "denoise/denoiser.h"
 #include "core/math.h"
+#include "denoise/denoiser.h"
 #include "denoise/exp_neg.h"
 
 namespace pt {
 
 namespace {
 
+namespace stdx = std::experimental;
+
 constexpr int kTile = 16;
 constexpr int kTilePixels = kTile * kTile;
-constexpr int kDims = 10;                           // regressors
+constexpr int kDims = 9;                            // regressors
 constexpr int kPairs = kDims * (kDims + 1) / 2;     // entries of the symmetric normal matrix
 constexpr float kDistanceEpsilon = 1e-10f;          // ε of the distance: keeps noiseless pixels comparable
-constexpr float kMinDepth = 1e-6f;
 constexpr double kOffsetRidge = 1e-4;
 
 // The inputs as planes, one float per pixel per channel, padded by pixels that repeat the nearest edge pixel, so a
 // window or patch offset never needs a bounds check (a clamped coordinate reads the same value): `margin` = R + P
-// on the left and top, margin + kTile − 1 on the right and bottom, where the last tiles reach past the image.
+// on the left and top, margin + kTile − 1 at the bottom, where the last tiles reach past the image, and margin +
+// 2·kTile − 1 on the right, where the patch distances are computed over whole blocks of 16 columns.
 struct Planes {
   int w = 0, h = 0, margin = 0;
-  int width_padded() const { return w + 2 * margin + kTile - 1; }
+  int width_padded() const { return w + 2 * margin + 2 * kTile - 1; }
   int height_padded() const { return h + 2 * margin + kTile - 1; }
   size_t stride = 0;
   std::array<std::vector<float>, 3> color, variance;
-  std::array<std::vector<float>, 7> feature;  // albedo r, g, b, normal x, y, z, depth
+  std::array<std::vector<float>, 6> feature;  // albedo r, g, b, normal x, y, z
   size_t at(int x, int y) const { return static_cast<size_t>(y + margin) * stride + static_cast<size_t>(x + margin); }
 };
 
 // The work of one tile. Phase 1 keeps, for every window offset, the patch distance of each of the tile's pixels to
 // its neighbour at that offset (~300 KB for R = 8: written once, read once, in L2); phase 2 then takes the tile a
-// row of 16 pixels at a time through every offset, so that row's normal equations (85 sums × 16 pixels, 5.4 KB)
-// stay in L1 instead of streaming the whole tile's (87 KB) through L2 at every offset.
+// row of 16 pixels at a time through every offset, so that row's normal equations (72 sums × 16 pixels, 4.6 KB)
+// stay in L1 instead of streaming the whole tile's (74 KB) through L2 at every offset.
 struct TileScratch {
   std::vector<float> distance, row_sum, patch_distance;
 };
@@ -75,13 +81,18 @@ float inverse_square(float sigma) { return sigma > 0.f ? 1.f / (sigma * sigma) :
 
 constexpr float kOutside = 1e30f;  // patch distance of a neighbour outside the image: weight 0
 
-// Phase 1: D(p, p + o) for the tile's pixels p and every window offset o, into sc.patch_distance[o][p].
+// Phase 1: D(p, p + o) for the tile's pixels p and every window offset o, into sc.patch_distance[o][p]. The pixel
+// distances are computed over whole blocks of 16 columns (the patch margin makes 18 columns of which 2 would be a
+// scalar tail; the extra columns read the right pad and are not used), and a neighbour outside the image gets
+// kOutside through the range of columns that have one, so every loop runs on full SIMD lanes.
 void tile_patch_distances(const Planes& in, const RegressionSettings& st, int x0, int y0, TileScratch& sc) {
+  using Lanes = stdx::fixed_size_simd<float, kTile>;
   const int R = st.radius, P = st.patch, side = kTile + 2 * P, width = 2 * R + 1;
+  const int blocks = (side + kTile - 1) / kTile, side_padded = blocks * kTile;
   const float k2 = st.k * st.k;
   const float inv_patch = 1.f / (3.f * static_cast<float>((2 * P + 1) * (2 * P + 1)));
   const ptrdiff_t stride = static_cast<ptrdiff_t>(in.stride);
-  sc.distance.resize(static_cast<size_t>(side) * side);
+  sc.distance.resize(static_cast<size_t>(side) * side_padded);
   sc.row_sum.resize(static_cast<size_t>(side) * kTile);
   sc.patch_distance.resize(static_cast<size_t>(width) * width * kTilePixels);
   for (int oy = -R; oy <= R; ++oy)
@@ -90,39 +101,42 @@ void tile_patch_distances(const Planes& in, const RegressionSettings& st, int x0
       // Pixel distances between s and s + (ox, oy) over the tile and its patch margin.
       for (int ey = 0; ey < side; ++ey) {
         const size_t row = in.at(x0 - P, y0 - P + ey);
-        float* d = &sc.distance[static_cast<size_t>(ey) * side];
-        for (int ex = 0; ex < side; ++ex) d[ex] = 0.f;
-        for (int c = 0; c < 3; ++c) {
-          const float* u = &in.color[c][row];
-          const float* v = &in.variance[c][row];
-          for (int ex = 0; ex < side; ++ex) {
-            const float vs = v[ex], vq = v[ex + shift];
-            const float diff = u[ex] - u[ex + shift];
-            d[ex] += (diff * diff - (vs + std::min(vs, vq))) / (kDistanceEpsilon + k2 * (vs + vq));
+        float* d = &sc.distance[static_cast<size_t>(ey) * side_padded];
+        for (int b = 0; b < side_padded; b += kTile) {
+          Lanes acc = 0.f;
+          for (int c = 0; c < 3; ++c) {
+            const float* u = &in.color[c][row + static_cast<size_t>(b)];
+            const float* v = &in.variance[c][row + static_cast<size_t>(b)];
+            const Lanes vs(v, stdx::element_aligned), vq(v + shift, stdx::element_aligned);
+            const Lanes diff = Lanes(u, stdx::element_aligned) - Lanes(u + shift, stdx::element_aligned);
+            acc += (diff * diff - (vs + stdx::min(vs, vq))) / (kDistanceEpsilon + k2 * (vs + vq));
           }
+          acc.copy_to(d + b, stdx::element_aligned);
         }
       }
       // Box sums over the patch: along rows, then down the columns.
       for (int ey = 0; ey < side; ++ey) {
-        const float* d = &sc.distance[static_cast<size_t>(ey) * side];
-        float* r = &sc.row_sum[static_cast<size_t>(ey) * kTile];
-        for (int px = 0; px < kTile; ++px) r[px] = d[px];
-        for (int k = 1; k <= 2 * P; ++k)
-          for (int px = 0; px < kTile; ++px) r[px] += d[px + k];
+        const float* d = &sc.distance[static_cast<size_t>(ey) * side_padded];
+        Lanes r(d, stdx::element_aligned);
+        for (int k = 1; k <= 2 * P; ++k) r += Lanes(d + k, stdx::element_aligned);
+        r.copy_to(&sc.row_sum[static_cast<size_t>(ey) * kTile], stdx::element_aligned);
       }
+      // Columns whose neighbour is inside the image: x0 + px + ox ∈ [0, w).
+      const int inside_lo = std::clamp(-x0 - ox, 0, kTile), inside_hi = std::clamp(in.w - x0 - ox, 0, kTile);
       float* out = &sc.patch_distance[static_cast<size_t>((oy + R) * width + (ox + R)) * kTilePixels];
       for (int py = 0; py < kTile; ++py) {
         float* w = &out[py * kTile];
-        for (int px = 0; px < kTile; ++px) w[px] = sc.row_sum[static_cast<size_t>(py) * kTile + px];
-        for (int k = 1; k <= 2 * P; ++k)
-          for (int px = 0; px < kTile; ++px) w[px] += sc.row_sum[static_cast<size_t>(py + k) * kTile + px];
+        Lanes sum(&sc.row_sum[static_cast<size_t>(py) * kTile], stdx::element_aligned);
+        for (int k = 1; k <= 2 * P; ++k) sum += Lanes(&sc.row_sum[static_cast<size_t>(py + k) * kTile], stdx::element_aligned);
+        stdx::max(Lanes(0.f), sum * inv_patch).copy_to(w, stdx::element_aligned);
         // Neighbours outside the image weigh nothing (their pads only repeat the edge).
         const int qy = y0 + py + oy;
-        const bool row_inside = qy >= 0 && qy < in.h;
-        for (int px = 0; px < kTile; ++px) {
-          const int qx = x0 + px + ox;
-          w[px] = row_inside && qx >= 0 && qx < in.w ? std::max(0.f, w[px] * inv_patch) : kOutside;
+        if (qy < 0 || qy >= in.h) {
+          for (int px = 0; px < kTile; ++px) w[px] = kOutside;
+          continue;
         }
+        for (int px = 0; px < inside_lo; ++px) w[px] = kOutside;
+        for (int px = inside_hi; px < kTile; ++px) w[px] = kOutside;
       }
     }
 }
@@ -194,20 +208,24 @@ void solve_row(const Planes& in, const RegressionSettings& st, const Row* matrix
   }
 }
 
-// Phase 2 for one row of 16 pixels: every offset's neighbour adds w · x xᵀ and w · x yᵀ to the row's sums.
+// Phase 2 for one row of 16 pixels: every offset's neighbour adds w · x xᵀ and w · x yᵀ to the row's sums. The row
+// is one SIMD value of 16 lanes (one AVX-512 register, two AVX2 ones), written out so that each statement is a
+// vector operation whatever the auto-vectoriser makes of the triangle's loops.
 void regress_row(const Planes& in, const RegressionSettings& st, const TileScratch& sc, int x0, int y, int py,
                  std::vector<float>& out) {
+  using Lanes = stdx::fixed_size_simd<float, kTile>;
   const int R = st.radius, width = 2 * R + 1;
   const ptrdiff_t stride = static_cast<ptrdiff_t>(in.stride);
-  alignas(64) Row own[7], inv_depth;
-  for (int px = 0; px < kTile; ++px) {
-    const size_t i = in.at(std::min(x0 + px, in.w - 1), std::min(y, in.h - 1));
-    for (int f = 0; f < 7; ++f) own[f][px] = in.feature[f][i];
-    inv_depth[px] = 1.f / std::max(own[6][px], kMinDepth);
+  Lanes own[6];
+  for (int f = 0; f < 6; ++f) {
+    alignas(64) Row values;
+    for (int px = 0; px < kTile; ++px)
+      values[px] = in.feature[f][in.at(std::min(x0 + px, in.w - 1), std::min(y, in.h - 1))];
+    own[f].copy_from(values, stdx::vector_aligned);
   }
-  alignas(64) Row matrix[kPairs], rhs[3 * kDims];
-  for (auto& m : matrix) std::fill(m, m + kTile, 0.f);
-  for (auto& r : rhs) std::fill(r, r + kTile, 0.f);
+  Lanes matrix[kPairs], rhs[3 * kDims];
+  for (auto& m : matrix) m = 0.f;
+  for (auto& r : rhs) r = 0.f;
   const size_t base = in.at(x0, y);
   const float inv_sn2 = inverse_square(st.sigma_normal), inv_sa2 = inverse_square(st.sigma_albedo);
   for (int oy = -R; oy <= R; ++oy)
@@ -215,42 +233,30 @@ void regress_row(const Planes& in, const RegressionSettings& st, const TileScrat
       const size_t q = static_cast<size_t>(static_cast<ptrdiff_t>(base) + oy * stride + ox);
       const float* dist = &sc.patch_distance[static_cast<size_t>((oy + R) * width + (ox + R)) * kTilePixels +
                                              static_cast<size_t>(py) * kTile];
-      alignas(64) Row x[kDims], y3[3], wgt;
-      const float off_x = static_cast<float>(ox) / static_cast<float>(R);
-      const float off_y = static_cast<float>(oy) / static_cast<float>(R);
-      for (int px = 0; px < kTile; ++px) {
-        x[0][px] = 1.f;
-        x[1][px] = off_x;
-        x[2][px] = off_y;
-      }
-      for (int f = 0; f < 6; ++f) {
-        const float* src = &in.feature[f][q];
-        for (int px = 0; px < kTile; ++px) x[3 + f][px] = src[px] - own[f][px];
-      }
-      const float* depth = &in.feature[6][q];
-      for (int px = 0; px < kTile; ++px) x[9][px] = (depth[px] - own[6][px]) * inv_depth[px];
-      for (int c = 0; c < 3; ++c) {
-        const float* src = &in.color[c][q];
-        for (int px = 0; px < kTile; ++px) y3[c][px] = src[px];
-      }
+      Lanes x[kDims], y3[3];
+      x[0] = 1.f;
+      x[1] = static_cast<float>(ox) / static_cast<float>(R);
+      x[2] = static_cast<float>(oy) / static_cast<float>(R);
+      for (int f = 0; f < 6; ++f) x[3 + f] = Lanes(&in.feature[f][q], stdx::element_aligned) - own[f];
+      for (int c = 0; c < 3; ++c) y3[c] = Lanes(&in.color[c][q], stdx::element_aligned);
       // The weight: non-local means on the colour times the feature kernels.
-      for (int px = 0; px < kTile; ++px) {
-        const float da = x[3][px] * x[3][px] + x[4][px] * x[4][px] + x[5][px] * x[5][px];
-        const float dn = x[6][px] * x[6][px] + x[7][px] * x[7][px] + x[8][px] * x[8][px];
-        wgt[px] = dist[px] < kOutside ? exp_neg(dist[px] + dn * inv_sn2 + da * inv_sa2) : 0.f;
-      }
+      const Lanes d(dist, stdx::element_aligned);
+      const Lanes da = x[3] * x[3] + x[4] * x[4] + x[5] * x[5];
+      const Lanes dn = x[6] * x[6] + x[7] * x[7] + x[8] * x[8];
+      Lanes wgt = exp_neg(d + dn * inv_sn2 + da * inv_sa2);
+      stdx::where(d >= kOutside, wgt) = 0.f;
       // Normal equations: Σ w x xᵀ (upper triangle) and Σ w x yᵀ.
       int e = 0;
       for (int a = 0; a < kDims; ++a) {
-        alignas(64) Row wx;
-        for (int px = 0; px < kTile; ++px) wx[px] = wgt[px] * x[a][px];
-        for (int b = a; b < kDims; ++b, ++e)
-          for (int px = 0; px < kTile; ++px) matrix[e][px] += wx[px] * x[b][px];
-        for (int c = 0; c < 3; ++c)
-          for (int px = 0; px < kTile; ++px) rhs[3 * a + c][px] += wx[px] * y3[c][px];
+        const Lanes wx = wgt * x[a];
+        for (int b = a; b < kDims; ++b, ++e) matrix[e] += wx * x[b];
+        for (int c = 0; c < 3; ++c) rhs[3 * a + c] += wx * y3[c];
       }
     }
-  solve_row(in, st, matrix, rhs, x0, y, out);
+  alignas(64) Row matrix_rows[kPairs], rhs_rows[3 * kDims];
+  for (int e = 0; e < kPairs; ++e) matrix[e].copy_to(matrix_rows[e], stdx::vector_aligned);
+  for (int e = 0; e < 3 * kDims; ++e) rhs[e].copy_to(rhs_rows[e], stdx::vector_aligned);
+  solve_row(in, st, matrix_rows, rhs_rows, x0, y, out);
 }
 
 void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty, TileScratch& sc,
@@ -268,15 +274,18 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
 // evenly over the (2R+1)² window around it, so the image keeps its energy and the spike becomes a faint wash.
 // Returns the spread excess (3 floats per pixel; empty when there is none) and lowers `radiance` where it cut.
 std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, std::vector<float>& radiance,
-                                   const std::vector<float>& variance) {
+                                   const std::vector<float>& variance, ThreadPool& pool) {
   if (!(st.firefly_ratio > 0.f)) return {};
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
   const auto at = [w](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x); };
   std::vector<float> lum(n);
-  for (size_t i = 0; i < n; ++i) lum[i] = luminance(Rgb(radiance[3 * i], radiance[3 * i + 1], radiance[3 * i + 2]));
+  pool.parallel_for(h, [&](int y, int) {
+    for (size_t i = at(0, y); i < at(0, y) + static_cast<size_t>(w); ++i)
+      lum[i] = luminance(Rgb(radiance[3 * i], radiance[3 * i + 1], radiance[3 * i + 2]));
+  });
   std::vector<float> spike(3 * n, 0.f);
-  bool any = false;
-  for (int y = 0; y < h; ++y)
+  std::atomic<bool> any{false};
+  pool.parallel_for(h, [&](int y, int) {
     for (int x = 0; x < w; ++x) {
       float first = 0.f, second = 0.f;
       for (int dy = -1; dy <= 1; ++dy)
@@ -298,18 +307,18 @@ std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, s
         spike[3 * i + c] = radiance[3 * i + c] * (1.f - keep);
         radiance[3 * i + c] *= keep;
       }
-      any = true;
+      any.store(true, std::memory_order_relaxed);
     }
-  if (!any) return {};
+  });
+  if (!any.load()) return {};
   // Each spike divided by the number of in-image pixels of its window, then box-summed over the window (running
   // sums along the rows, then down the columns, in double).
   const int R = st.radius;
   const auto window = [R](int p, int size) { return std::min(p + R, size - 1) - std::max(p - R, 0) + 1; };
-  for (int y = 0; y < h; ++y)
+  std::vector<float> rows(3 * n), spread(3 * n);
+  pool.parallel_for(h, [&](int y, int) {
     for (int x = 0; x < w; ++x)
       for (int c = 0; c < 3; ++c) spike[3 * at(x, y) + c] /= static_cast<float>(window(x, w) * window(y, h));
-  std::vector<float> rows(3 * n), spread(3 * n);
-  for (int y = 0; y < h; ++y)
     for (int c = 0; c < 3; ++c) {
       double sum = 0.0;
       for (int x = 0; x < std::min(R, w); ++x) sum += spike[3 * at(x, y) + c];
@@ -319,7 +328,8 @@ std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, s
         rows[3 * at(x, y) + c] = static_cast<float>(sum);
       }
     }
-  for (int x = 0; x < w; ++x)
+  });
+  pool.parallel_for(w, [&](int x, int) {
     for (int c = 0; c < 3; ++c) {
       double sum = 0.0;
       for (int y = 0; y < std::min(R, h); ++y) sum += rows[3 * at(x, y) + c];
@@ -329,6 +339,7 @@ std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, s
         spread[3 * at(x, y) + c] = static_cast<float>(std::max(0.0, sum));
       }
     }
+  });
   return spread;
 }
 
@@ -353,7 +364,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   for (auto& p : in.feature) p.resize(padded);
   std::vector<float> radiance(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) radiance[i] = (*input.color)[i] - (input.emission ? (*input.emission)[i] : 0.f);
-  const std::vector<float> excess = split_fireflies(w, h, st, radiance, *input.variance);
+  const std::vector<float> excess = split_fireflies(w, h, st, radiance, *input.variance, pool);
   pool.parallel_for(in.height_padded(), [&](int row, int) {
     const int y = std::clamp(row - in.margin, 0, h - 1);
     for (int col = 0; col < in.width_padded(); ++col) {
@@ -368,7 +379,6 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
         in.feature[c][j] = (*input.albedo)[3 * i + c];
         in.feature[3 + c][j] = nrm[c] * inv;
       }
-      in.feature[6][j] = (*input.depth)[i];
     }
   });
 
