@@ -63,12 +63,12 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->check(CLI::IsMember(enum_name_list<Aov>()));
   r->add_flag("--exr-half", o.exr_half, "Store the --exr channels as 16-bit half floats (default 32-bit float)");
   r->add_flag("--denoise", o.denoise,
-              "Denoise (feature-guided à-trous filter, docs/denoising.md): the PNG shows the denoised image; the "
-              "PFM stays the raw, unbiased estimate");
+              "Denoise (the filter of --denoiser, docs/denoising.md): the PNG shows the denoised image; the PFM "
+              "stays the raw, unbiased estimate");
   r->add_option("--denoised-pfm", o.denoised_pfm, "With --denoise: write the denoised linear radiance (PFM) here");
   r->add_option("--denoiser", o.denoiser,
                 enum_names_joined<DenoiseMethod>(" | ") +
-                    ": the filter of --denoise: a first-order regression on the features (final frames, ~0.7 s at "
+                    ": the filter of --denoise: a first-order regression on the features (final frames, ~0.2 s at "
                     "512²) or the à-trous wavelet filter of the viewer (~0.1 s); default regression")
       ->check(CLI::IsMember(enum_name_list<DenoiseMethod>()));
   r->add_option("--exposure", o.exposure, "PNG exposure in EV stops")->check(finite_in(-64, 64))->capture_default_str();
