@@ -79,7 +79,7 @@ struct RegressionSettings {
   // crease or a material edge leaves the fit even where the colour noise hides the difference.
   float sigma_normal = 0.3f;
   float sigma_albedo = 0.3f;
-  // Fireflies: a pixel brighter than firefly_ratio × the second-brightest of its 8 neighbours whose mean's
+  // Fireflies: a pixel brighter than firefly_ratio × the (upper) median of its 8 neighbours whose mean's
   // standard deviation exceeds firefly_deviation × its mean has the excess spread over its window (0: off).
   float firefly_ratio = 1.5f;
   float firefly_deviation = 0.5f;

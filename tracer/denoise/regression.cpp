@@ -267,10 +267,21 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
 }
 
 
+// Sorts 8 values with Batcher's odd–even merge network (19 compare-exchanges, branch-free; checked on all 2^8
+// zero-one inputs, which suffices by the 0-1 principle, Knuth TAOCP vol. 3, §5.3.4).
+inline void sort8(float (&v)[8]) {
+  constexpr int kNet[19][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {1, 2}, {5, 6},
+                               {0, 4}, {1, 5}, {2, 6}, {3, 7}, {2, 4}, {3, 5}, {1, 2}, {3, 4}, {5, 6}};
+  for (const auto& [a, b] : kNet) {
+    const float lo = std::min(v[a], v[b]), hi = std::max(v[a], v[b]);
+    v[a] = lo, v[b] = hi;
+  }
+}
+
 // Fireflies: a pixel far brighter than its neighbours whose brightness rests on a few samples (its mean's standard
 // deviation is a large part of the mean) would stay a spike: its own regressors (noisy features seen through glass
-// or glossy lobes) let its fit follow it. Its excess over firefly_ratio × the second-brightest of its 8 neighbours
-// (the second, so that two fireflies side by side are both caught) is taken out of the filtered radiance and spread
+// or glossy lobes) let its fit follow it. Its excess over firefly_ratio × the median of its 8 neighbours (the
+// median, so that clusters of up to three fireflies are caught) is taken out of the filtered radiance and spread
 // evenly over the (2R+1)² window around it, so the image keeps its energy and the spike becomes a faint wash.
 // Returns the spread excess (3 floats per pixel; empty when there is none) and lowers `radiance` where it cut.
 std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, std::vector<float>& radiance,
@@ -287,16 +298,14 @@ std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, s
   std::atomic<bool> any{false};
   pool.parallel_for(h, [&](int y, int) {
     for (int x = 0; x < w; ++x) {
-      float first = 0.f, second = 0.f;
+      float around[8];
+      int k = 0;
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          const float l = lum[at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1))];
-          if (l > first) second = first, first = l;
-          else if (l > second) second = l;
-        }
+        for (int dx = -1; dx <= 1; ++dx)
+          if (dx != 0 || dy != 0) around[k++] = lum[at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1))];
+      sort8(around);
       const size_t i = at(x, y);
-      const float limit = st.firefly_ratio * second, l = lum[i];
+      const float limit = st.firefly_ratio * around[4], l = lum[i];  // the upper median
       if (!(l > limit)) continue;
       // A rough deviation of the luminance (the channels' variances weighted like the channels): the test only
       // asks whether a few samples carry the pixel. A NaN or infinite variance (below 2 samples) counts as large.
@@ -347,7 +356,6 @@ std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, s
 
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
                                       const std::atomic<bool>* cancel) {
-
   const int w = input.width, h = input.height;
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
   check_denoise_input(input);
