@@ -88,7 +88,7 @@ struct RegressionSettings {
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool,
                                       const std::atomic<bool>* cancel = nullptr);
 
-// Which filter: the regression for final frames (≈0.18 s at 512², 2 threads), the à-trous filter where time is
+// Which filter: the regression for final frames (≈0.16 s at 512², 2 threads), the à-trous filter where time is
 // short (the viewer: ≈50 ms).
 enum class DenoiseMethod { Regression, Atrous };
 template <>
