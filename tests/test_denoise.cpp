@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "denoise/denoiser.h"
+#include "denoise/fireflies.h"
 #include "io/film_exr.h"
 #include "io/image_io.h"
 #include "render/metrics.h"
@@ -148,6 +149,43 @@ TEST_CASE("denoiser: the regression spreads a firefly over its window and keeps 
   RegressionSettings off;
   off.firefly_ratio = 0.f;
   CHECK(denoise_regression(input, off, pool)[3 * f] > 3.f);  // the spike the step removes
+}
+
+TEST_CASE("fireflies: a cluster of three is cut to 1.5x the neighbours' median and spread; others are left alone") {
+  // 32×32 of 0.1 (variance 1e-4: deviation 10 % of the mean). Three adjacent pixels at 2.0 whose deviation is 90 %
+  // of their mean (a few samples carry them): each has at most 3 bright neighbours of 8, so its neighbours' median
+  // is 0.1 and it is cut to 0.15. A bright pixel with a small deviation (a real highlight) and one with no finite
+  // variance (below 2 samples) are left alone. The cut energy comes back spread: the sums agree.
+  const int w = 32, h = 32;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> radiance(3 * n, 0.1f), variance(3 * n, 1e-4f);
+  const auto set = [&](int x, int y, float value, float var) {
+    for (int c = 0; c < 3; ++c) {
+      radiance[3 * (static_cast<size_t>(y) * w + x) + c] = value;
+      variance[3 * (static_cast<size_t>(y) * w + x) + c] = var;
+    }
+  };
+  for (int x = 10; x < 13; ++x) set(x, 10, 2.f, 1.8f * 1.8f);
+  set(25, 25, 2.f, 1e-3f);                                       // a highlight: deviation 1.6 % of its mean
+  set(5, 25, 2.f, std::numeric_limits<float>::infinity());       // below 2 samples
+  const std::vector<float> before = radiance;
+  ThreadPool pool(2);
+  const std::vector<float> spread = spread_fireflies(w, h, FireflySettings{}, radiance, variance, pool);
+  REQUIRE(spread.size() == 3 * n);
+  for (int x = 10; x < 13; ++x) CHECK(radiance[3 * (10 * w + x)] == doctest::Approx(0.15f).epsilon(1e-5));
+  CHECK(radiance[3 * (25 * w + 25)] == 2.f);
+  CHECK(radiance[3 * (25 * w + 5)] == 2.f);
+  double sum_before = 0.0, sum_after = 0.0;
+  for (size_t k = 0; k < 3 * n; ++k) sum_before += before[k], sum_after += radiance[k] + spread[k];
+  CHECK(sum_after == doctest::Approx(sum_before).epsilon(1e-6));
+  // Spread over the 17×17 window: the middle firefly's neighbourhood gains, a far corner gains nothing.
+  CHECK(spread[3 * (10 * w + 11)] > 0.f);
+  CHECK(spread[3 * (31 * w + 31)] == 0.f);
+  FireflySettings off;
+  off.ratio = 0.f;
+  std::vector<float> untouched = before;
+  CHECK(spread_fireflies(w, h, off, untouched, variance, pool).empty());
+  CHECK(untouched == before);
 }
 
 TEST_CASE("denoiser: both filters take images smaller than their windows, and non-finite variances") {

@@ -20,6 +20,7 @@
 // chunks of SIMD lanes: a chunk's own guides and its five sums stay in registers while its 25 taps stream past
 // (12 plane loads per tap).
 #include "denoise/denoiser.h"
+#include "denoise/fireflies.h"
 
 #include "core/math.h"
 #include "core/simd_sqrt_warnings.h"
@@ -140,6 +141,7 @@ struct Denoiser::Scratch {
   Guides g;
   Illumination a, b;
   std::vector<float> modulation;
+  std::vector<float> radiance;  // the image less its emission layer and its fireflies' excess (fireflies.h)
 };
 
 Denoiser::Denoiser() : scratch_(std::make_unique<Scratch>()) {}
@@ -192,6 +194,16 @@ bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
     return !cancellable || !cancelled();
   };
 
+  // The radiance to filter: less the emission layer and, with the firefly step, less the fireflies' excess, which
+  // is added back spread out at the end.
+  std::vector<float>& radiance = sc.radiance;
+  radiance.resize(3 * static_cast<size_t>(w) * h);
+  if (!for_rows([&](int y) {
+        for (size_t i = 3 * static_cast<size_t>(y) * w; i < 3 * static_cast<size_t>(y + 1) * w; ++i)
+          radiance[i] = (*in.color)[i] - (in.emission ? (*in.emission)[i] : 0.f);
+      }))
+    return false;
+  const std::vector<float> excess = spread_fireflies(w, h, st.fireflies, radiance, *in.variance, pool);
   // Demodulate and arrange the guides.
   const bool arranged = for_rows([&](int y) {
     std::vector<float>* albedo[3] = {&g.a0, &g.a1, &g.a2};
@@ -208,8 +220,7 @@ bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
         (*albedo[c])[j] = alb;
         const float m = demodulation(alb);
         modulation[3 * i + c] = m;
-        const float emitted = in.emission ? (*in.emission)[3 * i + c] : 0.f;
-        (*illum[c])[j] = ((*in.color)[3 * i + c] - emitted) / m;
+        (*illum[c])[j] = radiance[3 * i + c] / m;
         const float vv = (*in.variance)[3 * i + c] / (m * m);
         sd_l += kLuma[c] * (std::isfinite(vv) ? std::sqrt(vv) : 0.f);  // below 2 samples: no estimate, no filtering
       }
@@ -276,7 +287,8 @@ bool Denoiser::run(const DenoiseInput& in, const DenoiseSettings& st, ThreadPool
           const size_t i = static_cast<size_t>(y) * w + x, j = L.at(x, y);
           const float e[3] = {r.e0[j], r.e1[j], r.e2[j]};
           for (int c = 0; c < 3; ++c)
-            out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f);
+            out[3 * i + c] = e[c] * modulation[3 * i + c] + (in.emission ? (*in.emission)[3 * i + c] : 0.f) +
+                             (excess.empty() ? 0.f : excess[3 * i + c]);
         }
       },
       false);

@@ -35,9 +35,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/math.h"
 #include "denoise/denoiser.h"
 #include "denoise/exp_neg.h"
+#include "denoise/fireflies.h"
 
 namespace pt {
 
@@ -291,91 +291,6 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
 }
 
 
-// Sorts 8 values with Batcher's odd–even merge network (19 compare-exchanges, branch-free; checked on all 2^8
-// zero-one inputs, which suffices by the 0-1 principle, Knuth TAOCP vol. 3, §5.3.4).
-inline void sort8(float (&v)[8]) {
-  constexpr int kNet[19][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {1, 2}, {5, 6},
-                               {0, 4}, {1, 5}, {2, 6}, {3, 7}, {2, 4}, {3, 5}, {1, 2}, {3, 4}, {5, 6}};
-  for (const auto& [a, b] : kNet) {
-    const float lo = std::min(v[a], v[b]), hi = std::max(v[a], v[b]);
-    v[a] = lo, v[b] = hi;
-  }
-}
-
-// Fireflies: a pixel far brighter than its neighbours whose brightness rests on a few samples (its mean's standard
-// deviation is a large part of the mean) would stay a spike: its own regressors (noisy features seen through glass
-// or glossy lobes) let its fit follow it. Its excess over firefly_ratio × the median of its 8 neighbours (the
-// median, so that clusters of up to three fireflies are caught) is taken out of the filtered radiance and spread
-// evenly over the (2R+1)² window around it, so the image keeps its energy and the spike becomes a faint wash.
-// Returns the spread excess (3 floats per pixel; empty when there is none) and lowers `radiance` where it cut.
-std::vector<float> split_fireflies(int w, int h, const RegressionSettings& st, std::vector<float>& radiance,
-                                   const std::vector<float>& variance, ThreadPool& pool) {
-  if (!(st.firefly_ratio > 0.f)) return {};
-  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  const auto at = [w](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x); };
-  std::vector<float> lum(n);
-  pool.parallel_for(h, [&](int y, int) {
-    for (size_t i = at(0, y); i < at(0, y) + static_cast<size_t>(w); ++i)
-      lum[i] = luminance(Rgb(radiance[3 * i], radiance[3 * i + 1], radiance[3 * i + 2]));
-  });
-  std::vector<float> spike(3 * n, 0.f);
-  std::atomic<bool> any{false};
-  pool.parallel_for(h, [&](int y, int) {
-    for (int x = 0; x < w; ++x) {
-      float around[8];
-      int k = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx)
-          if (dx != 0 || dy != 0) around[k++] = lum[at(std::clamp(x + dx, 0, w - 1), std::clamp(y + dy, 0, h - 1))];
-      sort8(around);
-      const size_t i = at(x, y);
-      const float limit = st.firefly_ratio * around[4], l = lum[i];  // the upper median
-      if (!(l > limit)) continue;
-      // A rough deviation of the luminance (the channels' variances weighted like the channels): the test only
-      // asks whether a few samples carry the pixel. A NaN or infinite variance (below 2 samples) counts as large.
-      const float v = luminance(Rgb(variance[3 * i], variance[3 * i + 1], variance[3 * i + 2]));
-      if (!(std::isnan(v) || std::sqrt(std::max(0.f, v)) > st.firefly_deviation * l)) continue;
-      const float keep = limit / l;
-      for (int c = 0; c < 3; ++c) {
-        spike[3 * i + c] = radiance[3 * i + c] * (1.f - keep);
-        radiance[3 * i + c] *= keep;
-      }
-      any.store(true, std::memory_order_relaxed);
-    }
-  });
-  if (!any.load()) return {};
-  // Each spike divided by the number of in-image pixels of its window, then box-summed over the window (running
-  // sums along the rows, then down the columns, in double).
-  const int R = st.radius;
-  const auto window = [R](int p, int size) { return std::min(p + R, size - 1) - std::max(p - R, 0) + 1; };
-  std::vector<float> rows(3 * n), spread(3 * n);
-  pool.parallel_for(h, [&](int y, int) {
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) spike[3 * at(x, y) + c] /= static_cast<float>(window(x, w) * window(y, h));
-    for (int c = 0; c < 3; ++c) {
-      double sum = 0.0;
-      for (int x = 0; x < std::min(R, w); ++x) sum += spike[3 * at(x, y) + c];
-      for (int x = 0; x < w; ++x) {
-        if (x + R < w) sum += spike[3 * at(x + R, y) + c];
-        if (x - R - 1 >= 0) sum -= spike[3 * at(x - R - 1, y) + c];
-        rows[3 * at(x, y) + c] = static_cast<float>(sum);
-      }
-    }
-  });
-  pool.parallel_for(w, [&](int x, int) {
-    for (int c = 0; c < 3; ++c) {
-      double sum = 0.0;
-      for (int y = 0; y < std::min(R, h); ++y) sum += rows[3 * at(x, y) + c];
-      for (int y = 0; y < h; ++y) {
-        if (y + R < h) sum += rows[3 * at(x, y + R) + c];
-        if (y - R - 1 >= 0) sum -= rows[3 * at(x, y - R - 1) + c];
-        spread[3 * at(x, y) + c] = static_cast<float>(std::max(0.0, sum));
-      }
-    }
-  });
-  return spread;
-}
-
 }  // namespace
 
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
@@ -396,7 +311,8 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   for (auto& p : in.feature) p.resize(padded);
   std::vector<float> radiance(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) radiance[i] = (*input.color)[i] - (input.emission ? (*input.emission)[i] : 0.f);
-  const std::vector<float> excess = split_fireflies(w, h, st, radiance, *input.variance, pool);
+  const std::vector<float> excess =
+      spread_fireflies(w, h, {st.firefly_ratio, st.firefly_deviation, st.radius}, radiance, *input.variance, pool);
   pool.parallel_for(in.height_padded(), [&](int row, int) {
     const int y = std::clamp(row - in.margin, 0, h - 1);
     for (int col = 0; col < in.width_padded(); ++col) {
