@@ -25,8 +25,8 @@
 // Layout: padded planes (no bounds checks); the image is cut into 16×16 tiles. Per tile, phase 1 computes the patch
 // distance of every pixel to its neighbour at every window offset; phase 2 takes one row of 16 pixels through all
 // offsets, adding each neighbour to the row's normal equations (45 + 27 sums per pixel, 4.6 KB: in L1), and solves
-// the row's 9×9 systems side by side by Cholesky in double. Loops over 16 pixels are plain arrays, which the
-// compiler vectorises.
+// the row's 9×9 systems side by side by Cholesky in double. Both phases work on 16-lane SIMD values
+// (std::experimental::fixed_size_simd); the solver's loops over 16 pixels are plain arrays the compiler vectorises.
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -76,7 +76,7 @@ struct TileScratch {
   std::vector<float> distance, row_sum, patch_distance;
 };
 
-// Row of 16 pixels: plain arrays that GCC turns into one AVX-512 (or two AVX2) operations per statement.
+// A row of 16 pixels as a plain array (the solver's loops over it vectorise).
 using Row = float[kTile];
 
 float inverse_square(float sigma) { return sigma > 0.f ? 1.f / (sigma * sigma) : 0.f; }
