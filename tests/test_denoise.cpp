@@ -151,7 +151,7 @@ TEST_CASE("denoiser: the regression spreads a firefly over its window and keeps 
   CHECK(denoise_regression(input, off, pool)[3 * f] > 3.f);  // the spike the step removes
 }
 
-TEST_CASE("fireflies: a cluster of three is cut to 1.5x the neighbours' median and spread; others are left alone") {
+TEST_CASE("fireflies: a cluster of three is cut to 1.5x the neighbours median and spread, others are left alone") {
   // 32×32 of 0.1 (variance 1e-4: deviation 10 % of the mean). Three adjacent pixels at 2.0 whose deviation is 90 %
   // of their mean (a few samples carry them): each has at most 3 bright neighbours of 8, so its neighbours' median
   // is 0.1 and it is cut to 0.15. A bright pixel with a small deviation (a real highlight) and one with no finite
