@@ -19,7 +19,7 @@ if [ "${CI:-}" = "true" ] || [ "${1:-}" = "--sanitize" ]; then
   cmake --build "$here/build-asan" -j"$(nproc)" --target tracer_tests pathtracer
   cd "$here/build-asan"
   ctest -j"$(nproc)" --output-on-failure --timeout 900 \
-    -R 'scene_json|intersection|watertight|sphere|film:|fresnel|energy|refraction|sampling|rng|cli: errors|PFM round|metrics|furnace|determinism|bsdf|environment|spherical rectangle|analytic irradiance|safe writes|safe reads|cli: bad option|cli: outputs|cli: a write|typed edits|hostile scene input|features:|film halves|exr:|denoiser: both filters keep a constant|denoiser: the regression reproduces|denoiser: both filters take|denoiser: the regression stops|wavefront: the shading lanes|scale-out: |render region|gltf:|thin lens|smooth shading:|obj materials:|textures:|punctual lights:|normal maps:|cut-outs:|emission textures:|instances:' \
+    -R 'scene_json|intersection|watertight|sphere|film:|fresnel|energy|refraction|sampling|rng|cli: errors|PFM round|metrics|furnace|determinism|bsdf|environment|spherical rectangle|analytic irradiance|safe writes|safe reads|cli: bad option|cli: outputs|cli: a write|typed edits|hostile scene input|features:|film halves|exr:|denoiser: both filters keep a constant|denoiser: the regression reproduces|denoiser: both filters take|denoiser: the regression stops|denoiser: the regression spreads|fireflies:|wavefront: the shading lanes|scale-out: |render region|gltf:|thin lens|smooth shading:|obj materials:|textures:|punctual lights:|normal maps:|cut-outs:|emission textures:|instances:' \
     -E 'default scene|just below 1|albedo-1 closed room|cornell, 1 bounce|agreement:|constant map renders'
   echo "== fuzzing (libFuzzer, ASan + UBSan), 30 s per target =="
   "$here/tools/fuzz.sh" 30
