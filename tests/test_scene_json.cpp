@@ -334,11 +334,20 @@ TEST_CASE("scene_json: russian_roulette_depth \"auto\" is the default, resolves 
   CHECK(parse_scene(scene_to_json(a), "again").render.russian_roulette_depth == kRouletteDepthAuto);
   CHECK(scene_to_json(a).find(R"("russian_roulette_depth": "auto")") != std::string::npos);
   CHECK(parse_scene(with("4"), "four").render.russian_roulette_depth == 4);
-  // Resolved by the estimator that traces: path tracing from bounce 5, bdpt from 3; a number stays itself.
-  CHECK(roulette_depth(kRouletteDepthAuto, false) == 5);
-  CHECK(roulette_depth(kRouletteDepthAuto, true) == 3);
-  CHECK(roulette_depth(4, true) == 4);
-  CHECK(roulette_depth(-1, false) == -1);
+  // Resolved by the estimator that traces: path tracing from bounce 5, bdpt from 1 (3 under an infinite light); a
+  // number stays itself.
+  CHECK(roulette_depth(kRouletteDepthAuto, false, false) == 5);
+  CHECK(roulette_depth(kRouletteDepthAuto, false, true) == 5);
+  CHECK(roulette_depth(kRouletteDepthAuto, true, false) == 1);
+  CHECK(roulette_depth(kRouletteDepthAuto, true, true) == 3);
+  CHECK(roulette_depth(4, true, true) == 4);
+  CHECK(roulette_depth(-1, false, false) == -1);
+  EnvironmentDesc black, sky, grey;
+  sky.type = EnvironmentType::Sky;
+  grey.radiance = Rgb(0.f, 0.1f, 0.f);
+  CHECK(!lit_from_infinity(black));
+  CHECK(lit_from_infinity(sky));
+  CHECK(lit_from_infinity(grey));
   // Neither another word nor the sentinel's number is accepted.
   for (const std::string bad : {R"("automatic")", "-2"}) {
     CAPTURE(bad);

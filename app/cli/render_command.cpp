@@ -45,7 +45,7 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
       ->check(CLI::IsMember(enum_name_list<Estimator>()));
   r->add_option("--sampler", o.sampler, enum_names_joined<SamplerType>(" | ") + " (overrides render.sampler)")
       ->check(CLI::IsMember(enum_name_list<SamplerType>()));
-  r->add_option("--rr-depth", o.rr_depth, "Russian roulette from this bounce on; -1 = off (overrides the scene; its default, auto, is 5 for path tracing and 3 for bdpt)")
+  r->add_option("--rr-depth", o.rr_depth, "Russian roulette from this bounce on; -1 = off (overrides the scene; its default, auto, is 5 for path tracing, and for bdpt 1, or 3 under a sky, sun or environment)")
       ->check(whole_in(-1, 1 << 30));
   r->add_option("--seed", o.seed, "Random seed (overrides render.seed); same seed, same image")->check(whole_u64());
   r->add_option("--threads", o.threads, "Render threads; 0 = all hardware threads (fewer if the system refuses)")

@@ -295,14 +295,16 @@ void render_section(ViewerModel& model, PanelState& state) {
     RenderSettings edited = model.scene().render;
     bool automatic = edited.russian_roulette_depth == kRouletteDepthAuto;
     const Estimator traced = edited.estimator == Estimator::Auto ? model.estimator_choice().estimator : edited.estimator;
-    const int auto_depth = roulette_depth(kRouletteDepthAuto, traced == Estimator::Bdpt);
+    const int auto_depth =
+        roulette_depth(kRouletteDepthAuto, traced == Estimator::Bdpt, lit_from_infinity(model.scene().environment));
     if (ImGui::Checkbox("RR auto", &automatic)) {
       edited.russian_roulette_depth = automatic ? kRouletteDepthAuto : auto_depth;
       model.set_render(edited);
     }
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("Russian roulette from the estimator's measured best bounce: %d for path tracing, %d for bdpt",
-                        kPathRouletteDepth, kBdptRouletteDepth);
+      ImGui::SetTooltip("Russian roulette from the estimator's measured best bounce: %d for path tracing; for bdpt %d, "
+                        "or %d under a sky, sun or environment",
+                        kPathRouletteDepth, kBdptRouletteDepth, kBdptRouletteDepthInfinite);
     if (automatic) {
       ImGui::SameLine();
       ImGui::TextDisabled("from bounce %d", auto_depth);

@@ -17,7 +17,7 @@ using D = BdptDimensions;
 struct Options {
   Options(const Scene& s, const RenderSettings& r)
       : max_bounces(std::min(r.max_bounces, kMaxBdptBounces)),  // validated; the clamp guards memory
-        rr_depth(roulette_depth(r.russian_roulette_depth, true)),
+        rr_depth(roulette_depth(r.russian_roulette_depth, true, !s.infinite_lights.empty())),
         only_s(r.bdpt_only.s),
         only_t(r.bdpt_only.t),
         has_lights(!s.lights.empty()),

@@ -90,7 +90,7 @@ struct PathOptions {
         mis(s.estimator == Estimator::Mis),
         dims(light_sampling, camera.thin_lens()),
         max_bounces(s.max_bounces),
-        rr_depth(roulette_depth(s.russian_roulette_depth, false)),
+        rr_depth(roulette_depth(s.russian_roulette_depth, false, false)),
         pixel_angle(2.f * camera.tan_half_y / static_cast<float>(std::max(camera.height, 1))) {}
   bool uniform, light_sampling, mis;
   SampleDimensions dims;

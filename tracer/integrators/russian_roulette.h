@@ -18,14 +18,19 @@ namespace pt {
 inline constexpr float kMaxRouletteSurvival = 1.f - 0x1p-10f;
 
 // The first roulette bounce `auto` (kRouletteDepthAuto, scene/scene_desc.h) stands for, each estimator's
-// measured best in same-time error (docs/performance.md, "Russian roulette's first depth"): 5 for the path
-// tracers (under mis 9–23 % lower error than 3 on cornell, cornell-bunny and shadertoy, equal on materials and
-// torus-and-gem, 2–5 % higher on cornell-gltf; Mitsuba 3's default too), 3 for bdpt, whose two subpaths are
-// long already (5 costs 9 % on cornell-spheres, 21 % on materials).
-inline constexpr int kPathRouletteDepth = 5, kBdptRouletteDepth = 3;
-inline int roulette_depth(int setting, bool bidirectional) {
+// measured best in same-time error (docs/performance.md, "Russian roulette's first depth"):
+// - 5 for the path tracers (under mis 9–23 % lower error than 3 on cornell, cornell-bunny and shadertoy, equal on
+//   materials and torus-and-gem, 2–5 % higher on cornell-gltf; Mitsuba 3's default too);
+// - 1 for bdpt in a closed scene: its two subpaths are long already, and from bounce 1 on the roulette's
+//   albedo-like survival costs less than it saves (cornell-spheres 10–14 %, materials 16–17 %, cornell 10 % lower
+//   error than from 3; from 0 cornell loses that gain);
+// - 3 for bdpt under an infinite light (environment, sky, sun): there paths that bounce off the ground into the
+//   sky or the sun carry most of the image, and `sky` had 2.3–2.6× the error from bounce 1.
+inline constexpr int kPathRouletteDepth = 5, kBdptRouletteDepth = 1, kBdptRouletteDepthInfinite = 3;
+inline int roulette_depth(int setting, bool bidirectional, bool infinite_light) {
   if (setting != kRouletteDepthAuto) return setting;
-  return bidirectional ? kBdptRouletteDepth : kPathRouletteDepth;
+  if (!bidirectional) return kPathRouletteDepth;
+  return infinite_light ? kBdptRouletteDepthInfinite : kBdptRouletteDepth;
 }
 
 // Whether roulette is played at scattering event `depth` (rr_depth < 0: never).

@@ -284,6 +284,12 @@ struct EnvironmentDesc {
   std::shared_ptr<const Image> image;    // map: the loaded image (loaded by the scene reader / the viewer)
 };
 
+// Whether the environment lights the scene from infinitely far away (a sky, a map, or a non-black constant
+// background): what compile_environment turns into infinite lights, but for a map whose texels are all black.
+inline bool lit_from_infinity(const EnvironmentDesc& e) {
+  return e.type != EnvironmentType::Constant || e.radiance.x > 0.f || e.radiance.y > 0.f || e.radiance.z > 0.f;
+}
+
 struct SceneDesc {
   CameraDesc camera;
   int width = 512, height = 512;
