@@ -287,7 +287,7 @@ struct EnvironmentDesc {
 // Whether the environment lights the scene from infinitely far away (a sky, a map, or a non-black constant
 // background): what compile_environment turns into infinite lights, but for a map whose texels are all black.
 inline bool lit_from_infinity(const EnvironmentDesc& e) {
-  return e.type != EnvironmentType::Constant || e.radiance.x > 0.f || e.radiance.y > 0.f || e.radiance.z > 0.f;
+  return e.type != EnvironmentType::Constant || !is_black(e.radiance);
 }
 
 struct SceneDesc {
