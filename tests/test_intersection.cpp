@@ -1,5 +1,6 @@
 // Ray–primitive intersection: hits, misses, watertight shared edges and vertices, back faces, rays from inside
 // spheres, parallel rays, huge and tiny radii, and the scene-level closest/any-hit queries.
+#include <array>
 #include <doctest/doctest.h>
 
 #include "geometry/geometry.h"
@@ -312,6 +313,15 @@ int check_bvh_against_brute_force(const Soup& soup, const std::vector<std::pair<
   return hits;
 }
 
+// How many leaves of each kind the hierarchy holds: [triangles only][8 lanes].
+std::array<std::array<int, 2>, 2> leaf_census(const PolygonBvh& bvh) {
+  std::array<std::array<int, 2>, 2> n{};
+  for (const BvhNode& node : bvh.nodes)
+    for (uint32_t ref : node.child)
+      if (is_leaf_ref(ref)) ++n[ref_triangles(ref)][ref_lanes(ref) == 8];
+  return n;
+}
+
 Vec3 random_in(Pcg32& rng, float lo, float hi) {
   return Vec3(lo + (hi - lo) * rng.next_float(), lo + (hi - lo) * rng.next_float(), lo + (hi - lo) * rng.next_float());
 }
@@ -340,6 +350,10 @@ TEST_CASE("BVH: closest and any hit equal brute force bit for bit (soups, a clos
       else soup.add_parallelogram(a, b, c);
     }
     random_rays(20000, -12, 12);
+    // The mixed leaves' kernels run, 4 and 8 lanes (the sphere below runs the triangles-only ones).
+    const auto census = leaf_census(build_polygon_bvh(soup.v, soup.triangle));
+    CHECK(census[0][0] > 50);
+    CHECK(census[0][1] > 50);
     CHECK(check_bvh_against_brute_force(soup, rays) > 5000);
   }
   SUBCASE("a closed triangulated sphere seen from inside: every ray hits (watertight through the hierarchy)") {
@@ -349,6 +363,11 @@ TEST_CASE("BVH: closest and any hit equal brute force bit for bit (soups, a clos
     random_rays(20000, -1, 1);
     // Rays through the shared vertices and edges too: aimed exactly at vertices of the mesh.
     for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), sphere.point(1 + k % (sphere.rings - 1), k)});
+    // Every leaf is a triangles-only one (the kernel without the fourth corner), of 4 and of 8 lanes.
+    const auto census = leaf_census(build_polygon_bvh(soup.v, soup.triangle));
+    CHECK(census[0][0] + census[0][1] == 0);
+    CHECK(census[1][0] > 50);
+    CHECK(census[1][1] > 50);
     CHECK(check_bvh_against_brute_force(soup, rays, false) == static_cast<int>(rays.size()));
     CHECK(check_bvh_against_brute_force(soup, rays) > 19000);
   }

@@ -100,8 +100,9 @@ template <class Visit>
 inline bool visit_instances(const InstanceSet& set, Vec3 o, Vec3 d, const float& t_max, const Visit& visit) {
   using namespace bvh_detail;
   const SlabRay ray(o, d);
-  return visit_leaves_nearest(set.top, ray, t_max, [&](uint32_t first, uint8_t lanes) {
-    for (uint32_t lane = first; lane < first + lanes; ++lane) {
+  return visit_leaves_nearest(set.top, ray, t_max, [&](uint32_t ref) {
+    const uint32_t first = ref_first_lane(ref), end = first + static_cast<uint32_t>(ref_lanes(ref));
+    for (uint32_t lane = first; lane < end; ++lane) {
       const uint32_t k = set.top.lane_polygon[lane];
       if (k == kNoLanePolygon || !instance_detail::enters(set.instances[k], ray, t_max * kHitSlack)) continue;
       if (visit(set.instances[k])) return true;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <future>
 #include <numeric>
+#include <stdexcept>
 #include <system_error>
 
 namespace pt {
@@ -37,8 +38,11 @@ struct BinaryNode {
 };
 
 constexpr int kBins = 32;
-// Leaves this small are never split (one 4- or 8-lane block costs about one box test).
-constexpr uint32_t kLeafAlways = 4;
+// Leaves this small are never split: up to 8 polygons are one 4- or 8-lane block test, which costs about one box
+// test (bench rays on cornell-bunny: +4 % closest hit against splitting down to 4 by the SAH, session 30).
+constexpr uint32_t kLeafAlways = kBvhMaxLeaf;
+// Polygons one leaf test takes, the SAH's unit of cost.
+constexpr uint32_t kLeafBlock = 1;
 // Below this many polygons a subtree is built on the calling thread; above, its two halves run concurrently.
 constexpr uint32_t kParallelSubtree = 1u << 15;
 
@@ -56,7 +60,7 @@ class BinaryBuilder {
       centroid_box.grow(centroids_[order_[i]]);
     }
     node.box = box;
-    const uint32_t split = choose_split(first, count, box, centroid_box, depth);
+    const uint32_t split = choose_split(first, count, centroid_box, depth);
     if (split == 0) {
       node.first = first;
       node.count = count;
@@ -88,61 +92,65 @@ class BinaryBuilder {
 
  private:
   // Partitions order[first, first + count) and returns the size of the left part, or 0 for a leaf.
-  uint32_t choose_split(uint32_t first, uint32_t count, const Box& box, const Box& centroid_box, int depth) {
+  uint32_t choose_split(uint32_t first, uint32_t count, const Box& centroid_box, int depth) {
     if (count <= kLeafAlways) return 0;
     const Vec3 extent = centroid_box.hi - centroid_box.lo;
-    const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
     uint32_t* begin = order_.data() + first;
     uint32_t* end = begin + count;
     // All centroids in one point (or a runaway depth): halve by index, which bounds the depth by log2(n).
-    if (!(extent[axis] > 0.f) || depth > kBvhSahMaxDepth) {
-      if (count <= kBvhMaxLeaf) return 0;
-      return count / 2;
-    }
-    // Binned SAH on the widest centroid axis (Wald 2007).
-    std::array<Box, kBins> bin_box;
-    std::array<uint32_t, kBins> bin_count{};
-    const float lo = centroid_box.lo[axis];
-    const float scale = kBins * (1.f - 1e-6f) / extent[axis];
-    auto bin_of = [&](uint32_t p) {
-      return std::min(kBins - 1, static_cast<int>((centroids_[p][axis] - lo) * scale));
-    };
-    for (const uint32_t* p = begin; p != end; ++p) {
-      const int b = bin_of(*p);
-      bin_box[b].grow(boxes_[*p]);
-      ++bin_count[b];
-    }
-    // Sweep: cost of splitting after bin b = A(left)·n(left) + A(right)·n(right), relative to A(node).
-    std::array<double, kBins> right_cost{};
-    Box acc;
-    uint32_t n = 0;
-    for (int b = kBins - 1; b > 0; --b) {
-      acc.grow(bin_box[b]);
-      n += bin_count[b];
-      right_cost[b] = acc.half_area() * n;
-    }
+    if (!(std::max({extent.x, extent.y, extent.z}) > 0.f) || depth > kBvhSahMaxDepth) return count / 2;
+    // Binned SAH on every axis (Wald 2007), the best split of the three.
     double best_cost = std::numeric_limits<double>::infinity();
-    int best_bin = -1;
-    acc = Box{};
-    n = 0;
-    for (int b = 0; b < kBins - 1; ++b) {
-      acc.grow(bin_box[b]);
-      n += bin_count[b];
-      if (n == 0 || n == count) continue;
-      const double cost = acc.half_area() * n + right_cost[b + 1];
-      if (cost < best_cost) {
-        best_cost = cost;
-        best_bin = b;
+    int best_axis = -1, best_bin = -1;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!(extent[axis] > 0.f)) continue;
+      std::array<Box, kBins> bin_box;
+      std::array<uint32_t, kBins> bin_count{};
+      const Binning binning(centroid_box.lo[axis], extent[axis], axis);
+      for (const uint32_t* p = begin; p != end; ++p) {
+        const int b = binning.bin(centroids_[*p]);
+        bin_box[b].grow(boxes_[*p]);
+        ++bin_count[b];
+      }
+      // Sweep: cost of splitting after bin b = A(left)·blocks(left) + A(right)·blocks(right), relative to
+      // A(node), where blocks(n) is the number of leaf tests n polygons take (kLeafBlock to a test).
+      std::array<double, kBins> right_cost{};
+      Box acc;
+      uint32_t n = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        acc.grow(bin_box[b]);
+        n += bin_count[b];
+        right_cost[b] = acc.half_area() * blocks(n);
+      }
+      acc = Box{};
+      n = 0;
+      for (int b = 0; b < kBins - 1; ++b) {
+        acc.grow(bin_box[b]);
+        n += bin_count[b];
+        if (n == 0 || n == count) continue;
+        const double cost = acc.half_area() * blocks(n) + right_cost[b + 1];
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_axis = axis;
+          best_bin = b;
+        }
       }
     }
-    // A leaf of up to kBvhMaxLeaf polygons is one SIMD block: keep it when splitting saves nothing (one block
-    // test against a box test plus two smaller blocks).
-    const double leaf_cost = box.half_area() * count;
-    if (count <= kBvhMaxLeaf && (best_bin < 0 || best_cost + box.half_area() >= leaf_cost)) return 0;
-    if (best_bin < 0) return count / 2;
-    uint32_t* mid = std::partition(begin, end, [&](uint32_t p) { return bin_of(p) <= best_bin; });
+    if (best_axis < 0) return count / 2;
+    const Binning binning(centroid_box.lo[best_axis], extent[best_axis], best_axis);
+    uint32_t* mid = std::partition(begin, end, [&](uint32_t p) { return binning.bin(centroids_[p]) <= best_bin; });
     return static_cast<uint32_t>(mid - begin);
   }
+
+  static double blocks(uint32_t n) { return static_cast<double>((n + kLeafBlock - 1) / kLeafBlock); }
+
+  // The bin of a centroid along one axis.
+  struct Binning {
+    float lo, scale;
+    int axis;
+    Binning(float lo_, float extent, int axis_) : lo(lo_), scale(kBins * (1.f - 1e-6f) / extent), axis(axis_) {}
+    int bin(const Vec3& c) const { return std::min(kBins - 1, static_cast<int>((c[axis] - lo) * scale)); }
+  };
 
   const std::vector<Box>& boxes_;
   const std::vector<Vec3>& centroids_;
@@ -154,8 +162,9 @@ class BinaryBuilder {
 // Collapses the binary tree into 8-wide nodes and lays the leaves' polygons out in lanes.
 class Collapser {
  public:
-  Collapser(const std::vector<BinaryNode>& binary, const std::vector<uint32_t>& order, PolygonBvh& out)
-      : binary_(binary), order_(order), out_(out) {}
+  Collapser(const std::vector<BinaryNode>& binary, const std::vector<uint32_t>& order,
+            const std::vector<uint8_t>& is_triangle, PolygonBvh& out)
+      : binary_(binary), order_(order), is_triangle_(is_triangle), out_(out) {}
 
   // The root: a lone leaf still goes below a node, so traversal always starts at a node.
   void run() {
@@ -184,6 +193,8 @@ class Collapser {
       children[best] = c.left;
       children.push_back(c.right);
     }
+    if (out_.nodes.size() >= kBvhMaxNodes)  // a node's reference keeps its index in 30 bits
+      throw std::length_error("polygon hierarchy: more than 2^30 nodes");
     const uint32_t index = static_cast<uint32_t>(out_.nodes.size());
     out_.nodes.emplace_back();
     for (int k = 0; k < kBvhWidth; ++k) {
@@ -191,8 +202,7 @@ class Collapser {
       BvhNode& n = out_.nodes[index];
       if (k >= static_cast<int>(children.size())) {
         for (int a = 0; a < 3; ++a) n.lo[a][k] = n.hi[a][k] = kInfinity;
-        n.child[k] = 0;
-        n.leaf_lanes[k] = 0;
+        n.child[k] = inner_ref(0);
         continue;
       }
       const BinaryNode& c = binary_[children[k]];
@@ -202,14 +212,16 @@ class Collapser {
       }
       if (c.count > 0) {
         const uint8_t lanes = c.count <= 4 ? 4 : 8;
-        n.child[k] = static_cast<uint32_t>(out_.lane_polygon.size());
-        n.leaf_lanes[k] = lanes;
+        if (out_.lane_polygon.size() + lanes > kBvhMaxLanes)  // a leaf's reference keeps its first lane in 31 bits
+          throw std::length_error("polygon hierarchy: more than 2^31 lanes");
+        bool triangles = true;
+        for (uint32_t i = 0; i < c.count; ++i) triangles = triangles && is_triangle_[order_[c.first + i]] != 0;
+        n.child[k] = leaf_ref(static_cast<uint32_t>(out_.lane_polygon.size()), lanes, triangles);
         for (uint32_t i = 0; i < lanes; ++i)
           out_.lane_polygon.push_back(i < c.count ? order_[c.first + i] : kNoLanePolygon);
       } else {
         const uint32_t child = wide_node({c.left, c.right});
-        out_.nodes[index].child[k] = child;
-        out_.nodes[index].leaf_lanes[k] = 0;
+        out_.nodes[index].child[k] = inner_ref(child);
       }
     }
     return index;
@@ -217,6 +229,7 @@ class Collapser {
 
   const std::vector<BinaryNode>& binary_;
   const std::vector<uint32_t>& order_;
+  const std::vector<uint8_t>& is_triangle_;
   PolygonBvh& out_;
 };
 
@@ -240,27 +253,35 @@ PolygonBvh build(size_t n, const Vertex& vertex, const IsTriangle& triangle) {
   std::iota(order.begin(), order.end(), 0u);
   BinaryBuilder builder(boxes, centroids, order);
   builder.build(0, static_cast<uint32_t>(n), 0);
+  std::vector<uint8_t> is_triangle(n);
+  for (size_t i = 0; i < n; ++i) is_triangle[i] = triangle(i) ? 1 : 0;
   bvh.nodes.reserve(n / 4 + 1);
   bvh.lane_polygon.reserve(n * 2);
-  Collapser(builder.nodes(), order, bvh).run();
+  Collapser(builder.nodes(), order, is_triangle, bvh).run();
 
-  // The leaves' polygons in lane order; padding lanes hold NaN (they never hit).
+  // The leaves' polygons, leaf by leaf (kLeafFloatsPerLane); padding lanes hold NaN (they never hit). Leaves
+  // are laid out in lane order, so a leaf's width is the gap to the next leaf's first lane (found in the nodes).
   const size_t lanes = bvh.lane_polygon.size();
-  PolygonLanes& L = bvh.lanes;
-  L.count = static_cast<uint32_t>(lanes);
-  for (int k = 0; k < 4; ++k)
-    for (int a = 0; a < 3; ++a) L.coord[k][a].assign(lanes, std::numeric_limits<float>::quiet_NaN());
-  L.triangle.assign(lanes, 0.f);
+  bvh.leaf_data.assign(lanes * kLeafFloatsPerLane, std::numeric_limits<float>::quiet_NaN());
   bvh.polygon_lane.assign(n, kNoLanePolygon);
-  for (size_t lane = 0; lane < lanes; ++lane) {
-    const uint32_t p = bvh.lane_polygon[lane];
-    if (p == kNoLanePolygon) continue;
-    for (int k = 0; k < 4; ++k) {
-      const Vec3 q = vertex(p, k);
-      for (int a = 0; a < 3; ++a) L.coord[k][a][lane] = q[a];
+  for (const BvhNode& node : bvh.nodes) {
+    for (int k = 0; k < kBvhWidth; ++k) {
+      if (!is_leaf_ref(node.child[k])) continue;  // an inner child, or an unused slot (inner_ref(0))
+      const uint32_t first = ref_first_lane(node.child[k]);
+      const int width = ref_lanes(node.child[k]);
+      float* block = bvh.leaf_data.data() + static_cast<size_t>(first) * kLeafFloatsPerLane;
+      for (int lane = 0; lane < width; ++lane) {
+        const uint32_t p = bvh.lane_polygon[first + lane];
+        block[12 * width + lane] = 0.f;
+        if (p == kNoLanePolygon) continue;
+        for (int c = 0; c < 4; ++c) {
+          const Vec3 q = vertex(p, c);
+          for (int a = 0; a < 3; ++a) block[(3 * c + a) * width + lane] = q[a];
+        }
+        block[12 * width + lane] = is_triangle[p] ? 1.f : 0.f;
+        bvh.polygon_lane[p] = first + static_cast<uint32_t>(lane);
+      }
     }
-    L.triangle[lane] = triangle(p) ? 1.f : 0.f;
-    bvh.polygon_lane[p] = static_cast<uint32_t>(lane);
   }
   return bvh;
 }

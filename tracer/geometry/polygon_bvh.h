@@ -3,15 +3,18 @@
 // for a handful of polygons beats any hierarchy (measured crossover: docs/performance.md, "Meshes").
 //
 // Build: a binary tree by binned SAH (Wald, "On fast construction of SAH-based bounding volume hierarchies",
-// 2007: 32 bins per axis on centroids, cost = traversal + Σ area·count), then collapsed into 8-wide nodes by
-// repeatedly opening the child with the largest surface area (as in Embree's BVH8 and Ylitie et al. 2017).
-// Leaves hold at most 8 polygons, stored contiguously in their own padded lanes, so a leaf is one 4- or 8-lane
-// block of the same watertight test as the brute-force loop: a polygon gives bit-identical results in both.
+// 2007: 32 bins on the centroids along each axis, the split of least Σ area·count of the three), then collapsed
+// into 8-wide nodes by repeatedly opening the child with the largest surface area (as in Embree's BVH8 and Ylitie
+// et al. 2017). A node of at most 8 polygons is a leaf, stored in one piece (leaf_data) and padded to 4 or 8
+// lanes, so a leaf is one 4- or 8-lane block of the same watertight test as the brute-force loop: a polygon
+// gives bit-identical results in both.
 //
-// Traversal: one ray, the 8 children's slab tests in one 8-lane step, nearest child first. The slab distances
+// Traversal: one ray, the 8 children's slab tests in one 8-lane step, nearest child first (closest hit) or in
+// slot order (any hit: nearest first was measured slower, docs/performance.md, session 30). The slab distances
 // are widened by 1 + 2γ3 (Ize, "Robust BVH ray traversal", JCGT 2013), so rounding can never cull a box the
 // ray enters: the hierarchy changes which polygons are tested, never the answer.
 #pragma once
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <type_traits>
@@ -30,18 +33,40 @@ inline constexpr int kBvhMaxLeaf = 8;
 inline constexpr int kBvhSahMaxDepth = 48;
 inline constexpr int kBvhMaxDepth = kBvhSahMaxDepth + 1 + 32;
 
+// A child reference: an inner child is its node index times 4 (bit 0 clear). A leaf has bit 0 set (kLeafRef),
+// bit 1 when it holds 8 lanes rather than 4 (kWideLeafRef), bit 2 when every polygon in it is a triangle
+// (kTriangleLeafRef: the test skips the fourth corner), and its first lane, a multiple of 4, times 2 above them.
+// One 32-bit word says all that traversal needs, so a stack entry is written and read as one word (a reference
+// and a lane count in separate fields were written by two stores and read back by one load, which cannot be
+// forwarded from them: 13 % of shadow-ray time stalled there, perf annotate, session 30).
+inline constexpr uint32_t kLeafRef = 1u, kWideLeafRef = 2u, kTriangleLeafRef = 4u;
+inline constexpr uint32_t kBvhMaxNodes = 1u << 30, kBvhMaxLanes = 1u << 31;
+constexpr uint32_t inner_ref(uint32_t node) { return node << 2; }
+constexpr uint32_t leaf_ref(uint32_t first_lane, int lanes, bool triangles) {
+  return first_lane << 1 | kLeafRef | (lanes == 8 ? kWideLeafRef : 0u) | (triangles ? kTriangleLeafRef : 0u);
+}
+constexpr bool is_leaf_ref(uint32_t ref) { return (ref & kLeafRef) != 0; }
+constexpr uint32_t ref_node(uint32_t ref) { return ref >> 2; }
+constexpr uint32_t ref_first_lane(uint32_t ref) { return (ref & ~7u) >> 1; }
+constexpr int ref_lanes(uint32_t ref) { return (ref & kWideLeafRef) != 0 ? 8 : 4; }
+constexpr bool ref_triangles(uint32_t ref) { return (ref & kTriangleLeafRef) != 0; }
+
 struct BvhNode {
   // Child k's box; an unused slot holds lo = hi = +inf, which no ray enters (child_entry).
   float lo[3][kBvhWidth], hi[3][kBvhWidth];
-  // Inner child: a node index. Leaf child: its first lane in PolygonBvh::lanes (a multiple of 4).
-  uint32_t child[kBvhWidth];
-  // 0 for an inner child; for a leaf, its lane count: 4 or 8 (padding lanes hold NaN and never hit).
-  uint8_t leaf_lanes[kBvhWidth];
+  uint32_t child[kBvhWidth];  // child references (above); an unused slot's is never read
 };
+
+// A leaf's polygons are stored together, so that testing a leaf reads a few consecutive cache lines (13 arrays
+// of the whole tree, one line each, before): the leaf whose first lane is f, of W = 4 or 8 lanes, occupies
+// leaf_data[kLeafFloatsPerLane·f, kLeafFloatsPerLane·(f + W)): for corner k = 0…3 and axis a = 0…2 the W
+// lanes' coordinates at offset (3k + a)·W, then the W lanes' triangle flags (1 triangle, 0 quad) at 12·W.
+// A triangle repeats its corner a as its fourth; padding lanes hold NaN, which never hits.
+inline constexpr uint32_t kLeafFloatsPerLane = 13;
 
 struct PolygonBvh {
   std::vector<BvhNode> nodes;  // nodes[0] is the root
-  PolygonLanes lanes;          // the polygons in leaf order, each leaf padded to 4 or 8 lanes
+  std::vector<float> leaf_data;        // the leaves' polygons, each leaf padded to 4 or 8 lanes (above)
   std::vector<uint32_t> lane_polygon;  // polygon id of each lane (kNoLanePolygon for padding)
   std::vector<uint32_t> polygon_lane;  // lane of each polygon id
   bool empty() const { return nodes.empty(); }
@@ -55,7 +80,38 @@ PolygonBvh build_mesh_bvh(const TriangleMesh& mesh);
 
 namespace bvh_detail {
 
-using simd_detail::RayLanes;
+using simd_detail::BlockResult;
+using simd_detail::ShearedRay;
+
+// The leaf of `bvh` starting at lane `first` (kLeafFloatsPerLane floats a lane, V::size() lanes) against the
+// sheared ray; kTriangles when every lane is a triangle or padding. The same arithmetic as test_block() on the
+// same floats, so a polygon gives bit-identical results in a leaf and in the brute-force loop.
+template <class V, bool kTriangles>
+[[gnu::always_inline]] inline BlockResult<V> test_leaf(const PolygonBvh& bvh, uint32_t first, const ShearedRay& R,
+                                                       const RayShear& s, float t_max) {
+  constexpr size_t W = V::size();
+  const float* block = bvh.leaf_data.data() + static_cast<size_t>(first) * kLeafFloatsPerLane;
+  const auto corner = [&](int k) {
+    const float* c = block + 3 * k * W;
+    return simd_detail::shear_lanes(V(c + s.kx * W, stdx::element_aligned), V(c + s.ky * W, stdx::element_aligned),
+                                    V(c + s.kz * W, stdx::element_aligned), R);
+  };
+  if constexpr (kTriangles)
+    return simd_detail::test_sheared_triangles(corner(0), corner(1), corner(2), t_max);
+  else
+    return simd_detail::test_sheared(corner(0), corner(1), corner(2), corner(3),
+                                     V(block + 12 * W, stdx::element_aligned) > 0.f, t_max);
+}
+
+// Calls f(V{}, std::bool_constant<kTriangles>{}) for the leaf kind that `ref` names.
+template <class F>
+[[gnu::always_inline]] inline auto with_leaf_kind(uint32_t ref, const F& f) {
+  using simd_detail::vfloat4;
+  using simd_detail::vfloat8;
+  if (ref_triangles(ref))
+    return ref_lanes(ref) == 4 ? f(vfloat4{}, std::true_type{}) : f(vfloat8{}, std::true_type{});
+  return ref_lanes(ref) == 4 ? f(vfloat4{}, std::false_type{}) : f(vfloat8{}, std::false_type{});
+}
 
 // Per ray: origin and reciprocal direction for the slab tests. An axis along which the ray does not move (a
 // zero component, or one so small that 1/d overflows) has no slab distances: the ray is inside that slab for
@@ -103,56 +159,84 @@ inline constexpr float kHitSlack = 1.f + 0x1p-12f;
   return entry;
 }
 
-struct StackEntry {
-  uint32_t ref;    // node index or first lane of a leaf
-  uint8_t lanes;   // 0: node; 4 or 8: a leaf of that many lanes
-  float entry;     // distance at which the ray enters its box
-};
+// A stack entry of the closest-hit traversal: the child reference in the low word, the distance at which the ray
+// enters its box (a float's bits) in the high word, written and read as one 64-bit word.
+using StackEntry = uint64_t;
+[[gnu::always_inline]] inline StackEntry stack_entry(uint32_t ref, float entry) {
+  return static_cast<uint64_t>(std::bit_cast<uint32_t>(entry)) << 32 | ref;
+}
+[[gnu::always_inline]] inline uint32_t entry_ref(StackEntry e) { return static_cast<uint32_t>(e); }
+[[gnu::always_inline]] inline float entry_distance(StackEntry e) {
+  return std::bit_cast<float>(static_cast<uint32_t>(e >> 32));
+}
 
-// Visits the hit children of `n` nearest first by pushing them farthest first. Most nodes have one or two.
+// Bit k set where lane k of the mask is (libstdc++'s simd_mask::__to_bitset, one kmov or movmsk).
+template <class Mask>
+[[gnu::always_inline]] inline unsigned mask_bits(const Mask& m) {
+  return static_cast<unsigned>(m.__to_bitset().to_ulong());
+}
+
+// Pushes the children in `hits` (bits of `entry` < inf) farthest first, so that the nearest is on top; among
+// equal distances the higher slot is nearer the top.
 template <size_t N>
-[[gnu::always_inline]] inline void push_children(const BvhNode& n, const simd_detail::vfloat8& entry,
+[[gnu::always_inline]] inline void push_children(const BvhNode& n, const simd_detail::vfloat8& entry, unsigned hits,
                                                  StackEntry (&stack)[N], int& top) {
-  auto hit = entry < kInfinity;
-  if (stdx::none_of(hit)) return;
   alignas(32) float e[kBvhWidth];
   entry.copy_to(e, stdx::vector_aligned);
   const int first = top;
   do {
-    const int k = stdx::find_first_set(hit);
-    hit[k] = false;
+    const int k = std::countr_zero(hits);
+    hits &= hits - 1;
     // Insertion into the descending run stack[first..top).
     int j = top++;
-    while (j > first && stack[j - 1].entry < e[k]) {
+    while (j > first && entry_distance(stack[j - 1]) < e[k]) {
       stack[j] = stack[j - 1];
       --j;
     }
-    stack[j] = {n.child[k], n.leaf_lanes[k], e[k]};
-  } while (stdx::any_of(hit));
+    stack[j] = stack_entry(n.child[k], e[k]);
+  } while (hits != 0);
 }
 
 // Each level down leaves at most width − 1 siblings pending; the wide tree is no deeper than the binary one.
 inline constexpr int kStackSize = kBvhMaxDepth * (kBvhWidth - 1) + 1;
 
 // The closest-hit traversal: visits the leaves whose boxes the ray enters before t_max (which `leaf` may lower
-// as it finds hits), nearest box first; leaf(first_lane, lanes) returns true to stop. Returns whether it stopped.
+// as it finds hits), nearest box first; leaf(ref) returns true to stop (the leaf's reference: ref_first_lane,
+// ref_lanes, ref_triangles). Returns whether it stopped. A node with one hit child goes straight down to it;
+// with several, the nearest is taken at once and the others wait on the stack, nearest on top (the order of
+// pushing them all and popping the nearest, without its round trip through memory).
 template <class Leaf>
 [[gnu::always_inline]] inline bool visit_leaves_nearest(const PolygonBvh& bvh, const SlabRay& ray, const float& t_max,
                                                         const Leaf& leaf) {
   StackEntry stack[kStackSize];
   int top = 0;
-  stack[top++] = {0, 0, 0.f};
-  while (top > 0) {
-    const StackEntry e = stack[--top];
-    if (e.entry > t_max * kHitSlack) continue;
-    if (e.lanes == 0) {
-      const BvhNode& n = bvh.nodes[e.ref];
-      push_children(n, child_entry(n, ray, t_max * kHitSlack), stack, top);
-      continue;
+  uint32_t ref = inner_ref(0);
+  for (;;) {
+    if (!is_leaf_ref(ref)) {
+      const BvhNode& n = bvh.nodes[ref_node(ref)];
+      const simd_detail::vfloat8 entry = child_entry(n, ray, t_max * kHitSlack);
+      const unsigned hits = mask_bits(entry < kInfinity);
+      if (hits != 0) {
+        if ((hits & (hits - 1)) == 0) {
+          ref = n.child[std::countr_zero(hits)];
+        } else {
+          push_children(n, entry, hits, stack, top);
+          ref = entry_ref(stack[--top]);
+        }
+        continue;
+      }
+    } else if (leaf(ref)) {
+      return true;
     }
-    if (leaf(e.ref, e.lanes)) return true;
+    // The nearest waiting box that the ray still enters before t_max.
+    for (;;) {
+      if (top == 0) return false;
+      const StackEntry e = stack[--top];
+      if (entry_distance(e) > t_max * kHitSlack) continue;
+      ref = entry_ref(e);
+      break;
+    }
   }
-  return false;
 }
 
 }  // namespace bvh_detail
@@ -184,14 +268,15 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
                                 float& t_max, uint32_t& id, const ScalarTest& scalar_test, const Keep& keep = {}) {
   using namespace bvh_detail;
   using namespace simd_detail;
-  const RayLanes R(bvh.lanes, o, s);
+  const ShearedRay R(o, s);
   const SlabRay ray(o, d);
   const uint32_t skip_lane = skip < bvh.polygon_lane.size() ? bvh.polygon_lane[skip] : kNoLanePolygon;
   const float t_in = t_max;
-  visit_leaves_nearest(bvh, ray, t_max, [&](uint32_t first, uint8_t lanes) {
-    auto leaf = [&](auto tag) {
+  visit_leaves_nearest(bvh, ray, t_max, [&](uint32_t ref) {
+    const uint32_t first = ref_first_lane(ref);
+    with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);
-      BlockResult<V> r = test_block<V>(R, first, t_max);
+      BlockResult<V> r = test_leaf<V, decltype(triangles)::value>(bvh, first, R, s, t_max);
       mask_lane(r.t, skip_lane, first);
       filter_hits(r.t, bvh, first, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
@@ -212,11 +297,7 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
         t_max = t;
         id = bvh.lane_polygon[first + lane];
       }
-    };
-    if (lanes == 4)
-      leaf(vfloat4{});
-    else
-      leaf(vfloat8{});
+    });
     return false;
   });
   return t_max < t_in;
@@ -229,36 +310,38 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
                             uint32_t skip_b, float t_max, const ScalarTest& scalar_test, const Keep& keep = {}) {
   using namespace bvh_detail;
   using namespace simd_detail;
-  const RayLanes R(bvh.lanes, o, s);
+  const ShearedRay R(o, s);
   const SlabRay ray(o, d);
   const auto lane_of = [&](uint32_t p) { return p < bvh.polygon_lane.size() ? bvh.polygon_lane[p] : kNoLanePolygon; };
   const uint32_t skip_lane_a = lane_of(skip_a), skip_lane_b = lane_of(skip_b);
   const float t_limit = t_max * kHitSlack;
-  StackEntry stack[kStackSize];
+  uint32_t stack[kStackSize];  // child references, in no particular order: any hit will do
   int top = 0;
-  stack[top++] = {0, 0, 0.f};
-  while (top > 0) {
-    const StackEntry e = stack[--top];
-    if (e.lanes == 0) {
-      const BvhNode& n = bvh.nodes[e.ref];
-      const vfloat8 entry = child_entry(n, ray, t_limit);
-      auto hit = entry < kInfinity;
-      while (stdx::any_of(hit)) {
-        const int k = stdx::find_first_set(hit);
-        hit[k] = false;
-        stack[top++] = {n.child[k], n.leaf_lanes[k], 0.f};
+  uint32_t ref = inner_ref(0);
+  for (;;) {
+    if (!is_leaf_ref(ref)) {
+      // Down to the first hit child; the others wait on the stack.
+      const BvhNode& n = bvh.nodes[ref_node(ref)];
+      unsigned hits = mask_bits(child_entry(n, ray, t_limit) < kInfinity);
+      if (hits != 0) {
+        ref = n.child[std::countr_zero(hits)];
+        for (hits &= hits - 1; hits != 0; hits &= hits - 1) stack[top++] = n.child[std::countr_zero(hits)];
+        continue;
       }
+      if (top == 0) return false;
+      ref = stack[--top];
       continue;
     }
-    auto leaf = [&](auto tag) {
+    const uint32_t first = ref_first_lane(ref);
+    const bool blocked = with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);
-      BlockResult<V> r = test_block<V>(R, e.ref, t_max);
-      mask_lane(r.t, skip_lane_a, e.ref);
-      mask_lane(r.t, skip_lane_b, e.ref);
-      filter_hits(r.t, bvh, e.ref, t_max, keep);
+      BlockResult<V> r = test_leaf<V, decltype(triangles)::value>(bvh, first, R, s, t_max);
+      mask_lane(r.t, skip_lane_a, first);
+      mask_lane(r.t, skip_lane_b, first);
+      filter_hits(r.t, bvh, first, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         for (size_t lane = 0; lane < V::size(); ++lane) {
-          const uint32_t p = bvh.lane_polygon[e.ref + lane];
+          const uint32_t p = bvh.lane_polygon[first + lane];
           if (!r.zero_edge[lane] || p == kNoLanePolygon || p == skip_a || p == skip_b) continue;
           r.t[lane] = kInfinity;
           PolygonHit h{};
@@ -266,10 +349,11 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
         }
       }
       return stdx::any_of(r.t < t_max);
-    };
-    if (e.lanes == 4 ? leaf(vfloat4{}) : leaf(vfloat8{})) return true;
+    });
+    if (blocked) return true;
+    if (top == 0) return false;
+    ref = stack[--top];
   }
-  return false;
 }
 
 }  // namespace pt

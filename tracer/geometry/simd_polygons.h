@@ -82,14 +82,18 @@ struct PolygonLanes {
 
 namespace simd_detail {
 
-// Everything a block test needs, resolved once per ray: the permuted origin, the shear, and the base pointers
-// of the permuted coordinate arrays (so the loop does no per-iteration index arithmetic on glm vectors).
-struct RayLanes {
+// The ray as the sheared test sees it: the origin permuted into (kx, ky, kz) order, and the shear.
+struct ShearedRay {
   float ox, oy, oz, sx, sy, sz;
+  ShearedRay(Vec3 o, const RayShear& s) : ox(o[s.kx]), oy(o[s.ky]), oz(o[s.kz]), sx(s.sx), sy(s.sy), sz(s.sz) {}
+};
+
+// Everything a block test needs, resolved once per ray: the sheared ray and the base pointers of the permuted
+// coordinate arrays (so the loop does no per-iteration index arithmetic on glm vectors).
+struct RayLanes : ShearedRay {
   const float *x[4], *y[4], *z[4];
   const float* triangle;
-  RayLanes(const PolygonLanes& L, Vec3 o, const RayShear& s)
-      : ox(o[s.kx]), oy(o[s.ky]), oz(o[s.kz]), sx(s.sx), sy(s.sy), sz(s.sz), triangle(L.triangle.data()) {
+  RayLanes(const PolygonLanes& L, Vec3 o, const RayShear& s) : ShearedRay(o, s), triangle(L.triangle.data()) {
     for (int k = 0; k < 4; ++k) {
       x[k] = L.coord[k][s.kx].data();
       y[k] = L.coord[k][s.ky].data();
@@ -103,13 +107,16 @@ struct LaneVertex {
   V x, y, z;
 };
 
-// shear_vertex() of geometry.h, lane-wise.
+// shear_vertex() of geometry.h, lane-wise, on coordinates already permuted into the ray's (kx, ky, kz) order.
+template <class V>
+[[gnu::always_inline]] inline LaneVertex<V> shear_lanes(const V& x, const V& y, const V& z, const ShearedRay& R) {
+  const V px = x - R.ox, py = y - R.oy, pz = z - R.oz;
+  return {px - R.sx * pz, py - R.sy * pz, R.sz * pz};
+}
 template <class V>
 [[gnu::always_inline]] inline LaneVertex<V> load_sheared(const RayLanes& R, int k, size_t i) {
-  const V px = V(R.x[k] + i, stdx::element_aligned) - R.ox;
-  const V py = V(R.y[k] + i, stdx::element_aligned) - R.oy;
-  const V pz = V(R.z[k] + i, stdx::element_aligned) - R.oz;
-  return {px - R.sx * pz, py - R.sy * pz, R.sz * pz};
+  return shear_lanes(V(R.x[k] + i, stdx::element_aligned), V(R.y[k] + i, stdx::element_aligned),
+                     V(R.z[k] + i, stdx::element_aligned), R);
 }
 
 // The edge function q.x·p.y − q.y·p.x of geometry.h (exactly antisymmetric: no FMA).
@@ -124,21 +131,16 @@ struct BlockResult {
   typename V::mask_type zero_edge;  // lanes to settle with the scalar test
 };
 
-// Lanes i … i + |V| − 1 against the ray, with intersect_triangle()/intersect_quad()'s arithmetic.
+// The end of intersect_triangle()/intersect_quad()'s arithmetic from the edge functions: the two-sided inside
+// test over edges e0…e3 and the distance from the first three.
 template <class V>
-[[gnu::always_inline]] inline BlockResult<V> test_block(const RayLanes& R, size_t i, float t_max) {
+[[gnu::always_inline]] inline BlockResult<V> finish_block(const LaneVertex<V>& A, const LaneVertex<V>& B,
+                                                          const LaneVertex<V>& C, const V& eab, const V& ebc,
+                                                          const V& eca, const V& lo, const V& hi, float t_max) {
   using M = typename V::mask_type;
-  const LaneVertex<V> A = load_sheared<V>(R, 0, i), B = load_sheared<V>(R, 1, i), C = load_sheared<V>(R, 2, i),
-                      D = load_sheared<V>(R, 3, i);
-  const V eab = edge(A, B), ebc = edge(B, C), eca = edge(C, A), ecd = edge(C, D);
-  V eda = edge(D, A);
-  const M is_triangle = V(R.triangle + i, stdx::element_aligned) > 0.f;
-  stdx::where(is_triangle, eda) = eca;
   // Inside when no edge function is negative or none is positive (two-sided). A lane that is inside only
   // because some edge function is exactly 0 goes to the scalar test for the double-precision settlement
   // (a quad's diagonal c→a only locates the hit within the quad and is not checked).
-  const V lo = stdx::min(stdx::min(eab, ebc), stdx::min(ecd, eda));
-  const V hi = stdx::max(stdx::max(eab, ebc), stdx::max(ecd, eda));
   BlockResult<V> r;
   r.zero_edge = lo == 0.f || hi == 0.f;
   const M inside = lo > 0.f || hi < 0.f;
@@ -148,6 +150,37 @@ template <class V>
   // det = 0 gives ±inf or NaN, which fail the comparisons.
   stdx::where(!(inside && r.t > 0.f && r.t < t_max), r.t) = kInfinity;
   return r;
+}
+
+// Polygons with sheared corners A…D (a triangle lane: D = A) against the ray, with intersect_triangle()/
+// intersect_quad()'s arithmetic; `triangle` masks the triangle lanes.
+template <class V>
+[[gnu::always_inline]] inline BlockResult<V> test_sheared(const LaneVertex<V>& A, const LaneVertex<V>& B,
+                                                          const LaneVertex<V>& C, const LaneVertex<V>& D,
+                                                          const typename V::mask_type& triangle, float t_max) {
+  const V eab = edge(A, B), ebc = edge(B, C), eca = edge(C, A), ecd = edge(C, D);
+  V eda = edge(D, A);
+  stdx::where(triangle, eda) = eca;
+  return finish_block(A, B, C, eab, ebc, eca, stdx::min(stdx::min(eab, ebc), stdx::min(ecd, eda)),
+                      stdx::max(stdx::max(eab, ebc), stdx::max(ecd, eda)), t_max);
+}
+
+// The same when every lane is a triangle (or padding): with D = A the quad's edge c→d is c→a and d→a is
+// replaced by c→a, so the minimum and maximum over the four edges equal those over the three, bit for bit
+// (min(x, x) = x), and D need not be loaded.
+template <class V>
+[[gnu::always_inline]] inline BlockResult<V> test_sheared_triangles(const LaneVertex<V>& A, const LaneVertex<V>& B,
+                                                                    const LaneVertex<V>& C, float t_max) {
+  const V eab = edge(A, B), ebc = edge(B, C), eca = edge(C, A);
+  return finish_block(A, B, C, eab, ebc, eca, stdx::min(stdx::min(eab, ebc), eca),
+                      stdx::max(stdx::max(eab, ebc), eca), t_max);
+}
+
+// Lanes i … i + |V| − 1 against the ray, with intersect_triangle()/intersect_quad()'s arithmetic.
+template <class V>
+[[gnu::always_inline]] inline BlockResult<V> test_block(const RayLanes& R, size_t i, float t_max) {
+  return test_sheared(load_sheared<V>(R, 0, i), load_sheared<V>(R, 1, i), load_sheared<V>(R, 2, i),
+                      load_sheared<V>(R, 3, i), V(R.triangle + i, stdx::element_aligned) > 0.f, t_max);
 }
 
 template <class V>
