@@ -9,8 +9,9 @@
 // lanes, so a leaf is one 4- or 8-lane block of the same watertight test as the brute-force loop: a polygon
 // gives bit-identical results in both.
 //
-// Traversal: one ray, the 8 children's slab tests in one 8-lane step, nearest child first (closest hit) or in
-// slot order (any hit: nearest first was measured slower, docs/performance.md, session 30). The slab distances
+// Traversal: one ray, the 8 children's slab tests in one 8-lane step, nearest child first (closest hit) or leaves
+// first, then slot order (any hit: a leaf may end it at once; nearest first was measured slower,
+// docs/performance.md, session 30). The slab distances
 // are widened by 1 + 2γ3 (Ize, "Robust BVH ray traversal", JCGT 2013), so rounding can never cull a box the
 // ray enters: the hierarchy changes which polygons are tested, never the answer.
 #pragma once
@@ -320,12 +321,15 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
   uint32_t ref = inner_ref(0);
   for (;;) {
     if (!is_leaf_ref(ref)) {
-      // Down to the first hit child; the others wait on the stack.
+      // Down to a hit leaf if there is one (it may end the query), else the first hit child; the others wait.
       const BvhNode& n = bvh.nodes[ref_node(ref)];
       unsigned hits = mask_bits(child_entry(n, ray, t_limit) < kInfinity);
       if (hits != 0) {
-        ref = n.child[std::countr_zero(hits)];
-        for (hits &= hits - 1; hits != 0; hits &= hits - 1) stack[top++] = n.child[std::countr_zero(hits)];
+        using vuint8 = stdx::simd<uint32_t, stdx::simd_abi::deduce_t<uint32_t, kBvhWidth>>;
+        const unsigned leaves = hits & mask_bits((vuint8(n.child, stdx::element_aligned) & kLeafRef) != 0u);
+        const int k = std::countr_zero(leaves != 0 ? leaves : hits);
+        ref = n.child[k];
+        for (hits &= ~(1u << k); hits != 0; hits &= hits - 1) stack[top++] = n.child[std::countr_zero(hits)];
         continue;
       }
       if (top == 0) return false;
