@@ -280,8 +280,11 @@ struct SphereMesh {
 int check_bvh_against_brute_force(const Soup& soup, const std::vector<std::pair<Vec3, Vec3>>& rays, bool skips = true) {
   const PolygonBvh bvh = build_polygon_bvh(soup.v, soup.triangle);
   REQUIRE(!bvh.empty());
-  // Every polygon sits in exactly one lane.
-  for (uint32_t p = 0; p < soup.triangle.size(); ++p) REQUIRE(bvh.lane_polygon[bvh.polygon_lane[p]] == p);
+  // Every polygon sits in at least one lane (in several where spatial splits clipped it).
+  std::vector<int> lanes_of(soup.triangle.size(), 0);
+  for (uint32_t p : bvh.lane_polygon)
+    if (p != kNoLanePolygon) ++lanes_of.at(p);
+  REQUIRE(*std::min_element(lanes_of.begin(), lanes_of.end()) >= 1);
   const uint32_t n = static_cast<uint32_t>(soup.triangle.size());
   int hits = 0;
   for (size_t r = 0; r < rays.size(); ++r) {
@@ -320,6 +323,14 @@ std::array<std::array<int, 2>, 2> leaf_census(const PolygonBvh& bvh) {
     for (uint32_t ref : node.child)
       if (is_leaf_ref(ref)) ++n[ref_triangles(ref)][ref_lanes(ref) == 8];
   return n;
+}
+
+// How many polygons sit in more than one lane (placed in several leaves by spatial splits).
+int split_polygons(const PolygonBvh& bvh, size_t polygons) {
+  std::vector<int> lanes(polygons, 0);
+  for (uint32_t p : bvh.lane_polygon)
+    if (p != kNoLanePolygon) ++lanes.at(p);
+  return static_cast<int>(std::count_if(lanes.begin(), lanes.end(), [](int n) { return n > 1; }));
 }
 
 Vec3 random_in(Pcg32& rng, float lo, float hi) {
@@ -368,6 +379,42 @@ TEST_CASE("BVH: closest and any hit equal brute force bit for bit (soups, a clos
     CHECK(census[0][0] + census[0][1] == 0);
     CHECK(census[1][0] > 50);
     CHECK(census[1][1] > 50);
+    CHECK(check_bvh_against_brute_force(soup, rays, false) == static_cast<int>(rays.size()));
+    CHECK(check_bvh_against_brute_force(soup, rays) > 19000);
+  }
+  SUBCASE("long slivers clipped by spatial splits: tubes through a cluster inside a closed sphere of slivers") {
+    // Spatial splits place a polygon in several leaves, each bounding only its part: a ray must still find every
+    // polygon there, and no ray may leave the closed sphere (watertight through the clipped boxes).
+    Soup soup;
+    const SphereMesh sphere{3, 400};  // pole-to-pole slivers
+    sphere.add_to(soup);
+    for (int i = 0; i < 2000; ++i) {  // small triangles filling the unit ball
+      Vec3 c = random_in(rng, -1, 1);
+      while (glm::dot(c, c) > 1.f) c = random_in(rng, -1, 1);
+      soup.add_triangle(c + random_in(rng, -0.05f, 0.05f), c + random_in(rng, -0.05f, 0.05f),
+                        c + random_in(rng, -0.05f, 0.05f));
+    }
+    for (int t = 0; t < 12; ++t) {  // tubes of radius 0.05 and length 4 through the ball, 48 slivers each
+      const int axis = t % 3;
+      const Vec3 offset = random_in(rng, -0.6f, 0.6f);
+      const auto point = [&](int j, float s) {
+        const float a = 2 * glm::pi<float>() * static_cast<float>(j) / 24.f;
+        Vec3 p = offset;
+        p[axis] = s;
+        p[(axis + 1) % 3] += 0.05f * std::cos(a);
+        p[(axis + 2) % 3] += 0.05f * std::sin(a);
+        return p;
+      };
+      for (int j = 0; j < 24; ++j) {
+        soup.add_triangle(point(j, -2), point(j + 1, -2), point(j, 2));
+        soup.add_triangle(point(j + 1, -2), point(j + 1, 2), point(j, 2));
+      }
+    }
+    random_rays(20000, -1, 1);
+    for (int k = 0; k < 2000; ++k) rays.push_back({Vec3(0.f), sphere.point(1 + k % (sphere.rings - 1), k)});
+    // The tubes' slivers are split (and nothing is without spatial splits).
+    CHECK(split_polygons(build_polygon_bvh(soup.v, soup.triangle), soup.triangle.size()) > 50);
+    CHECK(split_polygons(build_polygon_bvh(soup.v, soup.triangle, BvhSplits::Objects), soup.triangle.size()) == 0);
     CHECK(check_bvh_against_brute_force(soup, rays, false) == static_cast<int>(rays.size()));
     CHECK(check_bvh_against_brute_force(soup, rays) > 19000);
   }

@@ -72,7 +72,7 @@ inline PolygonBvh build_instance_bvh(const std::vector<Instance>& instances) {
   for (const Instance& in : instances) {
     v[0].push_back(in.lo), v[1].push_back(in.hi), v[2].push_back(in.lo), v[3].push_back(in.hi);
   }
-  return build_polygon_bvh(v, quad);
+  return build_polygon_bvh(v, quad, BvhSplits::Objects);
 }
 
 namespace instance_detail {

@@ -3,11 +3,13 @@
 // for a handful of polygons beats any hierarchy (measured crossover: docs/performance.md, "Meshes").
 //
 // Build: a binary tree by binned SAH (Wald, "On fast construction of SAH-based bounding volume hierarchies",
-// 2007: 32 bins on the centroids along each axis, the split of least Σ area·count of the three), then collapsed
-// into 8-wide nodes by repeatedly opening the child with the largest surface area (as in Embree's BVH8 and Ylitie
-// et al. 2017). A node of at most 8 polygons is a leaf, stored in one piece (leaf_data) and padded to 4 or 8
-// lanes, so a leaf is one 4- or 8-lane block of the same watertight test as the brute-force loop: a polygon
-// gives bit-identical results in both.
+// 2007: 32 bins on the centroids along each axis, the split of least Σ area·count of the three) with spatial
+// splits where children would overlap (Stich et al., "Spatial splits in bounding volume hierarchies", 2009: a
+// polygon across the plane goes to both sides, each bounding only its part), then collapsed into 8-wide nodes by
+// repeatedly opening the child with the largest surface area (as in Embree's BVH8 and Ylitie et al. 2017). A node
+// of at most 8 polygons is a leaf, stored in one piece (leaf_data) and padded to 4 or 8 lanes, so a leaf is one
+// 4- or 8-lane block of the same watertight test as the brute-force loop: a polygon gives bit-identical results
+// in both, and one in several leaves the same result in each.
 //
 // Traversal: one ray, the 8 children's slab tests in one 8-lane step, nearest child first (closest hit) or leaves
 // first, then slot order (any hit: a leaf may end it at once; nearest first was measured slower,
@@ -68,14 +70,19 @@ inline constexpr uint32_t kLeafFloatsPerLane = 13;
 struct PolygonBvh {
   std::vector<BvhNode> nodes;  // nodes[0] is the root
   std::vector<float> leaf_data;        // the leaves' polygons, each leaf padded to 4 or 8 lanes (above)
-  std::vector<uint32_t> lane_polygon;  // polygon id of each lane (kNoLanePolygon for padding)
-  std::vector<uint32_t> polygon_lane;  // lane of each polygon id
+  std::vector<uint32_t> lane_polygon;  // polygon id of each lane (kNoLanePolygon for padding); a polygon that
+                                       // spatial splits placed in several leaves has several lanes
   bool empty() const { return nodes.empty(); }
 };
 inline constexpr uint32_t kNoLanePolygon = ~0u;
 
+// Whether the build may place a polygon in several leaves (spatial splits), or keeps each in one (Objects: for
+// boxes stored as "polygons", such as the instances' top-level tree, which a polygon's clipping would not bound).
+enum class BvhSplits { Objects, Spatial };
+
 // Builds the hierarchy over polygons with vertices v[k][i] (a triangle repeats its vertex a as v[3]).
-PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle);
+PolygonBvh build_polygon_bvh(const std::vector<Vec3> (&v)[4], const std::vector<uint8_t>& is_triangle,
+                             BvhSplits splits = BvhSplits::Spatial);
 // The same over an indexed mesh's triangles (instances.h), read in place.
 PolygonBvh build_mesh_bvh(const TriangleMesh& mesh);
 
@@ -271,14 +278,12 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
   using namespace simd_detail;
   const ShearedRay R(o, s);
   const SlabRay ray(o, d);
-  const uint32_t skip_lane = skip < bvh.polygon_lane.size() ? bvh.polygon_lane[skip] : kNoLanePolygon;
   const float t_in = t_max;
   visit_leaves_nearest(bvh, ray, t_max, [&](uint32_t ref) {
     const uint32_t first = ref_first_lane(ref);
     with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);
       BlockResult<V> r = test_leaf<V, decltype(triangles)::value>(bvh, first, R, s, t_max);
-      mask_lane(r.t, skip_lane, first);
       filter_hits(r.t, bvh, first, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         stdx::where(r.zero_edge, r.t) = kInfinity;
@@ -292,11 +297,17 @@ inline bool closest_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const Ray
           }
         }
       }
+      // The nearest lane's polygon, passing over `skip` (told by its id: spatial splits may have placed it in
+      // several leaves, so it has no one lane).
       int lane;
-      const float t = block_min(r.t, lane);
-      if (t < t_max) {
-        t_max = t;
-        id = bvh.lane_polygon[first + lane];
+      for (float t = block_min(r.t, lane); t < t_max; t = block_min(r.t, lane)) {
+        const uint32_t p = bvh.lane_polygon[first + lane];
+        if (p != skip) {
+          t_max = t;
+          id = p;
+          break;
+        }
+        r.t[lane] = kInfinity;
       }
     });
     return false;
@@ -313,8 +324,6 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
   using namespace simd_detail;
   const ShearedRay R(o, s);
   const SlabRay ray(o, d);
-  const auto lane_of = [&](uint32_t p) { return p < bvh.polygon_lane.size() ? bvh.polygon_lane[p] : kNoLanePolygon; };
-  const uint32_t skip_lane_a = lane_of(skip_a), skip_lane_b = lane_of(skip_b);
   const float t_limit = t_max * kHitSlack;
   uint32_t stack[kStackSize];  // child references, in no particular order: any hit will do
   int top = 0;
@@ -340,8 +349,6 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
     const bool blocked = with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);
       BlockResult<V> r = test_leaf<V, decltype(triangles)::value>(bvh, first, R, s, t_max);
-      mask_lane(r.t, skip_lane_a, first);
-      mask_lane(r.t, skip_lane_b, first);
       filter_hits(r.t, bvh, first, t_max, keep);
       if (stdx::any_of(r.zero_edge)) [[unlikely]] {
         for (size_t lane = 0; lane < V::size(); ++lane) {
@@ -352,7 +359,14 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
           if (scalar_test(p, t_max, h) && keep(p)) return true;
         }
       }
-      return stdx::any_of(r.t < t_max);
+      // A hit that is not skip_a's or skip_b's (told by their ids, as in closest_polygon_bvh).
+      unsigned hits = mask_bits(r.t < t_max);
+      if (hits == 0 || (skip_a == kNoLanePolygon && skip_b == kNoLanePolygon)) return hits != 0;
+      for (; hits != 0; hits &= hits - 1) {
+        const uint32_t p = bvh.lane_polygon[first + static_cast<uint32_t>(std::countr_zero(hits))];
+        if (p != skip_a && p != skip_b) return true;
+      }
+      return false;
     });
     if (blocked) return true;
     if (top == 0) return false;
