@@ -111,6 +111,41 @@ struct SpatialSplit {
   float position = 0.f;
 };
 
+// The SAH sweep over N bins along one axis: for the plane after bin b, A(bins ≤ b)·(references entering at or
+// before b) + A(bins > b)·(references leaving after b); the cheapest plane with references on both sides (bin
+// -1 if none). An object split's references enter and leave in the same bin.
+struct Sweep {
+  double cost = std::numeric_limits<double>::infinity();
+  int bin = -1;
+  Box left, right;
+};
+template <size_t N>
+Sweep sah_sweep(const std::array<Box, N>& box, const std::array<uint32_t, N>& enter,
+                const std::array<uint32_t, N>& leave) {
+  std::array<Box, N> right_box;
+  std::array<size_t, N> right_n{};
+  Box acc;
+  size_t n = 0;
+  for (size_t b = N - 1; b > 0; --b) {
+    acc.grow(box[b]);
+    n += leave[b];
+    right_box[b] = acc;
+    right_n[b] = n;
+  }
+  Sweep best;
+  acc = Box{};
+  n = 0;
+  for (size_t b = 0; b + 1 < N; ++b) {
+    acc.grow(box[b]);
+    n += enter[b];
+    if (n == 0 || right_n[b + 1] == 0) continue;
+    const double cost =
+        acc.half_area() * static_cast<double>(n) + right_box[b + 1].half_area() * static_cast<double>(right_n[b + 1]);
+    if (cost < best.cost) best = {cost, static_cast<int>(b), acc, right_box[b + 1]};
+  }
+  return best;
+}
+
 // The SBVH build (Stich, Friedrich and Dietrich, "Spatial splits in bounding volume hierarchies", HPG 2009): at
 // each node the best binned object split (Wald 2007: centroids in 32 bins per axis) and, where its two children
 // overlap, the best spatial split (a plane cutting the node's box; a polygon across it is clipped into both
@@ -231,25 +266,8 @@ class BinaryBuilder {
         bin_box[b].grow(r.box);
         ++bin_count[b];
       }
-      std::array<Box, kBins> right_box;
-      std::array<double, kBins> right_cost{};
-      Box acc;
-      size_t n = 0;
-      for (int b = kBins - 1; b > 0; --b) {
-        acc.grow(bin_box[b]);
-        n += bin_count[b];
-        right_box[b] = acc;
-        right_cost[b] = acc.half_area() * static_cast<double>(n);
-      }
-      acc = Box{};
-      n = 0;
-      for (int b = 0; b < kBins - 1; ++b) {
-        acc.grow(bin_box[b]);
-        n += bin_count[b];
-        if (n == 0 || n == refs.size()) continue;
-        const double cost = acc.half_area() * static_cast<double>(n) + right_cost[b + 1];
-        if (cost < best.cost) best = {cost, axis, b, acc, right_box[b + 1]};
-      }
+      const Sweep sweep = sah_sweep(bin_box, bin_count, bin_count);
+      if (sweep.cost < best.cost) best = {sweep.cost, axis, sweep.bin, sweep.left, sweep.right};
     }
     return best;
   }
@@ -298,23 +316,8 @@ class BinaryBuilder {
         ++entries[first];
         ++exits[last];
       }
-      std::array<double, kSpatialBins> right_cost{};
-      Box acc;
-      size_t n = 0;
-      for (int b = kSpatialBins - 1; b > 0; --b) {
-        acc.grow(bin_box[b]);
-        n += exits[b];
-        right_cost[b] = n == 0 ? -1.0 : acc.half_area() * static_cast<double>(n);
-      }
-      acc = Box{};
-      n = 0;
-      for (int b = 0; b < kSpatialBins - 1; ++b) {
-        acc.grow(bin_box[b]);
-        n += entries[b];
-        if (n == 0 || right_cost[b + 1] < 0.0) continue;
-        const double cost = acc.half_area() * static_cast<double>(n) + right_cost[b + 1];
-        if (cost < best.cost) best = {cost, axis, plane[b + 1]};
-      }
+      const Sweep sweep = sah_sweep(bin_box, entries, exits);
+      if (sweep.cost < best.cost) best = {sweep.cost, axis, plane[static_cast<size_t>(sweep.bin) + 1]};
     }
     return best;
   }
