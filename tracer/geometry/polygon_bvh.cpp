@@ -99,12 +99,6 @@ struct Binning {
   int bin(const Vec3& c) const { return bin(c[axis]); }
 };
 
-struct ObjectSplit {
-  double cost = std::numeric_limits<double>::infinity();
-  int axis = -1, bin = -1;
-  Box left, right;
-};
-
 struct SpatialSplit {
   double cost = std::numeric_limits<double>::infinity();
   int axis = -1;
@@ -145,6 +139,11 @@ Sweep sah_sweep(const std::array<Box, N>& box, const std::array<uint32_t, N>& en
   }
   return best;
 }
+
+// The best sweep over the centroids' bins of one axis, and that axis.
+struct ObjectSplit : Sweep {
+  int axis = -1;
+};
 
 // The SBVH build (Stich, Friedrich and Dietrich, "Spatial splits in bounding volume hierarchies", HPG 2009): at
 // each node the best binned object split (Wald 2007: centroids in 32 bins per axis) and, where its two children
@@ -245,7 +244,8 @@ class BinaryBuilder {
       return end;
     }
     const Binning binning(centroid_box.lo[object.axis], extent[object.axis], object.axis, kBins);
-    const auto middle = std::partition(refs.begin(), refs.end(), [&](const Ref& r) { return binning.bin(r.centroid()) <= object.bin; });
+    const auto middle =
+        std::partition(refs.begin(), refs.end(), [&](const Ref& r) { return binning.bin(r.centroid()) <= object.bin; });
     mid = begin + static_cast<size_t>(middle - refs.begin());
     return end;
   }
@@ -267,7 +267,7 @@ class BinaryBuilder {
         ++bin_count[b];
       }
       const Sweep sweep = sah_sweep(bin_box, bin_count, bin_count);
-      if (sweep.cost < best.cost) best = {sweep.cost, axis, sweep.bin, sweep.left, sweep.right};
+      if (sweep.cost < best.cost) best = {sweep, axis};
     }
     return best;
   }
