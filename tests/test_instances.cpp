@@ -177,6 +177,75 @@ TEST_CASE("instances: rays find the same triangles at the same distances as in t
   CHECK(other_triangle <= 8);
 }
 
+TEST_CASE("instances: 60 overlapping placements (top leaves of 4 and 8 instances) give the flattened scene's hits") {
+  // A cluster of small spheres whose boxes overlap, so that a ray enters several instances of one top leaf and
+  // the nearest hit may lie in any of them: the leaf's 8-lane box test and its nearest-first visit must find
+  // what the flattened triangles give.
+  SceneDesc desc = instanced_scene();
+  desc.meshes[0] = sphere_mesh(6, 8);
+  desc.instances.clear();
+  Pcg32 place(23, 7);
+  for (int k = 0; k < 60; ++k) {
+    InstanceDesc in;
+    in.mesh = 0;
+    const auto u = [&] { return static_cast<double>(place.next_float()); };
+    const DVec3 at(u() * 8.0 - 4.0, u() * 2.0 - 1.0, u() * 2.0 - 1.0);
+    const double degrees = u() * 360.0;
+    const DVec3 axis(u() - 0.5, 1.0, u() - 0.5);
+    in.transform = placement(at, degrees, axis, DVec3(0.3 + 0.5 * u(), 0.3 + 0.5 * u(), 0.3 + 0.5 * u()));
+    in.materials = {0, 1};
+    desc.instances.push_back(in);
+  }
+  const auto inst = compile_scene(desc);
+  const auto flat = compile_scene(flattened(desc));
+  REQUIRE(inst->instances.instances.size() == 60);
+  // The top tree's leaves: more than one, at least one of 8 lanes and one holding several instances.
+  const PolygonBvh& top = inst->instances.top;
+  int leaves = 0, wide = 0, crowded = 0;
+  for (const BvhNode& n : top.nodes)
+    for (int c = 0; c < kBvhWidth; ++c) {
+      if (n.lo[0][c] == kInfinity || !is_leaf_ref(n.child[c])) continue;
+      ++leaves;
+      wide += ref_lanes(n.child[c]) == 8;
+      int held = 0;
+      for (int k = 0; k < ref_lanes(n.child[c]); ++k)
+        held += top.lane_polygon[ref_first_lane(n.child[c]) + static_cast<uint32_t>(k)] != kNoLanePolygon;
+      crowded += held >= 3;
+    }
+  REQUIRE(leaves > 1);
+  REQUIRE(wide > 0);
+  REQUIRE(crowded > 0);
+  Pcg32 rng(29, 5);
+  int hits = 0, on_instances = 0, differ = 0, other_triangle = 0, far = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Ray ray = random_ray(rng, *inst);
+    Hit a, b;
+    const bool ha = inst->intersect(ray, kInfinity, kNoPrimitive, a);
+    const bool hb = flat->intersect(ray, kInfinity, kNoPrimitive, b);
+    if (ha != hb) {
+      ++differ;
+      continue;
+    }
+    if (!ha) continue;
+    ++hits;
+    on_instances += inst->instances.holds(a.prim);
+    far += !(std::abs(a.t - b.t) <= 1e-5f * b.t + 2e-5f);  // a farther instance's surface: a missed nearer one
+    if (a.prim != b.prim) ++other_triangle;
+    // The instanced scene agrees with itself: a shadow ray to just before its hit is unoccluded, one to just
+    // beyond it occluded (whose t differs from the flattened scene's by the placement's rounding, ~1e-6).
+    CHECK(!inst->occluded(ray, 0.999f * a.t, kNoPrimitive, kNoPrimitive));
+    CHECK(inst->occluded(ray, 1.001f * a.t, kNoPrimitive, kNoPrimitive));
+  }
+  MESSAGE(leaves << " top leaves (" << wide << " of 8 lanes); " << hits << " hits of 20000 rays (" << on_instances
+                 << " on instances); " << differ << " hit in one scene only, " << far << " at another distance, "
+                 << other_triangle << " on another triangle");
+  CHECK(on_instances > 4000);
+  // As in the first test: rounding of the two placements disagrees only on rays grazing an edge or a silhouette.
+  CHECK(differ <= 8);
+  CHECK(far == 0);
+  CHECK(other_triangle <= 16);
+}
+
 TEST_CASE("instances: cut-outs cut instanced meshes where they cut the flattened scene's triangles") {
   // Material "a" loses the half of each sphere with u < 0.5 (its bands of slot 0 on the plain placements).
   SceneDesc desc = instanced_scene();

@@ -247,6 +247,36 @@ template <class Leaf>
   }
 }
 
+// The any-hit traversal: visits the leaves whose boxes the ray enters before t_limit, in no particular order
+// but a node's hit leaves first (one may end the query at once); leaf(ref) returns true to stop. Returns whether
+// it stopped. (Nearest first was measured slower for shadow rays, docs/performance.md, session 30.)
+template <class Leaf>
+[[gnu::always_inline]] inline bool visit_leaves_any(const PolygonBvh& bvh, const SlabRay& ray, float t_limit,
+                                                    const Leaf& leaf) {
+  uint32_t stack[kStackSize];  // child references, in no particular order: any hit will do
+  int top = 0;
+  uint32_t ref = inner_ref(0);
+  for (;;) {
+    if (!is_leaf_ref(ref)) {
+      // Down to a hit leaf if there is one, else the first hit child; the others wait.
+      const BvhNode& n = bvh.nodes[ref_node(ref)];
+      unsigned hits = mask_bits(child_entry(n, ray, t_limit) < kInfinity);
+      if (hits != 0) {
+        using vuint8 = stdx::simd<uint32_t, stdx::simd_abi::deduce_t<uint32_t, kBvhWidth>>;
+        const unsigned leaves = hits & mask_bits((vuint8(n.child, stdx::element_aligned) & kLeafRef) != 0u);
+        const int k = std::countr_zero(leaves != 0 ? leaves : hits);
+        ref = n.child[k];
+        for (hits &= ~(1u << k); hits != 0; hits &= hits - 1) stack[top++] = n.child[std::countr_zero(hits)];
+        continue;
+      }
+    } else if (leaf(ref)) {
+      return true;
+    }
+    if (top == 0) return false;
+    ref = stack[--top];
+  }
+}
+
 }  // namespace bvh_detail
 
 // The hit filter of the traversals below: `keep(p)` says whether a hit on polygon p counts (cut-outs:
@@ -324,29 +354,9 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
   using namespace simd_detail;
   const ShearedRay R(o, s);
   const SlabRay ray(o, d);
-  const float t_limit = t_max * kHitSlack;
-  uint32_t stack[kStackSize];  // child references, in no particular order: any hit will do
-  int top = 0;
-  uint32_t ref = inner_ref(0);
-  for (;;) {
-    if (!is_leaf_ref(ref)) {
-      // Down to a hit leaf if there is one (it may end the query), else the first hit child; the others wait.
-      const BvhNode& n = bvh.nodes[ref_node(ref)];
-      unsigned hits = mask_bits(child_entry(n, ray, t_limit) < kInfinity);
-      if (hits != 0) {
-        using vuint8 = stdx::simd<uint32_t, stdx::simd_abi::deduce_t<uint32_t, kBvhWidth>>;
-        const unsigned leaves = hits & mask_bits((vuint8(n.child, stdx::element_aligned) & kLeafRef) != 0u);
-        const int k = std::countr_zero(leaves != 0 ? leaves : hits);
-        ref = n.child[k];
-        for (hits &= ~(1u << k); hits != 0; hits &= hits - 1) stack[top++] = n.child[std::countr_zero(hits)];
-        continue;
-      }
-      if (top == 0) return false;
-      ref = stack[--top];
-      continue;
-    }
+  return visit_leaves_any(bvh, ray, t_max * kHitSlack, [&](uint32_t ref) [[gnu::always_inline]] {
     const uint32_t first = ref_first_lane(ref);
-    const bool blocked = with_leaf_kind(ref, [&](auto tag, auto triangles) {
+    return with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);
       BlockResult<V> r = test_leaf<V, decltype(triangles)::value>(bvh, first, R, s, t_max);
       filter_hits(r.t, bvh, first, t_max, keep);
@@ -368,10 +378,7 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
       }
       return false;
     });
-    if (blocked) return true;
-    if (top == 0) return false;
-    ref = stack[--top];
-  }
+  });
 }
 
 }  // namespace pt

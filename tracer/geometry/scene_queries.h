@@ -44,7 +44,7 @@ struct InstanceRay {
 // Closest hit among the instances' triangles in (0, t_max) (lowered to it), never reporting `skip`.
 inline bool closest_instance(const SceneGeometry& s, const Ray& ray, uint32_t skip, float& t_max, uint32_t& id) {
   bool found = false;
-  visit_instances(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
+  visit_instances<true>(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
     const InstanceRay r(s, in, ray);
     const auto test = [&r](uint32_t i, float tm, PolygonHit& h) { return r.test(i, tm, h); };
     uint32_t local = 0;
@@ -63,7 +63,7 @@ inline bool closest_instance(const SceneGeometry& s, const Ray& ray, uint32_t sk
 
 // Any hit among the instances' triangles in (0, t_max), ignoring skip_a and skip_b.
 inline bool occluded_instance(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
-  return visit_instances(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
+  return visit_instances<false>(s.instances, ray.o, ray.d, t_max, [&](const Instance& in) {
     const InstanceRay r(s, in, ray);
     const auto test = [&r](uint32_t i, float tm, PolygonHit& h) { return r.test(i, tm, h); };
     return s.has_cutouts() ? any_polygon_bvh(r.mesh.bvh, r.o, r.d, r.shear, r.local(skip_a), r.local(skip_b), t_max,

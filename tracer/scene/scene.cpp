@@ -584,7 +584,7 @@ void compile_instances(const SceneDesc& desc, Scene& s) {
     set.instances.push_back(std::move(in));
   }
   set.prim_end = next;
-  set.top = build_instance_bvh(set.instances);
+  build_instance_hierarchy(set);
   s.features.triangles = true;
 }
 
