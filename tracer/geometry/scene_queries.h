@@ -85,7 +85,8 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
       return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
     };
     const bool hit_polygon =
-        s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
+        s.polygons.size() == 0 ? false  // a scene of instanced meshes alone
+        : s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
         : s.has_cutouts()     ? closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test,
                                                     query_detail::uncut(s, ray, shear))
                               : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
@@ -93,7 +94,7 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
       hit = {t_max, id};
       found = true;
     }
-    if (!s.instances.empty() && query_detail::closest_instance(s, ray, skip, t_max, id)) [[unlikely]] {
+    if (!s.instances.empty() && query_detail::closest_instance(s, ray, skip, t_max, id)) {
       hit = {t_max, id};
       found = true;
     }
@@ -120,12 +121,13 @@ inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, 
     const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
       return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
     };
-    if (s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
+    if (s.polygons.size() == 0 ? false  // a scene of instanced meshes alone
+        : s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
         : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
                                                 query_detail::uncut(s, ray, shear))
                               : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
       return true;
-    if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b)) [[unlikely]]
+    if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b))
       return true;
   }
   if constexpr ((F & kFeatureSpheres) != 0) {
