@@ -47,11 +47,14 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
   Rgb L(0.f);
   for (const uint32_t li : s.infinite_lights) {
     const Light& l = s.lights[li];
-    const Rgb Le = infinite_light_Le(s, l, w);
-    if (is_black(Le)) continue;
     if constexpr (kWeighted) {
-      L += Le * power_heuristic(bsdf_pdf, s.light_pmf[li] * infinite_light_pdf(s, l, prev_n, w));
+      float pdf = 0.f;
+      const Rgb Le = infinite_light_Le(s, l, prev_n, w, pdf);
+      if (is_black(Le)) continue;
+      L += Le * power_heuristic(bsdf_pdf, s.light_pmf[li] * pdf);
     } else {
+      const Rgb Le = infinite_light_Le(s, l, w);
+      if (is_black(Le)) continue;
       L += Le;
     }
   }

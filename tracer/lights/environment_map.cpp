@@ -75,6 +75,13 @@ float EnvironmentMap::pdf(Vec3 dir) const {
   return distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)];
 }
 
+Rgb EnvironmentMap::eval(Vec3 dir, float& pdf_out) const {
+  int i, j;
+  texel_of(world_to_map(dir), i, j);
+  pdf_out = distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)];
+  return scale_ * image_.at(i, j);
+}
+
 bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
   int i = 0, j = 0;
   const Vec2 uv = distribution_.sample_continuous(u, nullptr, &i, &j);
@@ -88,10 +95,8 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
   dir = map_to_world(Vec3(-sin_theta * std::sin(phi), cos_theta, sin_theta * std::cos(phi)));
   // Le and pdf through the same lookup as eval()/pdf(), so that they agree exactly (MIS needs the same density
   // from both sides); only a direction rounded across a texel edge sees the neighbour's values.
-  pdf_out = pdf(dir);
-  if (!(pdf_out > 0.f) || !std::isfinite(pdf_out)) return false;
-  Le = eval(dir);
-  return true;
+  Le = eval(dir, pdf_out);
+  return pdf_out > 0.f && std::isfinite(pdf_out);
 }
 
 }  // namespace pt

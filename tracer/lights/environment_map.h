@@ -45,6 +45,8 @@ struct EnvironmentMap {
   bool sample(Vec2 u, Vec3& dir, float& pdf, Rgb& Le) const;
   // Solid-angle density with which sample() produces world direction `dir`.
   float pdf(Vec3 dir) const;
+  // eval(dir), with pdf(dir) in `pdf`: one texel lookup (its atan2 and acos) for both.
+  Rgb eval(Vec3 dir, float& pdf) const;
   // ∫ luminance(eval(ω)) dω over the sphere (radiance units × sr), scale included: exact for the nearest-texel
   // lookup. For choosing among lights by power.
   double power_weight() const { return power_; }

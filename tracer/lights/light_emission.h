@@ -52,7 +52,7 @@ inline Vec3 area_light_normal(const Scene& s, const Light& l, Vec3 p) {
 // Density with which infinite light l's emission (and the s = 1 strategy) picks w, the direction towards it.
 inline float infinite_light_direction_pdf(const Scene& s, const Light& l, Vec3 w) {
   if (l.kind == LightKind::Sun)
-    return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
+    return in_sun_disk(l, w) ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
   return s.environment.uses_map ? s.environment.map->pdf(w) : uniform_sphere_pdf();
 }
 

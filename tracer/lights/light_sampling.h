@@ -121,16 +121,32 @@ inline Vec3 sample_polygon_area(const PolygonSoA& P, uint32_t i, Vec2 u) {
   return bt.x * a + bt.y * q + (1.f - bt.x - bt.y) * r;
 }
 
+// Whether direction w points into the sun light `l`'s disk.
+inline bool in_sun_disk(const Light& l, Vec3 w) { return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max; }
+
 // Radiance of the infinite light `l` arriving from direction w (an escaping ray's direction).
 inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 w) {
-  if (l.kind == LightKind::Sun) return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? l.emission : Rgb(0.f);
+  if (l.kind == LightKind::Sun) return in_sun_disk(l, w) ? l.emission : Rgb(0.f);
   return s.environment.uses_map ? s.environment.map->eval(w) : s.environment.radiance;
+}
+
+// infinite_light_Le(s, l, w), with infinite_light_pdf(s, l, n, w) in `pdf` where the radiance is not black
+// (an environment map looks its texel up once for both).
+inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 n, Vec3 w, float& pdf) {
+  if (l.kind == LightKind::Sun) {
+    const bool inside = in_sun_disk(l, w);
+    pdf = inside ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
+    return inside ? l.emission : Rgb(0.f);
+  }
+  if (s.environment.uses_map) return s.environment.map->eval(w, pdf);
+  pdf = cosine_hemisphere_pdf(glm::dot(n, w));
+  return s.environment.radiance;
 }
 
 // Density with which sample_li() of the infinite light `l` produces direction w at a receiver with normal n.
 inline float infinite_light_pdf(const Scene& s, const Light& l, Vec3 n, Vec3 w) {
   if (l.kind == LightKind::Sun)
-    return glm::dot(w, l.direction) >= 1.f - l.one_minus_cos_max ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
+    return in_sun_disk(l, w) ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
   return s.environment.uses_map ? s.environment.map->pdf(w) : cosine_hemisphere_pdf(glm::dot(n, w));
 }
 
