@@ -85,8 +85,8 @@ inline void build_instance_hierarchy(InstanceSet& set) {
   }
   std::fill_n(unused.child, kBvhWidth, kNoLanePolygon);
   set.top_leaf_boxes.assign((set.top.lane_polygon.size() + 3) / 4, unused);
-  // A leaf's lanes are consecutive from a multiple of 4 and no leaf has more than 8: walk them in blocks of 4,
-  // each leaf's first block collecting its lanes (a wide leaf's second block stays unused).
+  // A leaf's lanes start at a multiple of 4 and number 4 or 8: its boxes go to the block of its first lane (a
+  // wide leaf's second block stays unused).
   for (const BvhNode& n : set.top.nodes) {
     for (int c = 0; c < kBvhWidth; ++c) {
       const uint32_t ref = n.child[c];
