@@ -229,7 +229,7 @@ TEST_CASE("instances: 60 overlapping placements (top leaves of 4 and 8 instances
     if (!ha) continue;
     ++hits;
     on_instances += inst->instances.holds(a.prim);
-    far += !(std::abs(a.t - b.t) <= 1e-5f * b.t + 2e-5f);  // a farther instance's surface: a missed nearer one
+    far += !(std::abs(a.t - b.t) <= 1e-5f * b.t + 2e-5f);  // another surface: a nearer one missed, or a graze
     if (a.prim != b.prim) ++other_triangle;
     // The instanced scene agrees with itself: a shadow ray to just before its hit is unoccluded, one to just
     // beyond it occluded (whose t differs from the flattened scene's by the placement's rounding, ~1e-6).
@@ -240,9 +240,11 @@ TEST_CASE("instances: 60 overlapping placements (top leaves of 4 and 8 instances
                  << " on instances); " << differ << " hit in one scene only, " << far << " at another distance, "
                  << other_triangle << " on another triangle");
   CHECK(on_instances > 4000);
-  // As in the first test: rounding of the two placements disagrees only on rays grazing an edge or a silhouette.
+  // As in the first test: rounding of the two placements disagrees only on rays grazing an edge or a silhouette
+  // (a graze in front of another surface shows as a hit at another distance: 0 with GCC, 1 with clang's
+  // sanitizer build). Missing a leaf's instances puts thousands of rays there.
   CHECK(differ <= 8);
-  CHECK(far == 0);
+  CHECK(far <= 8);
   CHECK(other_triangle <= 16);
 }
 

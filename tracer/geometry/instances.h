@@ -35,14 +35,17 @@ struct Affine {
   Vec3 vector(Vec3 d) const { return linear * d; }
 };
 
-struct Instance {
-  uint32_t mesh = 0;        // index into InstanceSet::meshes
-  uint32_t first_prim = 0;  // global id of the mesh's triangle 0
-  // Mesh → camera-relative world, in double (the hit's vertices are placed with it) and its inverse in float
-  // (the rays' way into the mesh); the normals' map, the inverse transpose of the linear part.
+struct alignas(64) Instance {
+  // What a ray entering the instance reads, in one cache line: its way into the mesh, the ids, the mesh itself.
+  Affine to_mesh;
+  uint32_t first_prim = 0;                 // global id of the mesh's triangle 0
+  uint32_t triangles = 0;                  // the mesh's triangle count
+  const MeshGeometry* geometry = nullptr;  // meshes[mesh] of its InstanceSet (which keeps it alive)
+  uint32_t mesh = 0;                       // index into InstanceSet::meshes
+  // Mesh → camera-relative world, in double (the hit's vertices are placed with it; to_mesh above is its
+  // inverse in float); the normals' map, the inverse transpose of the linear part.
   glm::dmat3 to_world_linear{1.0};
   DVec3 to_world_offset{0.0};
-  Affine to_mesh;
   glm::mat3 normal_to_world{1.f};
   bool mirrors = false;               // det < 0: triangles list their vertices the other way round in the world
   std::vector<uint32_t> material;     // per slot of the mesh, the scene's material
@@ -112,7 +115,7 @@ template <bool kNearest, class Visit>
 inline bool visit_instances(const InstanceSet& set, Vec3 o, Vec3 d, const float& t_max, const Visit& visit) {
   using namespace bvh_detail;
   const SlabRay ray(o, d);
-  const auto leaf = [&](uint32_t ref) [[gnu::always_inline]] {
+  const auto leaf = [&](uint32_t ref) __attribute__((always_inline)) {
     const BvhNode& boxes = set.top_leaf_boxes[ref_first_lane(ref) / 4];
     const simd_detail::vfloat8 entry_lanes = child_entry(boxes, ray, t_max * kHitSlack);
     unsigned entered = mask_bits(entry_lanes < kInfinity);

@@ -123,7 +123,7 @@ inline uint32_t polygon_point(const Vec3 (&v)[4], bool triangle, const std::arra
 template <bool kShading>
 inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h, Interaction& it) {
   const Instance& in = s.instances.instance_of(h.prim);
-  const MeshGeometry& mesh = *s.instances.meshes[in.mesh];
+  const MeshGeometry& mesh = *in.geometry;
   const uint32_t i = h.prim - in.first_prim;
   int order[3] = {0, 1, 2};
   if (in.mirrors) std::swap(order[1], order[2]);

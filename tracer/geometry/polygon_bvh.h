@@ -354,7 +354,9 @@ inline bool any_polygon_bvh(const PolygonBvh& bvh, Vec3 o, Vec3 d, const RayShea
   using namespace simd_detail;
   const ShearedRay R(o, s);
   const SlabRay ray(o, d);
-  return visit_leaves_any(bvh, ray, t_max * kHitSlack, [&](uint32_t ref) [[gnu::always_inline]] {
+  // Inlined, as the loop it replaced was (GCC kept it out of line: shadow rays 2–3 % slower); GNU's spelling,
+  // since clang reads [[gnu::always_inline]] in that place as an attribute of the lambda's type and ignores it.
+  return visit_leaves_any(bvh, ray, t_max * kHitSlack, [&](uint32_t ref) __attribute__((always_inline)) {
     const uint32_t first = ref_first_lane(ref);
     return with_leaf_kind(ref, [&](auto tag, auto triangles) {
       using V = decltype(tag);

@@ -108,7 +108,7 @@ struct SceneGeometry {
     if (prim < sphere_begin()) return polygons.material[prim];
     if (prim < primitive_count()) return spheres.material[prim - sphere_begin()];
     const Instance& in = instances.instance_of(prim);
-    return in.material[instances.meshes[in.mesh]->slot(prim - in.first_prim)];
+    return in.material[in.geometry->slot(prim - in.first_prim)];
   }
   bool has_cutouts() const { return !material_mask.empty(); }
   // Whether polygon p's hit h (its barycentrics) falls where its material's mask cuts the surface away (xi: the
@@ -126,7 +126,7 @@ struct SceneGeometry {
   }
   // The same for the hit h on triangle i of instance `in`'s mesh (barycentrics in the mesh's vertex order).
   bool cut_away(const Instance& in, uint32_t i, const PolygonHit& h, float xi) const {
-    const TriangleMesh& mesh = *instances.meshes[in.mesh]->mesh;
+    const TriangleMesh& mesh = *in.geometry->mesh;
     const uint32_t m = in.material[mesh.slot[i]];
     const AlphaMask* mask = m < material_mask.size() ? material_mask[m].get() : nullptr;
     if (!mask) return false;

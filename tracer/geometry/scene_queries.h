@@ -28,10 +28,10 @@ struct InstanceRay {
   Vec3 o, d;
   RayShear shear;
   InstanceRay(const SceneGeometry& scene, const Instance& instance, const Ray& ray)
-      : s(scene), in(instance), mesh(*scene.instances.meshes[instance.mesh]), world(ray),
+      : s(scene), in(instance), mesh(*instance.geometry), world(ray),
         o(instance.to_mesh.point(ray.o)), d(instance.to_mesh.vector(ray.d)), shear(d) {}
   // A global id as the mesh's own (~0u for none of its triangles).
-  uint32_t local(uint32_t prim) const { return prim - in.first_prim < mesh.size() ? prim - in.first_prim : ~0u; }
+  uint32_t local(uint32_t prim) const { return prim - in.first_prim < in.triangles ? prim - in.first_prim : ~0u; }
   bool test(uint32_t i, float t_max, PolygonHit& h) const {
     return intersect_triangle(mesh.vertex(i, 0), mesh.vertex(i, 1), mesh.vertex(i, 2), o, shear, t_max, h);
   }

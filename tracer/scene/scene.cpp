@@ -556,6 +556,8 @@ void compile_instances(const SceneDesc& desc, Scene& s) {
     }
     Instance in;
     in.mesh = static_cast<uint32_t>(geometry_of[d.mesh]);
+    in.geometry = set.meshes[in.mesh].get();
+    in.triangles = static_cast<uint32_t>(in.geometry->size());
     in.first_prim = next;
     in.desc = static_cast<uint32_t>(k);
     const glm::dmat4 world = instance_world(desc, d);
