@@ -72,6 +72,30 @@ inline bool occluded_instance(const SceneGeometry& s, const Ray& ray, float t_ma
   });
 }
 
+// Closest hit among the scene's own polygons (brute force or their hierarchy), as closest_instance.
+inline bool closest_own_polygon(const SceneGeometry& s, const Ray& ray, uint32_t skip, float& t_max, uint32_t& id) {
+  const RayShear shear(ray.d);
+  const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
+    return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
+  };
+  return s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
+         : s.has_cutouts()     ? closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test,
+                                                     uncut(s, ray, shear))
+                               : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
+}
+
+// Any hit among the scene's own polygons, as occluded_instance.
+inline bool any_own_polygon(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
+  const RayShear shear(ray.d);
+  const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
+    return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
+  };
+  return s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
+         : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
+                                                 uncut(s, ray, shear))
+                               : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test);
+}
+
 }  // namespace query_detail
 
 // Closest hit in (0, t_max), never reporting `skip` (the planar primitive a spawned ray leaves; ~0u for none).
@@ -79,18 +103,9 @@ template <uint32_t F>
 inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip, Hit& hit) {
   bool found = false;
   if constexpr ((F & kFeaturePolygons) != 0) {
-    const RayShear shear(ray.d);
     uint32_t id = 0;
-    const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
-      return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
-    };
-    const bool hit_polygon =
-        s.polygons.size() == 0 ? false  // a scene of instanced meshes alone
-        : s.polygon_bvh.empty() ? closest_polygon(s.polygon_lanes, ray.o, shear, skip, t_max, id, scalar_test)
-        : s.has_cutouts()     ? closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test,
-                                                    query_detail::uncut(s, ray, shear))
-                              : closest_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip, t_max, id, scalar_test);
-    if (hit_polygon) {
+    // A scene of instanced meshes alone has no polygons of its own: not even the shear is set up.
+    if (s.polygons.size() != 0 && query_detail::closest_own_polygon(s, ray, skip, t_max, id)) {
       hit = {t_max, id};
       found = true;
     }
@@ -117,16 +132,7 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
 template <uint32_t F>
 inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
   if constexpr ((F & kFeaturePolygons) != 0) {
-    const RayShear shear(ray.d);
-    const auto scalar_test = [&](uint32_t i, float tm, PolygonHit& h) {
-      return intersect_polygon(s.polygons, i, ray.o, shear, tm, h);
-    };
-    if (s.polygons.size() == 0 ? false  // a scene of instanced meshes alone
-        : s.polygon_bvh.empty() ? any_polygon(s.polygon_lanes, ray.o, shear, skip_a, skip_b, t_max, scalar_test)
-        : s.has_cutouts()     ? any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test,
-                                                query_detail::uncut(s, ray, shear))
-                              : any_polygon_bvh(s.polygon_bvh, ray.o, ray.d, shear, skip_a, skip_b, t_max, scalar_test))
-      return true;
+    if (s.polygons.size() != 0 && query_detail::any_own_polygon(s, ray, t_max, skip_a, skip_b)) return true;
     if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b))
       return true;
   }
