@@ -22,6 +22,35 @@ bool tri(Vec3 a, Vec3 b, Vec3 c, Vec3 o, Vec3 d, PolygonHit& h, float t_max = kI
 
 }  // namespace
 
+TEST_CASE("shear: z is the axis of largest |d| (max_dimension's ties), x and y the next two in turn, swapped where d[z] < 0") {
+  // Woop et al. 2013's rule, written out: kz = max_dimension(|d|), kx and ky the next two axes cyclically, and
+  // kx, ky swapped when d[kz] < 0 so that the edge functions keep their sign. Every direction whose components
+  // come from {0, -0, ±0.5, ±1, 2} (ties, zeros and signs), and random ones.
+  const float values[7] = {0.f, -0.f, 0.5f, -0.5f, 1.f, -1.f, 2.f};
+  const auto check = [](Vec3 d) {
+    const int kz = max_dimension(glm::abs(d));
+    int kx = (kz + 1) % 3, ky = (kz + 2) % 3;
+    if (d[kz] < 0.f) std::swap(kx, ky);
+    const RayShear s(d);
+    CHECK(s.kz == kz);
+    CHECK(s.kx == kx);
+    CHECK(s.ky == ky);
+    if (d[kz] != 0.f) {
+      CHECK(s.sz == 1.f / d[kz]);
+      CHECK(s.sx == d[kx] * s.sz);
+      CHECK(s.sy == d[ky] * s.sz);
+    }
+  };
+  for (float x : values)
+    for (float y : values)
+      for (float z : values) check(Vec3(x, y, z));
+  Pcg32 rng(5, 3);
+  for (int i = 0; i < 1000; ++i) check(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f));
+  // Two ties spelled out: |x| = |y| > |z| picks y, |x| = |z| > |y| picks z.
+  CHECK(RayShear(Vec3(1.f, -1.f, 0.5f)).kz == 1);
+  CHECK(RayShear(Vec3(-1.f, 0.5f, 1.f)).kz == 2);
+}
+
 TEST_CASE("triangle: hit, barycentrics, miss, back face, t range") {
   const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
   PolygonHit h;
