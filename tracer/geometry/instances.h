@@ -109,7 +109,7 @@ inline void build_instance_hierarchy(InstanceSet& set) {
 // hits); `visit` returns true to stop (a shadow ray's first hit). kNearest (closest hit): nearest box first;
 // otherwise (any hit) in the order of the any-hit traversal. A top leaf's instance boxes (up to 8, often
 // overlapping: an engine's parts) are tested in one 8-lane step and the entered ones visited nearest first or
-// in slot order: closest hit +11-12 % on 2CylinderEngine.glb against one scalar box test per instance,
+// in slot order: closest hit +8-16 % on 2CylinderEngine.glb against one scalar box test per instance,
 // visited in slot order (docs/performance.md, session 32).
 template <bool kNearest, class Visit>
 inline bool visit_instances(const InstanceSet& set, Vec3 o, Vec3 d, const float& t_max, const Visit& visit) {
