@@ -68,6 +68,7 @@ SceneDesc instanced_scene() {
   s.render.estimator = Estimator::Mis;
   s.render.sampler = SamplerType::Independent;
   s.render.max_bounces = 3;
+  s.render.instancing = Instancing::Keep;  // the two-level hierarchy under test (instances_as_polygons aside)
   s.environment.radiance = Rgb(1.f);
   s.materials = {test::diffuse_material("a", Rgb(0.7f, 0.5f, 0.3f), Rgb(0.f), false),
                  test::diffuse_material("b", Rgb(0.2f, 0.6f, 0.8f), Rgb(0.f), false),
@@ -402,6 +403,7 @@ TEST_CASE("instances: a small scene places its instanced triangles as polygons w
   // flattened scene's (the same placement in double), and each polygon remembers its instance (a pick finds
   // the object).
   SceneDesc desc = instanced_scene();
+  desc.render.instancing = Instancing::Auto;
   desc.meshes[0] = sphere_mesh(4, 6);
   desc.instances.resize(2);
   const size_t n = desc.meshes[0]->size();
@@ -421,13 +423,46 @@ TEST_CASE("instances: a small scene places its instanced triangles as polygons w
   size_t differ = 0;
   for (size_t i = 0; i < a.pixel_count(); ++i) differ += a.mean(i) != b.mean(i);
   CHECK(differ == 0);
-  // A mesh with file tangents (polygons carry none), or more triangles than brute force serves, stays instanced.
+  // A mesh with file tangents (polygons carry none) stays instanced, and so does every mesh when asked to.
   auto tangents = std::make_shared<MeshDesc>(*desc.meshes[0]);
   tangents->tangent.assign(tangents->position.size(), Vec4(1, 0, 0, 1));
   SceneDesc with_tangents = desc;
   with_tangents.meshes[0] = tangents;
   CHECK_FALSE(instances_as_polygons(with_tangents));
-  CHECK_FALSE(instances_as_polygons(instanced_scene()));
+  SceneDesc kept = desc;
+  kept.render.instancing = Instancing::Keep;
+  CHECK_FALSE(instances_as_polygons(kept));
+}
+
+TEST_CASE("instances: up to kPlacedPolygonsMax triangles are placed under one hierarchy, with the flattened scene's image bits") {
+  // Above kBvhMinPolygons the placed triangles and the scene's own polygons share one hierarchy (the engine's
+  // overlapping instances trace faster so); the image is still bit for bit the flattened scene's.
+  SceneDesc desc = instanced_scene();
+  desc.render.instancing = Instancing::Auto;
+  const size_t n = desc.meshes[0]->size();
+  REQUIRE(1 + 4 * n >= kBvhMinPolygons);
+  REQUIRE(instances_as_polygons(desc));
+  const auto placed = compile_scene(desc);
+  CHECK(placed->instances.empty());
+  REQUIRE(placed->polygons.size() == 1 + 4 * n);
+  CHECK_FALSE(placed->polygon_bvh.empty());
+  CHECK(placed->polygon_instance[1 + 3 * n] == 3);
+  CHECK(primitive_shapes(desc).size() == placed->polygons.size());
+  const Film a = test::render_film(desc, 8, 2), b = test::render_film(flattened(desc), 8, 2);
+  size_t differ = 0;
+  for (size_t i = 0; i < a.pixel_count(); ++i) differ += a.mean(i) != b.mean(i);
+  CHECK(differ == 0);
+  // The budget counts the scene's own polygons and every placement's triangles: exactly kPlacedPolygonsMax is
+  // placed, one triangle more keeps the instances.
+  desc.instances.resize((kPlacedPolygonsMax - 1) / n, desc.instances[0]);
+  ShapeDesc tri;
+  tri.type = ShapeType::Triangle;
+  tri.vertices = {DVec3(0, -3, 0), DVec3(1, -3, 0), DVec3(0, -3, 1)};
+  tri.material = 2;
+  desc.shapes.resize(kPlacedPolygonsMax - desc.instances.size() * n, tri);
+  CHECK(instances_as_polygons(desc));
+  desc.shapes.push_back(tri);
+  CHECK_FALSE(instances_as_polygons(desc));
 }
 
 TEST_CASE("instances: invalid placements and emitting materials are refused with their path") {

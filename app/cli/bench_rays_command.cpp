@@ -79,6 +79,10 @@ void add_bench_rays_command(CLI::App& bench, BenchRaysOptions& o) {
                 "of ../shared/peers/embree_rays (PTTRIS01), so Embree traces the same geometry");
   r->add_flag("--packets", o.packets,
               "Query as many consecutive rays at a time as the SIMD width (16 with AVX-512): one polygon per step for all");
+  r->add_option("--instancing", o.instancing,
+                enum_names_joined<Instancing>(" | ") + ": as render --instancing (keep: trace through every instance)")
+      ->check(CLI::IsMember(enum_name_list<Instancing>()))
+      ->capture_default_str();
   r->add_flag("--json", o.json, "Print one JSON object instead of the table");
 }
 
@@ -87,8 +91,9 @@ int run_bench_rays(const BenchRaysOptions& o) {
     std::fprintf(stderr, "error: bench rays: give --rays FILE (replay) or --record FILE (record)\n");
     return 2;
   }
-  const std::optional<SceneDesc> desc = load_scene_arg(o.scene);
+  std::optional<SceneDesc> desc = load_scene_arg(o.scene);
   if (!desc) return 2;
+  parse_enum(o.instancing, desc->render.instancing);
   const auto scene = compile_scene(*desc);
   if (!o.tris_file.empty()) {
     if (scene->spheres.size() != 0) {

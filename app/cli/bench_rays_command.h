@@ -20,6 +20,7 @@ struct BenchRaysOptions {
   int threads = 1;
   int repeats = 5;
   bool packets = false;  // kLanes rays per query call (the packet kernels)
+  std::string instancing = "auto";  // Instancing name
   bool json = false;
 };
 

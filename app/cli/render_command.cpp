@@ -87,6 +87,12 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
                     "(same image; auto: the wavefront where polygons are few enough for brute force)")
       ->check(CLI::IsMember(enum_name_list<PathLoop>()))
       ->capture_default_str();
+  r->add_option("--instancing", o.instancing,
+                enum_names_joined<Instancing>(" | ") +
+                    ": keep every instanced mesh behind its instance, or (auto) place the triangles of a scene of at most "
+                    "262,144 as polygons under one hierarchy (docs/performance.md; nearly the same image)")
+      ->check(CLI::IsMember(enum_name_list<Instancing>()))
+      ->capture_default_str();
   r->add_option("--bdpt-strategy", o.bdpt_strategy,
                 "Diagnostic for --estimator bdpt: S,T renders only the strategy with S light and T camera vertices, "
                 "without MIS weights (one term of the path sum: paths of S+T-2 bounces)")
@@ -137,6 +143,7 @@ std::optional<SceneDesc> scene_for_render(const RenderOptions& o) {
   if (o.sampler) parse_enum(*o.sampler, desc.render.sampler);
   desc.render.generic_kernel = o.generic_kernel;
   parse_enum(o.path_loop, desc.render.path_loop);
+  parse_enum(o.instancing, desc.render.instancing);
   // The bdpt diagnostics need bdpt.
   const char* bdpt_only_flag = !o.bdpt_strategy.empty() ? "--bdpt-strategy" : o.no_manifold ? "--no-manifold" : nullptr;
   if (bdpt_only_flag && desc.render.estimator != Estimator::Bdpt) {

@@ -31,6 +31,7 @@ struct RenderOptions {
   bool adaptive = false;
   bool generic_kernel = false;
   std::string path_loop = "auto";
+  std::string instancing = "auto";
   std::vector<int> bdpt_strategy;  // s,t: only that strategy, unweighted (diagnostic)
   bool no_manifold = false;        // bdpt without its manifold strategy (diagnostic)
   std::string save_state;          // write the film's accumulation state here (io/film_state.h)

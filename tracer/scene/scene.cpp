@@ -938,7 +938,7 @@ constexpr double kCameraRebaseRadii = 1.0;
 }  // namespace
 
 bool instances_as_polygons(const SceneDesc& desc) {
-  if (desc.instances.empty()) return false;
+  if (desc.instances.empty() || desc.render.instancing == Instancing::Keep) return false;
   size_t polygons = 0;
   for (const ShapeDesc& sh : desc.shapes)
     if (sh.type != ShapeType::Sphere) polygons += sh.type == ShapeType::Quad && !is_planar_convex_quad(sh) ? 2 : 1;
@@ -946,7 +946,7 @@ bool instances_as_polygons(const SceneDesc& desc) {
     const MeshDesc& m = *desc.meshes[in.mesh];
     if (!m.tangent.empty()) return false;
     polygons += m.size();
-    if (polygons >= kBvhMinPolygons) return false;
+    if (polygons > kPlacedPolygonsMax) return false;
   }
   // Each placed triangle must stay a triangle (a placement at an extreme scale could round one flat; the
   // instance path never places it): then primitive ids match primitive_shapes one for one.

@@ -135,10 +135,17 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc);
 // non-planar quad is two triangles): what a pick reports as the object.
 std::vector<uint32_t> primitive_shapes(const SceneDesc& desc);
 
-// Whether compile_scene places the instances' triangles as polygons instead of instancing them: when all the
-// scene's polygons and instanced triangles together stay below kBvhMinPolygons (a small glTF model), where the
-// brute-force SIMD loop and the wavefront beat any hierarchy (a 12-triangle glTF box: 13.9 against 9.7 Mrays/s
-// through its instance), and no mesh has file tangents (polygons carry none). Memory is no concern there.
+// Whether compile_scene places the instances' triangles as polygons, under the scene's own hierarchy, instead of
+// instancing them: when all the scene's polygons and instanced triangles together are at most
+// kPlacedPolygonsMax, no mesh has file tangents (polygons carry none), every placed triangle stays a triangle,
+// and render.instancing is Auto. One hierarchy over every triangle beats two levels where the instances'
+// boxes overlap: Debian's 2CylinderEngine.glb (29 meshes, 67 placements, 121,496 triangles) replays its path
+// rays 28 % faster (closest hit) and 12 % faster (shadow rays); below kBvhMinPolygons (a small glTF model)
+// the brute-force SIMD loop and the wavefront serve it (a 12-triangle glTF box: 13.9 against 9.7 Mrays/s
+// through its instance). The price is memory: about 300 bytes a placed triangle (the engine: 26 → 64 MB peak)
+// against one transform per instance, so larger scenes, and any that places a mesh many times over, keep
+// their instances (docs/performance.md, "Instances placed as polygons").
+inline constexpr size_t kPlacedPolygonsMax = size_t{1} << 18;
 bool instances_as_polygons(const SceneDesc& desc);
 
 // True when b has a's shapes, film size and number of materials: then the compiled geometry of a serves b, and

@@ -34,6 +34,9 @@ enum class EnvironmentType { Constant, Sky, Map };
 // their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront where
 // the packet kernels serve the scene (polygons few enough for brute force).
 enum class PathLoop { Auto, Scalar, Wavefront };
+// Whether compile_scene may place instanced meshes' triangles in the scene's own hierarchy (scene.h:
+// instances_as_polygons) or must keep every instance.
+enum class Instancing { Auto, Keep };
 // What an object is made of (ObjectDesc): the shapes a scene file lists in a group, an OBJ file's triangles, or
 // a glTF file's.
 enum class ObjectKind { Group, Mesh, Gltf };
@@ -77,6 +80,14 @@ struct EnumTable<PathLoop> {
       {PathLoop::Auto, "auto", "Automatic"},
       {PathLoop::Scalar, "scalar", "One path at a time"},
       {PathLoop::Wavefront, "wavefront", "Wavefront (16-ray packets)"},
+  }};
+};
+
+template <>
+struct EnumTable<Instancing> {
+  static constexpr std::array<EnumEntry<Instancing>, 2> kEntries{{
+      {Instancing::Auto, "auto", "Automatic"},
+      {Instancing::Keep, "keep", "Keep every instance"},
   }};
 };
 template <>
@@ -261,6 +272,10 @@ struct RenderSettings {
   bool generic_kernel = false;
   // Not part of scene files either: the path loop (same image; `render --path-loop`).
   PathLoop path_loop = PathLoop::Auto;
+  // Not part of scene files either: keep every instance rather than place small scenes' instanced triangles as
+  // polygons (nearly the same image; `render --instancing`, `bench rays --instancing`, and the tests of the
+  // two-level hierarchy).
+  Instancing instancing = Instancing::Auto;
   // Not part of scene files either: with s ≥ 0, the bidirectional estimator evaluates only the strategy with s
   // light and t camera vertices, unweighted (pbrt's per-strategy images; `render --bdpt-strategy s,t`).
   struct BdptStrategy {
