@@ -38,15 +38,22 @@ inline float sqr(float x) { return x * x; }
 inline float safe_sqrt(float x) { return std::sqrt(std::max(0.f, x)); }
 
 // Orthonormal basis around a unit vector n (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"):
-// branch-free except for the sign, no singularity.
+// branch-free except for the sign, no singularity. frame_tangents gives its tangents s and t over T = float or
+// vfloat (core/lanes.h), the caller passing sign = copysign(1, n.z).
+template <class T>
+inline void frame_tangents(const T& sign, const T& nx, const T& ny, const T& nz, T (&s)[3], T (&t)[3]) {
+  const T a = -1.f / (sign + nz);
+  const T b = nx * ny * a;
+  s[0] = 1.f + sign * nx * nx * a, s[1] = sign * b, s[2] = -sign * nx;
+  t[0] = b, t[1] = sign + ny * ny * a, t[2] = -ny;
+}
+
 struct Frame {
   Vec3 s, t, n;
   static Frame from_normal(Vec3 n) {
-    const float sign = std::copysign(1.f, n.z);
-    const float a = -1.f / (sign + n.z);
-    const float b = n.x * n.y * a;
-    return {Vec3(1.f + sign * n.x * n.x * a, sign * b, -sign * n.x),
-            Vec3(b, sign + n.y * n.y * a, -n.y), n};
+    float s[3], t[3];
+    frame_tangents(std::copysign(1.f, n.z), n.x, n.y, n.z, s, t);
+    return {Vec3(s[0], s[1], s[2]), Vec3(t[0], t[1], t[2]), n};
   }
   Vec3 to_local(Vec3 v) const { return {glm::dot(v, s), glm::dot(v, t), glm::dot(v, n)}; }
   Vec3 to_world(Vec3 v) const { return s * v.x + t * v.y + n * v.z; }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/lanes.h"
 #include "geometry/primitives.h"
 #include "geometry/triangle_frame.h"
 
@@ -247,15 +248,8 @@ inline Vec3 shading_normal(const Interaction& it, Vec3 wo) {
 // reflection that dips below the flat triangle near the terminator still leaves from the front (from the lifted
 // point, skipping its own triangle), as the smooth surface it stands for would let it.
 inline Vec3 offset_ray_origin(const Interaction& it, bool back) {
-  const float dist = glm::dot(glm::abs(it.ng), it.p_error);
-  Vec3 offset = dist * it.ng;
-  if (back) offset = -offset;
-  Vec3 po = (it.lifted && !back ? it.p + it.lift : it.p) + offset;
-  for (int k = 0; k < 3; ++k) {
-    if (offset[k] > 0.f) po[k] = next_float_up(po[k]);
-    else if (offset[k] < 0.f) po[k] = next_float_down(po[k]);
-  }
-  return po;
+  const Vec3 p = it.lifted && !back ? it.p + it.lift : it.p;
+  return lanes::to_vec3(lanes::offset_point(lanes::of(p), lanes::of(it.p_error), lanes::of(it.ng), back));
 }
 
 // The ray leaving towards direction w: on the side w points to.

@@ -16,17 +16,13 @@
 // hit is shaded. The kernels are short dependency chains with few branches, since a single incoherent ray is
 // bound by latency, not by arithmetic.
 #pragma once
-#include <experimental/simd>
 #include <cstring>
 #include <vector>
 
+#include "core/lanes.h"  // vfloat, kLanes
 #include "geometry/geometry.h"
 
 namespace pt {
-
-namespace stdx = std::experimental;
-using vfloat = stdx::native_simd<float>;
-inline constexpr int kLanes = static_cast<int>(vfloat::size());
 
 // Polygons as padded structure of arrays: coord[k][axis][i] is axis `axis` of vertex k of polygon i, and
 // triangle[i] is 1 for triangles (0 for quads). Padding lanes hold NaN, which fails every comparison and so

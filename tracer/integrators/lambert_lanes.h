@@ -2,11 +2,14 @@
 // packet's worth of paths at once, in the case that dominates the
 // Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation of a parallelogram light
 // sampled by area. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
-// step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width); each
-// lane performs exactly the float operations of the scalar functions, in the same order (glm's vector operators
-// evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps multiplies and adds apart;
-// std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar loop's (tested by the wavefront
-// tests, which compare images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised
+// step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The
+// formulas both loops share are written once over the number type (core/lanes.h) and instantiated here for
+// vfloat: the shading frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf
+// (lambert_f, cosine_hemisphere), the power heuristic, the spawned ray's origin (lanes::offset_point) and the
+// roulette's survival. The rest performs exactly the float operations of the scalar functions, in the same
+// order (glm's vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps
+// multiplies and adds apart; std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar
+// loop's (tested by the wavefront tests, which compare images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised
 // none of them and the code ran 40 % slower than the scalar path; docs/performance.md.)
 //
 // A lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit emits, or when the
@@ -34,54 +37,8 @@ struct LaneShading {
 
 namespace lane_detail {
 
-using M = vfloat::mask_type;
-using vbits = stdx::rebind_simd_t<uint32_t, vfloat>;  // unsigned: stepping wraps, never overflows
-
 [[gnu::always_inline]] inline vfloat ld(const float* a) { return vfloat(a, stdx::vector_aligned); }
 [[gnu::always_inline]] inline void st(float* a, const vfloat& v) { v.copy_to(a, stdx::vector_aligned); }
-// m ? a : b, lane-wise.
-[[gnu::always_inline]] inline vfloat select(const M& m, const vfloat& a, const vfloat& b) {
-  vfloat r = b;
-  stdx::where(m, r) = a;
-  return r;
-}
-// std::max(a, b) and std::min(a, b) as the standard defines them: (a < b) ? b : a and (b < a) ? b : a.
-[[gnu::always_inline]] inline vfloat std_max(const vfloat& a, const vfloat& b) { return select(a < b, b, a); }
-[[gnu::always_inline]] inline vfloat std_min(const vfloat& a, const vfloat& b) { return select(b < a, b, a); }
-// russian_roulette.h's survival probability, lane by lane (std::min's arithmetic).
-[[gnu::always_inline]] inline vfloat roulette_survival(const vfloat& worth) {
-  return std_min(vfloat(kMaxRouletteSurvival), worth);
-}
-[[gnu::always_inline]] inline vfloat bits_plus(const vfloat& v, uint32_t k) {
-  return stdx::__proposed::simd_bit_cast<vfloat>(stdx::__proposed::simd_bit_cast<vbits>(v) + k);
-}
-// next_float_up / next_float_down of core/math.h, lane-wise.
-[[gnu::always_inline]] inline vfloat step_up(vfloat v) {
-  stdx::where(v == 0.f, v) = 0.f;  // −0 → +0
-  const vfloat r = select(v >= 0.f, bits_plus(v, 1u), bits_plus(v, ~0u));
-  return select(v == kInfinity, v, r);
-}
-[[gnu::always_inline]] inline vfloat step_down(vfloat v) {
-  stdx::where(v == 0.f, v) = -0.f;
-  const vfloat r = select(v > 0.f, bits_plus(v, ~0u), bits_plus(v, 1u));
-  return select(v == -kInfinity, v, r);
-}
-// offset_ray_origin (geometry/interaction.h) towards w, lane-wise: the point pushed off along ±ng by the error
-// bound, then one ulp further on every axis the offset moves.
-struct Vec3Lanes {
-  vfloat x, y, z;
-};
-[[gnu::always_inline]] inline Vec3Lanes offset_origin(const Vec3Lanes& p, const Vec3Lanes& err, const Vec3Lanes& ng,
-                                                      const Vec3Lanes& w) {
-  const vfloat dist = (stdx::abs(ng.x) * err.x + stdx::abs(ng.y) * err.y) + stdx::abs(ng.z) * err.z;
-  vfloat ofx = dist * ng.x, ofy = dist * ng.y, ofz = dist * ng.z;
-  const M flip = ((w.x * ng.x + w.y * ng.y) + w.z * ng.z) < 0.f;
-  ofx = select(flip, -ofx, ofx), ofy = select(flip, -ofy, ofy), ofz = select(flip, -ofz, ofz);
-  const auto nudge = [](vfloat po, const vfloat& of) {
-    return select(of > 0.f, step_up(po), select(of < 0.f, step_down(po), po));
-  };
-  return {nudge(p.x + ofx, ofx), nudge(p.y + ofy, ofy), nudge(p.z + ofz, ofz)};
-}
 
 }  // namespace lane_detail
 
@@ -94,6 +51,8 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
                          const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
                          RayCount& count) {
   using namespace lane_detail;
+  using lanes::std_max, lanes::Vec3T;
+  using M = vmask;
   constexpr int N = kLanes;
   const PolygonSoA& P = s.polygons;
   // ---- Gather (scalar): the ray, the hit polygon, its material, the chosen light.
@@ -199,11 +158,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   alignas(64) float sx[N], sy[N], sz[N], tx[N], ty[N], tz[N], wlz[N], nx[N], ny[N], nz[N];
   {
     const vfloat Nx = ld(ngx), Ny = ld(ngy), Nz = ld(ngz);
-    const vfloat sign = select(stdx::signbit(Nz), vfloat(-1.f), vfloat(1.f));  // std::copysign(1, n.z)
-    const vfloat a = -1.f / (sign + Nz);
-    const vfloat b = Nx * Ny * a;
-    st(sx, 1.f + sign * Nx * Nx * a), st(sy, sign * b), st(sz, -sign * Nx);
-    st(tx, b), st(ty, sign + Ny * Ny * a), st(tz, -Ny);
+    vfloat s[3], t[3];
+    frame_tangents(lanes::sign_of(Nz), Nx, Ny, Nz, s, t);
+    st(sx, s[0]), st(sy, s[1]), st(sz, s[2]);
+    st(tx, t[0]), st(ty, t[1]), st(tz, t[2]);
     const vfloat wz = (-ld(dx) * Nx + -ld(dy) * Ny) + -ld(dz) * Nz;
     st(wlz, wz);
     const M front = wz >= 0.f;
@@ -246,9 +204,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
 
   // ---- The light sample (sample_li by area, sample_lights' choice probability), the BSDF there, the shadow ray
   // and its contribution.
-  const Vec3Lanes P_{ld(px), ld(py), ld(pz)}, E_{ld(ex), ld(ey), ld(ez)}, NG{ld(ngx), ld(ngy), ld(ngz)};
+  const Vec3T<vfloat> P_{ld(px), ld(py), ld(pz)}, E_{ld(ex), ld(ey), ld(ez)}, NG{ld(ngx), ld(ngy), ld(ngz)};
   const vfloat Wz = ld(wlz);
-  const vfloat Fr = ld(alb_r) * kInvPi, Fg = ld(alb_g) * kInvPi, Fb = ld(alb_b) * kInvPi;
+  const vfloat Fr = lambert_f(ld(alb_r)), Fg = lambert_f(ld(alb_g)), Fb = lambert_f(ld(alb_b));
   const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
   alignas(64) float traced[N], shadow_ok[N];
   alignas(64) float so_x[N], so_y[N], so_z[N], sd_x[N], sd_y[N], sd_z[N], st_max[N], sc_r[N], sc_g[N], sc_b[N];
@@ -277,17 +235,14 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const M same_side = Wz * wil_z > 0.f;
     ok = ok && same_side && !(Fr == 0.f && Fg == 0.f && Fb == 0.f);
     st(traced, select(ok, vfloat(1.f), vfloat(0.f)));
-    const Vec3Lanes origin = offset_origin(P_, E_, NG, {wix, wiy, wiz});
+    const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wix, wiy, wiz}, NG) < 0.f);
     const vfloat tlx = lpx - origin.x, tly = lpy - origin.y, tlz = lpz - origin.z;
     const vfloat sdist = stdx::sqrt((tlx * tlx + tly * tly) + tlz * tlz);
     const vfloat t_max = sdist * kShadowRayShorten;
     // power_heuristic(ls.pdf, bsdf_pdf) with the Lambert pdf max(|cos θ|, 0)/π.
     const vfloat cos_abs = stdx::abs(wil_z);
-    const vfloat bpdf = select(same_side, std_max(cos_abs, vfloat(0.f)) * kInvPi, vfloat(0.f));
-    const vfloat ff = pdf * pdf, gg = bpdf * bpdf;
-    vfloat w = select(ff + gg > 0.f, ff / (ff + gg), vfloat(0.f));
-    w = select(stdx::isinf(ff), vfloat(1.f), w);
-    if (!o.mis) w = 1.f;
+    const vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
+    const vfloat w = o.mis ? power_heuristic(pdf, bpdf) : vfloat(1.f);
     const vfloat scale = (cos_abs * w) / pdf;
     st(shadow_ok, select(ok && t_max > 0.f, vfloat(1.f), vfloat(0.f)));
     st(so_x, origin.x), st(so_y, origin.y), st(so_z, origin.z);
@@ -306,18 +261,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const vfloat wo_z = select(flip, -Wz, Wz);
     M ok = wo_z > 0.f && !(ld(alb_r) == 0.f && ld(alb_g) == 0.f && ld(alb_b) == 0.f);
     // sample_cosine_hemisphere: the concentric disk (sampling.h), then z = √max(0, 1 − x² − y²).
-    const vfloat cx = 2.f * ld(bux) - 1.f, cy = 2.f * ld(buy) - 1.f;
-    const M wide = stdx::abs(cx) > stdx::abs(cy);
-    const vfloat angle = (kPi / 4.f) * select(wide, cy / cx, cx / cy);
-    vfloat cs, sn;
-    quarter_turn_cos_sin(angle, cs, sn);
-    const M centre = cx == 0.f && cy == 0.f;
-    const vfloat dxs = select(centre, vfloat(0.f), select(wide, cx * cs, cy * sn));
-    const vfloat dys = select(centre, vfloat(0.f), select(wide, cx * sn, cy * cs));
-    const vfloat zz = (1.f - dxs * dxs) - dys * dys;
-    const vfloat wz0 = stdx::sqrt(std_max(vfloat(0.f), zz));
+    const Vec3T<vfloat> local = cosine_hemisphere(ld(bux), ld(buy));
+    const vfloat dxs = local.x, dys = local.y, wz0 = local.z;
     ok = ok && wz0 > 0.f;
-    const vfloat pdf = std_max(wz0, vfloat(0.f)) * kInvPi;
+    const vfloat pdf = cosine_hemisphere_pdf(wz0);
     const vfloat wz = select(flip, -wz0, wz0);
     ok = ok && pdf > 0.f && wz != 0.f;
     const vfloat k_scale = stdx::abs(wz) / pdf;
@@ -336,7 +283,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     st(goes_on, select(ok, vfloat(1.f), vfloat(0.f)));
     st(nb_r, nbr), st(nb_g, nbg), st(nb_b, nbb);
     st(b_pdf, pdf);
-    const Vec3Lanes origin = offset_origin(P_, E_, NG, {wwx, wwy, wwz});
+    const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wwx, wwy, wwz}, NG) < 0.f);
     st(no_x, origin.x), st(no_y, origin.y), st(no_z, origin.z);
     st(nd_x, wwx), st(nd_y, wwy), st(nd_z, wwz);
   }

@@ -22,14 +22,12 @@
 // Everything here is in double: the chain magnifies errors of its entry point (by the sphere's focusing).
 #pragma once
 #include <array>
-#include <experimental/simd>
 
+#include "core/lanes.h"
 #include "core/math.h"
 #include "core/simd_sqrt_warnings.h"
 
 namespace pt {
-
-namespace stdx = std::experimental;
 
 struct SpecularSphere {
   DVec3 center;
@@ -127,14 +125,6 @@ struct ChainPlane {
   double y_u, y_v;
 };
 
-// a where m holds, else b: for doubles and for SIMD lanes of doubles.
-inline double select(bool m, double a, double b) { return m ? a : b; }
-template <class V>
-V select(const typename V::mask_type& m, const V& a, const V& b) {
-  V r = b;
-  stdx::where(m, r) = a;
-  return r;
-}
 // max(0, a), 0 for NaN (as std::max(0.0, a)).
 template <class T>
 T positive_part(const T& a) {

@@ -1,5 +1,5 @@
 // Russian roulette, the one rule of the scalar path loop (path_tracer.h), the SIMD Lambert lanes
-// (lambert_lanes.h, lane by lane with the same arithmetic) and both subpaths of bdpt (bdpt_kernels.h).
+// (lambert_lanes.h, with the same function over SIMD lanes) and both subpaths of bdpt (bdpt_kernels.h).
 //
 // From scattering event rr_depth on, a path survives with probability q and is then re-weighted by 1/q, which
 // keeps the estimate unbiased (pbrt-v4 PathIntegrator::Li). q follows the path's worth (its throughput's
@@ -10,6 +10,7 @@
 #pragma once
 #include <algorithm>
 
+#include "core/lanes.h"
 #include "core/math.h"
 #include "scene/scene_desc.h"
 
@@ -36,8 +37,11 @@ inline int roulette_depth(int setting, bool bidirectional, bool infinite_light) 
 // Whether roulette is played at scattering event `depth` (rr_depth < 0: never).
 inline bool roulette_applies(int depth, int rr_depth) { return rr_depth >= 0 && depth >= rr_depth; }
 
-// The survival probability of a path of worth `worth` (lambert_lanes.h has the same for SIMD lanes).
-inline float roulette_survival(float worth) { return std::min(kMaxRouletteSurvival, worth); }
+// The survival probability of a path of worth `worth`, over T = float or vfloat (core/lanes.h).
+template <class T>
+inline T roulette_survival(const T& worth) {
+  return lanes::std_min(T(kMaxRouletteSurvival), worth);
+}
 
 // Plays the roulette with the uniform number u: false when the path ends, else true with beta re-weighted.
 inline bool survives_roulette(Rgb& beta, float worth, float u) {

@@ -7,8 +7,12 @@
 
 namespace pt {
 
-// Lambert: f = ρ/π.
-inline Rgb diffuse_f(Rgb albedo) { return albedo * kInvPi; }
+// Lambert: f = ρ/π, one channel over T = float or vfloat (core/lanes.h).
+template <class T>
+inline T lambert_f(const T& albedo) {
+  return albedo * kInvPi;
+}
+inline Rgb diffuse_f(Rgb albedo) { return {lambert_f(albedo.x), lambert_f(albedo.y), lambert_f(albedo.z)}; }
 
 inline Rgb diffuse_eval(const Material& m, Vec3 wo, Vec3 wi) {
   return wo.z > 0.f && wi.z > 0.f ? diffuse_f(m.albedo) : Rgb(0.f);

@@ -1,18 +1,16 @@
 // Fresnel reflectance of smooth interfaces and the two directions they produce (mirror reflection, Snell
 // refraction). The formulas are templates over the float type T so that a SIMD lane type can reuse them
 // (Mitsuba 3 style): T must provide +, −, ×, /, comparisons, and the functions sqrt, abs, min, max, copysign
-// found by argument-dependent lookup, plus an overload of pt::select(mask, a, b). The scalar instantiation is
-// T = float.
+// found by argument-dependent lookup, plus an overload of pt::select(mask, a, b) (core/lanes.h). The scalar
+// instantiation is T = float.
 //
 // Conventions (pbrt-v4 §9.3): cos_i ≥ 0 is the cosine on the incident side; eta = n_t / n_i is the relative index
 // of the transmitted side over the incident side; reflectance is for unpolarised light (mean of s and p).
 #pragma once
+#include "core/lanes.h"
 #include "core/math.h"
 
 namespace pt {
-
-// Lane-wise choice: the scalar form of a SIMD blend.
-inline float select(bool mask, float a, float b) { return mask ? a : b; }
 
 // Exact dielectric Fresnel reflectance (pbrt-v4 eq. 9.4–9.5, FrDielectric without the side flip). Returns 1
 // under total internal reflection (sin²θt ≥ 1).

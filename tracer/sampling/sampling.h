@@ -2,6 +2,7 @@
 // Every pdf here is with respect to the measure named in its comment; the chi-square tests in
 // tests/test_sampling.cpp check each routine's histogram against its pdf.
 #pragma once
+#include "core/lanes.h"
 #include "core/math.h"
 
 namespace pt {
@@ -42,22 +43,38 @@ inline Vec2 cos_sin_quarter_turn(float x) {
 
 // Concentric map of the square onto the unit disk (Shirley & Chiu 1997): area-preserving, low distortion.
 // The angle is θ = (π/4)·(o.y/o.x) in the left/right wedges and θ = π/2 − φ, φ = (π/4)·(o.x/o.y), in the
-// others, where (cos θ, sin θ) = (sin φ, cos φ): both need only angles in [−π/4, π/4].
+// others, where (cos θ, sin θ) = (sin φ, cos φ): both need only angles in [−π/4, π/4]. Over T = float or vfloat
+// (core/lanes.h): the wedge is a select, so both quotients are computed and one is kept.
+template <class T>
+inline void disk_concentric(const T& ux, const T& uy, T& dx, T& dy) {
+  const T ox = 2.f * ux - 1.f, oy = 2.f * uy - 1.f;
+  const auto wide = lanes::abs(ox) > lanes::abs(oy);
+  const T angle = (kPi / 4.f) * select(wide, oy / ox, ox / oy);
+  T c, s;
+  quarter_turn_cos_sin(angle, c, s);
+  const auto centre = ox == 0.f && oy == 0.f;
+  dx = select(centre, T(0.f), select(wide, ox * c, oy * s));
+  dy = select(centre, T(0.f), select(wide, ox * s, oy * c));
+}
 inline Vec2 sample_uniform_disk_concentric(Vec2 u) {
-  const Vec2 o = 2.f * u - Vec2(1.f);
-  if (o.x == 0.f && o.y == 0.f) return {0.f, 0.f};
-  if (std::abs(o.x) > std::abs(o.y)) return o.x * cos_sin_quarter_turn((kPi / 4.f) * (o.y / o.x));
-  const Vec2 cs = cos_sin_quarter_turn((kPi / 4.f) * (o.x / o.y));
-  return o.y * Vec2(cs.y, cs.x);
+  Vec2 d;
+  disk_concentric(u.x, u.y, d.x, d.y);
+  return d;
 }
 
-// Cosine-weighted hemisphere z >= 0 (Malley's method); pdf = cos θ / π per steradian.
-inline Vec3 sample_cosine_hemisphere(Vec2 u) {
-  const Vec2 d = sample_uniform_disk_concentric(u);
-  const float z = safe_sqrt(1.f - d.x * d.x - d.y * d.y);
-  return {d.x, d.y, z};
+// Cosine-weighted hemisphere z >= 0 (Malley's method: the disk's point lifted to the hemisphere); pdf = cos θ / π
+// per steradian. Over T = float or vfloat.
+template <class T>
+inline lanes::Vec3T<T> cosine_hemisphere(const T& ux, const T& uy) {
+  T dx, dy;
+  disk_concentric(ux, uy, dx, dy);
+  return {dx, dy, lanes::sqrt(lanes::std_max(T(0.f), (1.f - dx * dx) - dy * dy))};
 }
-inline float cosine_hemisphere_pdf(float cos_theta) { return std::max(cos_theta, 0.f) * kInvPi; }
+inline Vec3 sample_cosine_hemisphere(Vec2 u) { return lanes::to_vec3(cosine_hemisphere(u.x, u.y)); }
+template <class T>
+inline T cosine_hemisphere_pdf(const T& cos_theta) {
+  return lanes::std_max(cos_theta, T(0.f)) * kInvPi;
+}
 
 // Uniform over the cone of directions around +z with cos θ >= cos_theta_max; pdf = 1/(2π(1−cos θmax)).
 // 1 − cos θ is interpolated directly so that tiny cones (distant or small spheres) keep their precision.
@@ -84,11 +101,11 @@ inline Vec2 sample_uniform_triangle(Vec2 u) {
   return {b0, b1};
 }
 
-// Veach's power heuristic with β = 2 for one sample from each of two strategies.
-inline float power_heuristic(float pdf_f, float pdf_g) {
-  const float f = pdf_f * pdf_f, g = pdf_g * pdf_g;
-  if (std::isinf(f)) return 1.f;
-  return f + g > 0.f ? f / (f + g) : 0.f;
+// Veach's power heuristic with β = 2 for one sample from each of two strategies; over T = float or vfloat.
+template <class T>
+inline T power_heuristic(const T& pdf_f, const T& pdf_g) {
+  const T f = pdf_f * pdf_f, g = pdf_g * pdf_g;
+  return select(lanes::isinf(f), T(1.f), select(f + g > 0.f, f / (f + g), T(0.f)));
 }
 
 }  // namespace pt
