@@ -360,7 +360,7 @@ TEST_CASE("cli: --path-loop and --generic-kernel keep the image's bits and chang
   CHECK(file_bytes("loop_w.pfm") == file_bytes("loop_g.pfm"));
   CHECK(path_line(wave) == "path: wavefront loop, kernel for polygons with Lambert materials, SIMD shading lanes");
   CHECK(path_line(scalar) == "path: scalar loop, kernel for polygons with Lambert materials");
-  CHECK(path_line(generic) == "path: wavefront loop, generic kernel (every feature)");
+  CHECK(path_line(generic) == "path: wavefront loop, generic kernel (every feature), SIMD shading lanes");
   CHECK(path_line(automatic) == path_line(wave));  // auto: the Cornell box's 17 polygons take the wavefront
 }
 

@@ -113,6 +113,45 @@ TEST_CASE("wavefront: the shading lanes agree with the scalar loop for lights se
   check_loops_agree(desc);
 }
 
+TEST_CASE("wavefront: among other materials and spheres, the lanes shade the Lambertian polygons with the scalar loop's bits") {
+  // cornell with a rough metal wall, a plastic floor and a white ball: the kernel for general materials, whose
+  // lanes take only the hits on Lambertian polygons (a lane shading the metal or the plastic as Lambertian, or a
+  // sphere's hit as a polygon's, changes the image).
+  SceneDesc desc = load_scene("cornell");
+  desc.width = 40;
+  desc.height = 24;
+  MaterialDesc metal;
+  metal.name = "rough metal";
+  metal.type = MaterialType::Conductor;
+  metal.albedo = Rgb(0.9f, 0.6f, 0.3f);
+  metal.roughness = 0.3f;
+  MaterialDesc plastic;
+  plastic.name = "blue plastic";
+  plastic.type = MaterialType::Plastic;
+  plastic.albedo = Rgb(0.2f, 0.4f, 0.8f);
+  plastic.roughness = 0.2f;
+  desc.materials.push_back(metal);
+  desc.materials.push_back(plastic);
+  const int n = static_cast<int>(desc.materials.size());
+  desc.shapes[4].material = n - 2;  // the right wall
+  desc.shapes[0].material = n - 1;  // the floor
+  ShapeDesc ball;
+  ball.type = ShapeType::Sphere;
+  ball.center = DVec3(380.0, 90.0, 120.0);
+  ball.radius = 60.0;
+  ball.material = desc.shapes[2].material;  // the back wall's white
+  desc.shapes.push_back(ball);
+  const auto scene = compile_scene(desc);
+  REQUIRE((scene->kernel_features() & kFeatureGeneralMaterials) != 0);
+  REQUIRE((scene->kernel_features() & kFeatureSpheres) != 0);
+  REQUIRE(scene->shading.empty());
+  for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
+    desc.render.estimator = est;
+    CAPTURE(std::string(to_string(est)));
+    check_loops_agree(desc);
+  }
+}
+
 TEST_CASE("wavefront: auto takes it where polygons are searched by brute force, and only there") {
   RenderSettings settings;
   const auto cornell = compile_scene(load_scene("cornell"));

@@ -12,7 +12,11 @@
 // loop's (tested by the wavefront tests, which compare images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised
 // none of them and the code ran 40 % slower than the scalar path; docs/performance.md.)
 //
-// A lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit emits, or when the
+// kM is the kernel's material set (materials/bsdf.h): under MaterialSet::Any, in scenes that mix Lambertian
+// polygons with other materials and spheres, the lanes shade the hits on untextured Lambertian polygons and
+// evaluate the lobe as bsdf_eval<Any> does (wo and wi strictly on one side), and the caller uses them only in
+// scenes without vertex normals (whose frames are flat). A lane takes the scalar path instead (the caller runs
+// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material, or when the
 // chosen light is not such a parallelogram sampled by area (a sphere, an infinite light, a triangle, a rectangle
 // near enough for solid-angle sampling); the caller uses the lanes only below the bounce limit. The gathers, the
 // light choice and the 1D random numbers stay scalar.
@@ -46,7 +50,7 @@ PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
 // The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
 // o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
 // live paths of a batch share one depth).
-template <class RngOf>
+template <MaterialSet kM, class RngOf>
 void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
                          const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
                          RayCount& count) {
@@ -92,12 +96,16 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     quad[l] = two_sided[l] = 0.f;
     light_prim[l] = kNoPrimitive;
   }
+  int lanes_active = 0;
   for (int l = 0; l < k; ++l) {
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
+    if (prim >= s.sphere_begin()) continue;  // a sphere or an instance's triangle: the scalar path
     material[l] = P.material[prim];
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
+    if constexpr (kM == MaterialSet::Any)
+      if (!is_lambertian(m) || has_textures(m)) continue;
     const PathState& p = paths[ids[l]];
     ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
     dx[l] = p.ray.d.x, dy[l] = p.ray.d.y, dz[l] = p.ray.d.z;
@@ -120,7 +128,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     beta_r[l] = p.beta.x, beta_g[l] = p.beta.y, beta_b[l] = p.beta.z;
     eta[l] = p.eta_scale;
     active[l] = 1;
+    ++lanes_active;
   }
+  if (lanes_active == 0) return;  // nothing for the lanes: every path takes shade_vertex
 
   // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point.
   alignas(64) float px[N], py[N], pz[N], ex[N], ey[N], ez[N];
@@ -232,7 +242,12 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     ok = ok && pdf > 0.f && le_on && !(Ler == 0.f && Leg == 0.f && Leb == 0.f);
     // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (only their cosines matter).
     const vfloat wil_z = (wix * NG.x + wiy * NG.y) + wiz * NG.z;
-    const M same_side = Wz * wil_z > 0.f;
+    // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (their cosines' product is positive); bsdf_eval<Any>
+    // mirrors both to the front first (then both are strictly positive), which differs where the product
+    // underflows.
+    M same_side;
+    if constexpr (kM == MaterialSet::Lambert) same_side = Wz * wil_z > 0.f;
+    else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
     ok = ok && same_side && !(Fr == 0.f && Fg == 0.f && Fb == 0.f);
     st(traced, select(ok, vfloat(1.f), vfloat(0.f)));
     const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wix, wiy, wiz}, NG) < 0.f);
@@ -298,7 +313,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
       it.p = Vec3(px[l], py[l], pz[l]);
       it.ng = Vec3(ngx[l], ngy[l], ngz[l]);
       it.ns = it.ng;
-      p.features.at_vertex<MaterialSet::Lambert>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
+      p.features.at_vertex<kM>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
                                                  s.materials[material[l]], false, p.L);
     }
     if (traced[l] != 0.f) ++count.rays;

@@ -39,7 +39,7 @@ inline bool roulette_applies(int depth, int rr_depth) { return rr_depth >= 0 && 
 
 // The survival probability of a path of worth `worth`, over T = float or vfloat (core/lanes.h).
 template <class T>
-inline T roulette_survival(const T& worth) {
+[[gnu::always_inline]] inline T roulette_survival(const T& worth) {
   return lanes::std_min(T(kMaxRouletteSurvival), worth);
 }
 

@@ -9,6 +9,7 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain).
 #pragma once
+#include <algorithm>
 #include <atomic>
 
 #include "integrators/integrator.h"
@@ -36,6 +37,18 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 // no instanced mesh is searched ray by ray besides).
 inline bool wavefront_pays(const Scene& scene) {
   return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty() && scene.instances.empty();
+}
+
+// Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
+// (lambert_lanes.h; at the bounces where lights are sampled): kernels with polygons, in scenes with a
+// parallelogram light (the lanes sample those alone, by area: elsewhere every lane would be handed back after its
+// gathers, which cost `sky` 7 % of its samples per second) and, where other materials may be about, no vertex
+// normals (the lanes' shading frames are flat).
+inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
+  if ((features & kFeaturePolygons) == 0) return false;
+  if ((features & kFeatureGeneralMaterials) != 0 && !scene.shading.empty()) return false;
+  return std::any_of(scene.lights.begin(), scene.lights.end(),
+                     [&](const Light& l) { return l.polygon() && scene.polygons.parallelogram[l.prim]; });
 }
 
 // Whether settings.path_loop, resolved for this scene, runs the wavefront loop (select_batch_kernel's choice).

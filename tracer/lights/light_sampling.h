@@ -40,7 +40,7 @@ struct LightReference {
   uint32_t prim = kNoPrimitive;  // the receiver's primitive: a planar light does not light its own surface
 };
 
-inline int choose_light(const Scene& s, float u) {
+[[gnu::always_inline]] inline int choose_light(const Scene& s, float u) {
   const auto it = std::upper_bound(s.light_cdf.begin(), s.light_cdf.end(), u);
   return static_cast<int>(std::min<size_t>(it - s.light_cdf.begin(), s.light_cdf.size() - 1));
 }

@@ -9,7 +9,7 @@ namespace pt {
 
 // Lambert: f = ρ/π, one channel over T = float or vfloat (core/lanes.h).
 template <class T>
-inline T lambert_f(const T& albedo) {
+[[gnu::always_inline]] inline T lambert_f(const T& albedo) {
   return albedo * kInvPi;
 }
 inline Rgb diffuse_f(Rgb albedo) { return {lambert_f(albedo.x), lambert_f(albedo.y), lambert_f(albedo.z)}; }

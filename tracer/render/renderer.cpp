@@ -219,12 +219,15 @@ std::string Renderer::describe_path(const Scene& scene, const RenderSettings& se
   const bool wavefront = runs_wavefront(scene, s);
   const uint32_t f = selected_kernel_features(scene, s.generic_kernel);
   std::string out = wavefront ? "wavefront loop, " : "scalar loop, ";
-  if (f == kAllFeatures) return out + "generic kernel (every feature)";
-  const bool polygons = f & kFeaturePolygons, spheres = f & kFeatureSpheres;
-  out += std::string("kernel for ") + (polygons && spheres ? "polygons and spheres" : polygons ? "polygons" : "spheres") +
-         ((f & kFeatureGeneralMaterials) ? " with any material" : " with Lambert materials");
+  if (f == kAllFeatures) {
+    out += "generic kernel (every feature)";
+  } else {
+    const bool polygons = f & kFeaturePolygons, spheres = f & kFeatureSpheres;
+    out += std::string("kernel for ") + (polygons && spheres ? "polygons and spheres" : polygons ? "polygons" : "spheres") +
+           ((f & kFeatureGeneralMaterials) ? " with any material" : " with Lambert materials");
+  }
   const bool light_sampling = s.estimator == Estimator::Nee || s.estimator == Estimator::Mis;
-  if (wavefront && f == kFeaturePolygons && light_sampling) out += ", SIMD shading lanes";
+  if (wavefront && light_sampling && shading_lanes_apply(scene, f)) out += ", SIMD shading lanes";
   return out;
 }
 

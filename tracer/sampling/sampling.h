@@ -30,7 +30,7 @@ inline float uniform_sphere_pdf() { return kInv4Pi; }
 // lie in that range this skips libm's range reduction and call: sincosf was 5 % of a `cornell` pass. Templated
 // over the float type: the shading lanes (integrators/lambert_lanes.h) run the same operations on SIMD lanes.
 template <class T>
-inline void quarter_turn_cos_sin(const T& x, T& c, T& s) {
+[[gnu::always_inline]] inline void quarter_turn_cos_sin(const T& x, T& c, T& s) {
   const T z = x * x;
   s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
   c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z + 4.166664568298827e-2f) * z * z - 0.5f * z + 1.f;
@@ -46,7 +46,7 @@ inline Vec2 cos_sin_quarter_turn(float x) {
 // others, where (cos θ, sin θ) = (sin φ, cos φ): both need only angles in [−π/4, π/4]. Over T = float or vfloat
 // (core/lanes.h): the wedge is a select, so both quotients are computed and one is kept.
 template <class T>
-inline void disk_concentric(const T& ux, const T& uy, T& dx, T& dy) {
+[[gnu::always_inline]] inline void disk_concentric(const T& ux, const T& uy, T& dx, T& dy) {
   const T ox = 2.f * ux - 1.f, oy = 2.f * uy - 1.f;
   const auto wide = lanes::abs(ox) > lanes::abs(oy);
   const T angle = (kPi / 4.f) * select(wide, oy / ox, ox / oy);
@@ -65,14 +65,14 @@ inline Vec2 sample_uniform_disk_concentric(Vec2 u) {
 // Cosine-weighted hemisphere z >= 0 (Malley's method: the disk's point lifted to the hemisphere); pdf = cos θ / π
 // per steradian. Over T = float or vfloat.
 template <class T>
-inline lanes::Vec3T<T> cosine_hemisphere(const T& ux, const T& uy) {
+[[gnu::always_inline]] inline lanes::Vec3T<T> cosine_hemisphere(const T& ux, const T& uy) {
   T dx, dy;
   disk_concentric(ux, uy, dx, dy);
   return {dx, dy, lanes::sqrt(lanes::std_max(T(0.f), (1.f - dx * dx) - dy * dy))};
 }
 inline Vec3 sample_cosine_hemisphere(Vec2 u) { return lanes::to_vec3(cosine_hemisphere(u.x, u.y)); }
 template <class T>
-inline T cosine_hemisphere_pdf(const T& cos_theta) {
+[[gnu::always_inline]] inline T cosine_hemisphere_pdf(const T& cos_theta) {
   return lanes::std_max(cos_theta, T(0.f)) * kInvPi;
 }
 
@@ -103,7 +103,7 @@ inline Vec2 sample_uniform_triangle(Vec2 u) {
 
 // Veach's power heuristic with β = 2 for one sample from each of two strategies; over T = float or vfloat.
 template <class T>
-inline T power_heuristic(const T& pdf_f, const T& pdf_g) {
+[[gnu::always_inline]] inline T power_heuristic(const T& pdf_f, const T& pdf_g) {
   const T f = pdf_f * pdf_f, g = pdf_g * pdf_g;
   return select(lanes::isinf(f), T(1.f), select(f + g > 0.f, f / (f + g), T(0.f)));
 }
