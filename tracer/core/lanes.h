@@ -71,7 +71,9 @@ template <class T>
 [[gnu::always_inline]] inline vmask isinf(const vfloat& x) { return stdx::isinf(x); }
 // std::copysign(1, x): the sign bit of x as ±1.
 [[gnu::always_inline]] inline float sign_of(float x) { return std::copysign(1.f, x); }
-[[gnu::always_inline]] inline vfloat sign_of(const vfloat& x) { return select(stdx::signbit(x), vfloat(-1.f), vfloat(1.f)); }
+[[gnu::always_inline]] inline vfloat sign_of(const vfloat& x) {
+  return select(stdx::signbit(x), vfloat(-1.f), vfloat(1.f));
+}
 
 // next_float_up / next_float_down of core/math.h: the float's bit pattern stepped by one (±0 to the smallest
 // denormal, +inf and −inf kept), lane by lane.

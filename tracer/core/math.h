@@ -41,7 +41,8 @@ inline float safe_sqrt(float x) { return std::sqrt(std::max(0.f, x)); }
 // branch-free except for the sign, no singularity. frame_tangents gives its tangents s and t over T = float or
 // vfloat (core/lanes.h), the caller passing sign = copysign(1, n.z).
 template <class T>
-[[gnu::always_inline]] inline void frame_tangents(const T& sign, const T& nx, const T& ny, const T& nz, T (&s)[3], T (&t)[3]) {
+[[gnu::always_inline]] inline void frame_tangents(const T& sign, const T& nx, const T& ny, const T& nz, T (&s)[3],
+                                                  T (&t)[3]) {
   const T a = -1.f / (sign + nz);
   const T b = nx * ny * a;
   s[0] = 1.f + sign * nx * nx * a, s[1] = sign * b, s[2] = -sign * nx;

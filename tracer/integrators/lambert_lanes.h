@@ -9,8 +9,9 @@
 // roulette's survival. The rest performs exactly the float operations of the scalar functions, in the same
 // order (glm's vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps
 // multiplies and adds apart; std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar
-// loop's (tested by the wavefront tests, which compare images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised
-// none of them and the code ran 40 % slower than the scalar path; docs/performance.md.)
+// loop's (tested by the wavefront tests, which compare images byte for byte). (Plain loops over the arrays were
+// tried first: GCC 12 vectorised none of them and the code ran 40 % slower than the scalar path;
+// docs/performance.md.)
 //
 // kM is the kernel's material set (materials/bsdf.h): under MaterialSet::Any, in scenes that mix Lambertian
 // polygons with other materials and spheres, the lanes shade the hits on untextured Lambertian polygons and
