@@ -73,7 +73,7 @@ struct DenoiseSettings {
 // The defaults were chosen on cornell, cornell-spheres and materials at 16 spp against converged references
 // (docs/denoising.md has the sweep): larger windows and ridges help the glossy scenes, smaller ones cornell.
 struct RegressionSettings {
-  int radius = 8;       // window radius R: 17×17 neighbours
+  int radius = 7;       // window radius R: 15×15 neighbours (17×17 before the coarse scale: docs/denoising.md)
   int patch = 2;        // patch radius P of the colour distance: 5×5 (3×3 with k 0.9: same relMSE on cornell and
                         // materials, 2 % more on cornell-spheres, more blocks off: docs/denoising.md)
   float k = 0.7f;       // k of the distance: larger accepts more dissimilar neighbours
@@ -86,6 +86,11 @@ struct RegressionSettings {
   // standard deviation exceeds firefly_deviation × its mean has the excess spread over its window (0: off).
   float firefly_ratio = 1.5f;
   float firefly_deviation = 0.5f;
+  // The coarse scale (two_scale.h): the same regression over the image's 2×2 means with this window radius (0:
+  // none), whose difference from the fine output's 2×2 means, limited to coarse_limit × the standard deviation of
+  // the 2×2 mean, is upsampled and added: the low frequencies the fine window leaves as blotches.
+  int coarse_radius = 6;
+  float coarse_limit = 0.2f;
 };
 // Returns an empty vector if `cancel` was set before it finished (polled per 16×16 tile).
 std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& settings, ThreadPool& pool,

@@ -38,6 +38,7 @@
 #include "denoise/denoiser.h"
 #include "denoise/exp_neg.h"
 #include "denoise/fireflies.h"
+#include "denoise/two_scale.h"
 
 namespace pt {
 
@@ -290,17 +291,11 @@ void regress_tile(const Planes& in, const RegressionSettings& st, int tx, int ty
   for (int py = 0; py < kTile && y0 + py < in.h; ++py) regress_row(in, st, sc, x0, y0 + py, py, out);
 }
 
-
-}  // namespace
-
-std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
-                                      const std::atomic<bool>* cancel) {
+// The regression at the input's own resolution.
+std::vector<float> regress(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
+                           const std::atomic<bool>* cancel) {
   const int w = input.width, h = input.height;
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  check_denoise_input(input);
-  if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f) || !(st.sigma_normal >= 0.f) ||
-      !(st.sigma_albedo >= 0.f) || !(st.firefly_ratio >= 0.f) || !(st.firefly_deviation >= 0.f))
-    throw std::invalid_argument("denoise: bad regression settings");
 
   Planes in;
   in.w = w, in.h = h, in.margin = st.radius + st.patch;
@@ -340,6 +335,27 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   if (cancel && cancel->load(std::memory_order_relaxed)) return {};
   for (size_t i = 0; i < 3 * n; ++i)
     out[i] += (excess.empty() ? 0.f : excess[i]) + (input.emission ? (*input.emission)[i] : 0.f);
+  return out;
+}
+
+}  // namespace
+
+std::vector<float> denoise_regression(const DenoiseInput& input, const RegressionSettings& st, ThreadPool& pool,
+                                      const std::atomic<bool>* cancel) {
+  check_denoise_input(input);
+  if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f) || !(st.sigma_normal >= 0.f) ||
+      !(st.sigma_albedo >= 0.f) || !(st.firefly_ratio >= 0.f) || !(st.firefly_deviation >= 0.f) ||
+      st.coarse_radius < 0 || !(st.coarse_limit >= 0.f))
+    throw std::invalid_argument("denoise: bad regression settings");
+  std::vector<float> out = regress(input, st, pool, cancel);
+  if (out.empty() || st.coarse_radius == 0) return out;
+  // The coarse scale (two_scale.h): the same regression over 2×2 means, its low frequencies added.
+  const HalfScale half = half_scale(input, out, pool);
+  RegressionSettings coarse_settings = st;
+  coarse_settings.radius = st.coarse_radius;
+  const std::vector<float> coarse = regress(half.planes.input(), coarse_settings, pool, cancel);
+  if (coarse.empty()) return {};
+  add_coarse_correction(half, coarse, st.coarse_limit, input.width, input.height, out, pool);
   return out;
 }
 
