@@ -185,7 +185,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     if (path.size() >= max_vertices) return true;
 
     const size_t cur = prev + 1;
-    const Frame frame = Frame::from_normal(v.it.ng);
+    const bool smooth = smooth_vertex(v);  // bdpt_vertex.h: the shading frame and the light subpath's adjoint
+    const Frame frame = walk_frame(v, v.wo);
     const Vec3 wo = frame.to_local(v.wo);
     const bool first_split = split && bounce == 0;
     float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
@@ -198,12 +199,30 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       find_other_lobe<kM>(m, wo, u, bs, *split);
     Rgb f = bs.f;
     float pdf_rev = 0.f;
+    const Vec3 wi = frame.to_world(bs.wi);
     if (is_specular(bs.flags)) {
       // From the light side bsdf_sample gave importance's value: no 1/η² on refraction (Veach 1997 §5.2).
       path[cur].delta = true;
       pdf_dir = 0.f;
       if (feature_trace.out) [[unlikely]]
         feature_trace.through_specular(bs);
+      if (smooth && light_subpath) {
+        // The adjoint's correction |wo·n_s| |wi·n_g| / (|wo·n_g| |wi·n_s|) (a Dirac lobe is not evaluated again).
+        const float den = std::abs(glm::dot(v.wo, v.it.ng)) * std::abs(bs.wi.z);
+        f *= den > 0.f ? std::abs(wo.z) * std::abs(glm::dot(wi, v.it.ng)) / den : 0.f;
+      }
+    } else if (smooth) {
+      // The reverse walk would arrive from wi: its frame is the one bent for wi (walk_frame).
+      const Frame back = walk_frame(v, wi);
+      const Vec3 wi_b = back.to_local(wi), wo_b = back.to_local(v.wo);
+      pdf_dir = bs.pdf;
+      pdf_rev = bsdf_pdf<kM>(m, wi_b, wo_b);
+      if (light_subpath) {
+        // f_sn(wi, wo)·|wi·n_g| / |wi·n_s|, so that the product below is f_sn·|wi·n_g|/pdf.
+        const float den = std::abs(glm::dot(v.wo, v.it.ng)) * std::abs(bs.wi.z);
+        f = den > 0.f ? bsdf_eval<kM>(m, wi_b, wo_b) * (std::abs(wo_b.z) * std::abs(glm::dot(wi, v.it.ng)) / den)
+                      : Rgb(0.f);
+      }
     } else {
       // Light subpath: the light arrives from wo and leaves along wi; the adjoint BSDF is the transpose.
       if (light_subpath) f = bsdf_eval<kM>(m, bs.wi, wo);
@@ -218,8 +237,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       if (!survives_roulette(beta, max_component(beta) * eta_scale / beta_scale, rng.get_1d(dim))) return true;
     }
     if (is_black(beta) || !is_finite(beta)) return true;
-    const Vec3 wi = frame.to_world(bs.wi);
-    ray = {offset_ray_origin(path[cur].it, wi), wi};
+    // As the path tracer leaves a smooth vertex: on the side the shading frame sampled (path_tracer.h).
+    ray = {smooth ? offset_ray_origin(path[cur].it, bs.wi.z < 0.f) : offset_ray_origin(path[cur].it, wi), wi};
     skip = skip_on_leave(path[cur].it);
   }
 }
@@ -442,14 +461,17 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
     sampled.beta = ls.Le / (ls.pdf * pmf);
   }
   sampled.pdf_fwd = pdf_light_origin(s, sampled);
-  const Frame frame = Frame::from_normal(pt.it.ng);
-  const Rgb f = bsdf_eval(s.materials[pt.it.material], frame.to_local(pt.wo), frame.to_local(wi));
-  const Rgb L = pt.beta * f * sampled.beta * std::abs(glm::dot(wi, pt.it.ng));
+  const bool smooth = smooth_vertex(pt);
+  const Frame frame = walk_frame(pt, pt.wo);
+  const Vec3 wi_local = frame.to_local(wi);
+  const Rgb f = bsdf_eval(s.materials[pt.it.material], frame.to_local(pt.wo), wi_local);
+  const Rgb L = pt.beta * f * sampled.beta * (smooth ? std::abs(wi_local.z) : std::abs(glm::dot(wi, pt.it.ng)));
   if (is_black(L)) return L;
   // The shadow ray as the path tracer casts it: the light's own primitive is skipped (a sphere light's sampled
-  // point is on the side facing the receiver).
+  // point is on the side facing the receiver), and a smooth receiver leaves on its shading frame's side.
   ++count.rays;
-  const ShadowSegment seg = shadow_segment(pt.it, wi, sampled.it.p, sampled.infinite);  // direct_light.h
+  const ShadowSegment seg = smooth ? shadow_segment(pt.it, wi, sampled.it.p, sampled.infinite, wi_local.z < 0.f)
+                                   : shadow_segment(pt.it, wi, sampled.it.p, sampled.infinite);  // direct_light.h
   if (!(seg.t_max > 0.f) || occluded_scene<F>(s, seg.ray, seg.t_max, skip_on_leave(pt.it), l.prim)) return Rgb(0.f);
   return L;
 }
@@ -508,7 +530,8 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
     const SpecularBranch b = stack.back();
     stack.pop_back();
     const Material& m = s.materials[b.it.material];
-    const Frame frame = Frame::from_normal(b.it.ng);
+    const bool smooth = b.it.ns != b.it.ng;  // as the camera walk shades it (walk_frame)
+    const Frame frame = Frame::from_normal(smooth ? shading_normal(b.it, b.wo) : b.it.ng);
     const Vec3 wo = frame.to_local(b.wo);
     // The vertex's Dirac lobes: the two ends of the lobe-choice dimension (find_other_lobe's rule).
     BsdfSample lobes[2];
@@ -530,7 +553,7 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
       }
       if (is_black(beta) || !is_finite(beta)) continue;
       const Vec3 wi = frame.to_world(bs.wi);
-      const Ray ray{offset_ray_origin(b.it, wi), wi};
+      const Ray ray{smooth ? offset_ray_origin(b.it, bs.wi.z < 0.f) : offset_ray_origin(b.it, wi), wi};
       ++count.rays;
       Hit h;
       BdptVertex v;

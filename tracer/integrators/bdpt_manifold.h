@@ -147,7 +147,7 @@ inline bool manifold_solution(const Scene& s, const ChainPick& pick, const BdptV
   if (is_black(out.T)) return false;
   out.p_m = static_cast<float>(p_choice * sphere_chain_area_per_solid_angle(sph, xd, w, y, n_y));
   if (!(out.p_m > 0.f) || !std::isfinite(out.p_m)) return false;
-  const Frame frame_x = Frame::from_normal(x.it.ng);
+  const Frame frame_x = walk_frame(x, x.wo);
   out.p_0 = bsdf_pdf(s.materials[x.it.material], frame_x.to_local(x.wo), frame_x.to_local(Vec3(w))) * choice;
   return true;
 }
@@ -184,7 +184,8 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
   const Vec3 n_y = s.polygons.normal[l.prim];
   const float p_choice = pick.prob * s.light_pmf[li] / l.area;  // of the chain, the light and the point y
   const Material& mx = s.materials[x.it.material];
-  const Frame frame_x = Frame::from_normal(x.it.ng);
+  const bool smooth = smooth_vertex(x);  // bdpt_vertex.h
+  const Frame frame_x = walk_frame(x, x.wo);
   const Vec3 wo_x = frame_x.to_local(x.wo);
   const uint32_t prim = s.sphere_begin() + pick.sphere;
   const SphereChainRoots roots = solve_sphere_chain(sph, xd, DVec3(y));
@@ -195,12 +196,13 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
     if (!manifold_solution(s, pick, x, roots.w[r], DVec3(y), DVec3(n_y), p_choice, sol)) continue;
     const SphereChain& ch = sol.ch;
     const Rgb Le = area_light_emission(l, n_y, Vec3(-ch.out));
-    const Rgb f = bsdf_eval(mx, wo_x, frame_x.to_local(wf));
+    const Vec3 wf_x = frame_x.to_local(wf);
+    const Rgb f = bsdf_eval(mx, wo_x, wf_x);
     if (is_black(Le) || is_black(f)) continue;
     // Visibility, segment by segment, with the scene's own rays.
     Interaction a, b, c;
-    if (!reaches<F>(s, offset_ray_origin(x.it, wf), wf, skip_on_leave(x.it), prim, glm::length(ch.p1 - xd), a, count))
-      continue;
+    const Vec3 from = smooth ? offset_ray_origin(x.it, wf_x.z < 0.f) : offset_ray_origin(x.it, wf);
+    if (!reaches<F>(s, from, wf, skip_on_leave(x.it), prim, glm::length(ch.p1 - xd), a, count)) continue;
     const Interaction* exit = &a;
     if (sph.refracts) {
       const Vec3 in(glm::normalize(ch.p2 - ch.p1));
@@ -211,7 +213,8 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
     if (!reaches<F>(s, offset_ray_origin(*exit, out), out, ~0u, l.prim, glm::length(DVec3(y) - ch.p2), c, count))
       continue;
     const float w_m = sol.p_m * sol.p_m / (sol.p_m * sol.p_m + sol.p_0 * sol.p_0);
-    sum += x.beta * f * sol.T * Le * (std::abs(glm::dot(wf, x.it.ng)) * w_m / sol.p_m);
+    const float cos_x = smooth ? std::abs(wf_x.z) : std::abs(glm::dot(wf, x.it.ng));
+    sum += x.beta * f * sol.T * Le * (cos_x * w_m / sol.p_m);
   }
   return sum;
 }

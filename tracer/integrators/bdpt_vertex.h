@@ -75,12 +75,37 @@ inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex
   return to_area_density(pdf, link(from, to), from, to);
 }
 
+// Smooth shading (vertex normals, geometry/interaction.h). A vertex is shaded as the path tracer shades it: in
+// the frame of shading_normal(it, w_eye), the normal bent for the direction towards the eye's side of the path
+// (so the measurement is the same function whichever subpath made the vertex), with the shading cosine. Written
+// with the geometric cosines of the geometry terms (G, area densities), that is the BSDF
+//   f_sn(w_eye, w_light) = f(w_eye, w_light) · |w_light·n_s| / |w_light·n_g|,
+// which is not symmetric: the light subpath, whose walk samples w_eye from w_light, carries its adjoint
+// (Veach 1997, §5.3; pbrt-v3's CorrectShadingNormal). Flat vertices (ns = ng) take the plain frame and cosines,
+// bit for bit the arithmetic of flat scenes.
+inline bool smooth_vertex(const BdptVertex& v) { return v.it.ns != v.it.ng; }
+// The frame a walk samples in at v, having arrived from direction `from` (the path tracer's frame for wo = from).
+inline Frame walk_frame(const BdptVertex& v, Vec3 from) {
+  return Frame::from_normal(smooth_vertex(v) ? shading_normal(v.it, from) : v.it.ng);
+}
+
 // BSDF value at surface vertex v towards `next`, for light flowing along the path. v on the camera subpath:
-// light arrives from `next`, leaves towards v.wo; on the light subpath the other way round.
+// light arrives from `next`, leaves towards v.wo; on the light subpath the other way round. At a smooth vertex
+// f_sn above.
 inline Rgb vertex_f(const Scene& s, const BdptVertex& v, const BdptVertex& next, bool light_subpath) {
+  const Vec3 w = link(v, next).w;
+  const Material& m = s.materials[v.it.material];
+  if (smooth_vertex(v)) {
+    const Vec3 w_eye = light_subpath ? w : v.wo, w_light = light_subpath ? v.wo : w;
+    const Frame frame = walk_frame(v, w_eye);
+    const float cos_g = std::abs(glm::dot(w_light, v.it.ng));
+    if (!(cos_g > 0.f)) return Rgb(0.f);
+    return bsdf_eval(m, frame.to_local(w_eye), frame.to_local(w_light)) *
+           (std::abs(glm::dot(w_light, frame.n)) / cos_g);
+  }
   const Frame frame = Frame::from_normal(v.it.ng);
-  const Vec3 a = frame.to_local(v.wo), b = frame.to_local(link(v, next).w);
-  return light_subpath ? bsdf_eval(s.materials[v.it.material], b, a) : bsdf_eval(s.materials[v.it.material], a, b);
+  const Vec3 a = frame.to_local(v.wo), b = frame.to_local(w);
+  return light_subpath ? bsdf_eval(m, b, a) : bsdf_eval(m, a, b);
 }
 
 // A connection may end at v: a non-specular lobe to evaluate, or a light or the camera.
@@ -130,7 +155,7 @@ inline float pdf_at(const Scene& s, const BdptVertex& v, const Link* to_prev, co
   if (v.kind == VertexKind::Camera) {
     pdf = s.camera.direction_pdf(to_next.w);
   } else {
-    const Frame frame = Frame::from_normal(v.it.ng);
+    const Frame frame = walk_frame(v, to_prev->w);
     pdf = bsdf_pdf(s.materials[v.it.material], frame.to_local(to_prev->w), frame.to_local(to_next.w));
   }
   return to_area_density(pdf, to_next, v, next);

@@ -61,8 +61,6 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
   if (scene.camera.aperture_radius > 0.0)
     return {Estimator::Mis, "mis: a thin-lens camera, which bdpt does not support yet"};
-  if (scene.smooth_shading())
-    return {Estimator::Mis, "mis: smooth shading (vertex normals), which bdpt does not support yet"};
   if (textured(scene)) return {Estimator::Mis, "mis: textures, which bdpt does not support yet"};
   if (!scene.punctual_lights.empty())
     return {Estimator::Mis, "mis: point, spot or directional lights, which bdpt does not support yet"};

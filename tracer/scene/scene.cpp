@@ -246,9 +246,6 @@ std::string validate_punctual_lights(const SceneDesc& s) {
 
 std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSettings& r) {
   if (r.estimator != Estimator::Bdpt) return {};
-  if (s.smooth_shading())
-    return "render.estimator: the bdpt estimator does not support smooth shading (the models' vertex normals) for "
-           "now (use mis, or auto)";
   if (textured(s)) return "render.estimator: the bdpt estimator does not support textures for now (use mis, or auto)";
   return {};
 }

@@ -219,9 +219,9 @@ std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSe
 // Punctual lights (glTF's point, spot and directional lights) with an estimator that does not sample lights
 // (uniform, cosine: no ray can hit a light of no size) or with bdpt (not supported yet): refused.
 std::string validate_punctual_for_estimator(const SceneDesc& scene, const RenderSettings& render);
-// Smooth shading (vertex normals) or textures with the bdpt estimator: its vertices use the geometric normal and
-// the materials' plain albedo, so the pair is refused (auto picks mis for such a scene) rather than rendered
-// otherwise than the path tracer renders it.
+// Textures with the bdpt estimator: its vertices use the materials' plain albedo, so the pair is refused (auto
+// picks mis for such a scene) rather than rendered otherwise than the path tracer renders it. (Smooth shading it
+// renders as the path tracer does: integrators/bdpt_vertex.h.)
 std::string validate_shading_for_estimator(const SceneDesc& scene, const RenderSettings& render);
 // Some material has an albedo texture.
 bool textured(const SceneDesc& scene);
