@@ -34,8 +34,8 @@ PixelFeatures features_along(const Scene& s, const RenderSettings& settings, Ray
     }
     Interaction it = make_interaction<F>(s, ray, hit);
     cone_width += spread * hit.t;
-    integrator_detail::MaterialScratch scratch;
-    const Material& m = integrator_detail::material_at<kM>(s, it, ray.d, cone_width, scratch);
+    MaterialScratch scratch;
+    const Material& m = material_at<kM>(s, it, ray.d, cone_width, scratch);
     const Vec3 wo = -ray.d;
     if (!is_black(m.emission)) {
       const Light& light = s.lights[s.light_of(it.prim)];
