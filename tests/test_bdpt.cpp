@@ -347,9 +347,11 @@ TEST_CASE("bdpt: the MIS weights from per-subpath sums equal those walked vertex
         const Ray ray =
             sc.camera.generate_ray(static_cast<float>(pixel % 8) + j.x, static_cast<float>(pixel / 8) + j.y);
         bdpt_detail::FirstVertexSplit split;
-        REQUIRE(bdpt_detail::camera_subpath<SobolSampler, kAllFeatures>(sc, o, rng, ray, scratch.camera, nullptr, split,
+        REQUIRE(bdpt_detail::camera_subpath<SobolSampler, kAllFeatures>(sc, o, rng, ray, scratch.camera,
+                                                                        scratch.camera_materials, nullptr, split,
                                                                         count, nullptr));
-        REQUIRE(bdpt_detail::light_subpath<SobolSampler, kAllFeatures>(sc, o, rng, scratch.light, count, nullptr));
+        REQUIRE(bdpt_detail::light_subpath<SobolSampler, kAllFeatures>(sc, o, rng, scratch.light,
+                                                                       scratch.light_materials, count, nullptr));
         const int nc = static_cast<int>(scratch.camera.size()), nl = static_cast<int>(scratch.light.size());
         for (int t = 1; t <= nc; ++t) {
           for (int ns = 0; ns <= nl; ++ns) {

@@ -26,6 +26,7 @@
 
 #include "integrators/bdpt_vertex.h"
 #include "integrators/integrator.h"
+#include "integrators/material_at.h"
 
 namespace pt {
 
@@ -39,15 +40,20 @@ struct Splat {
 // up to it and its scattering event's index (bdpt_kernels.h, specular_chain_emission).
 struct SpecularBranch {
   Interaction it;
-  Vec3 wo;
-  Rgb beta;
-  uint32_t bounce;
+  Vec3 wo{0.f};
+  Rgb beta{1.f};
+  uint32_t bounce = 0;
+  float cone_width = 0.f;     // the camera's ray cone at it (material_at.h)
+  bool textured = false;      // its material is `resolved`, else Scene::materials[it.material]
+  MaterialScratch resolved;   // what its textures make the material at it
 };
 
 // Per-thread working memory of the estimator, kept between samples (no allocation per sample once grown).
 struct BdptScratch {
   std::vector<BdptVertex> camera, light;
   std::vector<SpecularBranch> branches;
+  // The textured materials of the subpaths' vertices, one slot per vertex index (BdptVertex::material).
+  std::vector<MaterialScratch> camera_materials, light_materials;
 };
 
 // Estimates the radiance along camera_ray (t ≥ 2 strategies, returned in L) and appends the light-traced

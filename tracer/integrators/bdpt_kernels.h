@@ -22,10 +22,16 @@ struct Options {
         only_t(r.bdpt_only.t),
         has_lights(!s.lights.empty()),
         // It connects to a light: none without one (choose_light has nothing to choose from).
-        manifold(r.bdpt_manifold && s.features.spheres && only_s < 0 && has_lights) {}
+        manifold(r.bdpt_manifold && s.features.spheres && only_s < 0 && has_lights),
+        pixel_angle(pixel_angle_of(s.camera)) {}
   int max_bounces, rr_depth, only_s, only_t;
   bool has_lights;
-  bool manifold;  // the manifold strategy through smooth spheres (bdpt_manifold.h)
+  bool manifold;      // the manifold strategy through smooth spheres (bdpt_manifold.h)
+  float pixel_angle;  // for the camera subpath's ray cone (material_at.h), as the path tracer's
+  template <class Sampler>
+  float cone_spread(const Sampler& rng) const {
+    return ray_cone_spread(pixel_angle, rng.sample_index());
+  }
 };
 
 // Splitting the camera subpath at its first vertex when that vertex has two Dirac lobes only (smooth glass:
@@ -131,20 +137,23 @@ inline void camera_mis_prefix(std::vector<BdptVertex>& camera) { mis_prefix_sums
 inline void light_mis_prefix(std::vector<BdptVertex>& light) { mis_prefix_sums(light, 0, light_step); }
 
 // Continues a subpath from its last vertex along `ray` (pbrt-v3 RandomWalk) until max_vertices, a miss, an
-// absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. On the camera subpath
+// absorbed sample or roulette. pdf_dir: solid-angle density of ray.d at the last vertex. Vertex i's textured
+// material goes to materials[i] (max_vertices slots), looked up over a ray cone of this spread (the camera
+// subpath's as the path tracer's; 0, the finest texels, on the light subpath). On the camera subpath
 // a miss adds a vertex at infinity when the scene has infinite lights; `features` (camera subpath only; may be
 // null) receives the sample's feature buffers (features.h); `split` (camera subpath only; may be null) is the
 // first vertex's split, FirstVertexSplit. Returns false if cancelled.
 template <class Sampler, uint32_t F>
 bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, uint32_t skip, Rgb beta,
                  float pdf_dir, bool light_subpath, std::vector<BdptVertex>& path, size_t max_vertices,
-                 PixelFeatures* features, FirstVertexSplit* split, RayCount& count,
-                 const std::atomic<bool>* cancel) {
+                 MaterialScratch* materials, float cone_spread, PixelFeatures* features, FirstVertexSplit* split,
+                 RayCount& count, const std::atomic<bool>* cancel) {
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   const float beta_scale = max_component(beta);  // roulette judges the throughput relative to the start
   float eta_scale = 1.f;
   FeatureTrace feature_trace{features};
   Rgb chain_emission(0.f);  // emission the camera subpath found through its specular chain (features.h)
+  float cone_width = 0.f;
   for (uint32_t bounce = 0;; ++bounce) {
     if (path.size() >= max_vertices) return true;
     if (bounce % kCancelPollBounces == kCancelPollBounces - 1 && cancel && cancel->load(std::memory_order_relaxed))
@@ -171,12 +180,14 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     }
     BdptVertex v;
     v.it = make_interaction<F>(s, ray, h);
+    cone_width += cone_spread * h.t;
+    v.material = &material_at<kM>(s, v.it, ray.d, cone_width, materials[path.size()]);  // may bend it.ns
     v.wo = -ray.d;
     v.beta = beta;
     v.light = s.light_of(v.it.prim);
     v.pdf_fwd = to_area_density(pdf_dir, path[prev], v);
     path.push_back(v);
-    const Material& m = s.materials[v.it.material];
+    const Material& m = *v.material;
     if (feature_trace.out) [[unlikely]] {
       if (v.emits()) chain_emission += beta * emitted(s, v);
       feature_trace.at_vertex<kM>(static_cast<int>(bounce), ray.o, v.it, v.wo, m, path.size() >= max_vertices,
@@ -246,16 +257,19 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
 // The camera subpath: the eye, then up to max_bounces + 1 surface vertices (the last only to find emission).
 template <class Sampler, uint32_t F>
 bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const Ray& ray,
-                    std::vector<BdptVertex>& path, PixelFeatures* features, FirstVertexSplit& split,
-                    RayCount& count, const std::atomic<bool>* cancel) {
+                    std::vector<BdptVertex>& path, std::vector<MaterialScratch>& materials,
+                    PixelFeatures* features, FirstVertexSplit& split, RayCount& count,
+                    const std::atomic<bool>* cancel) {
   path.clear();
+  const size_t max_vertices = static_cast<size_t>(o.max_bounces) + 2;
+  if (materials.size() < max_vertices) materials.resize(max_vertices);
   BdptVertex eye;
   eye.kind = VertexKind::Camera;
   eye.it.p = ray.o;
   eye.it.ng = Vec3(0.f);
   path.push_back(eye);
   if (!random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
-                               static_cast<size_t>(o.max_bounces) + 2, features, &split, count, cancel))
+                               max_vertices, materials.data(), o.cone_spread(rng), features, &split, count, cancel))
     return false;
   camera_mis_prefix(path);
   return true;
@@ -264,15 +278,19 @@ bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const 
 // The light subpath: a point on a light chosen ∝ power, then up to max_bounces surface vertices.
 template <class Sampler, uint32_t F>
 bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::vector<BdptVertex>& path,
-                   RayCount& count, const std::atomic<bool>* cancel) {
+                   std::vector<MaterialScratch>& materials, RayCount& count, const std::atomic<bool>* cancel) {
   path.clear();
   if (!o.has_lights) return true;
+  const size_t max_vertices = static_cast<size_t>(o.max_bounces) + 1;
+  if (materials.size() < max_vertices) materials.resize(max_vertices);
   const int li = choose_light(s, rng.get_1d(D::kLightChoice));
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
   EmissionSample es;
   if (!(pmf > 0.f) || !sample_emission<F>(s, l, rng.get_2d(D::kEmissionPoint), rng.get_2d(D::kEmissionDirection), es))
     return true;
+  // An emission texture, as next-event estimation reads it at a sampled point (light_sampling.h: sample_li).
+  if (l.emission_map.texture) [[unlikely]] es.Le *= emission_texel(l, polygon_uv_at(s, l.prim, es.p));
   if (is_black(es.Le)) return true;
   BdptVertex v;
   v.kind = VertexKind::Light;
@@ -289,8 +307,8 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
   const Rgb beta = es.Le * (std::abs(glm::dot(es.n, es.d)) / (pmf * es.pdf_pos * es.pdf_dir));
   const Ray ray{v.infinite ? es.p : offset_ray_origin(v.it, es.d), es.d};
   const uint32_t skip = v.infinite ? ~0u : skip_on_leave(v.it);
-  if (!random_walk<Sampler, F>(s, o, rng, ray, skip, beta, es.pdf_dir, true, path,
-                               static_cast<size_t>(o.max_bounces) + 1, nullptr, nullptr, count, cancel))
+  if (!random_walk<Sampler, F>(s, o, rng, ray, skip, beta, es.pdf_dir, true, path, max_vertices,
+                               materials.data(), 0.f, nullptr, nullptr, count, cancel))
     return false;
   if (v.infinite) {
     // At infinity the origin density is over directions and the first vertex's over the disk's area
@@ -464,7 +482,7 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
   const bool smooth = smooth_vertex(pt);
   const Frame frame = walk_frame(pt, pt.wo);
   const Vec3 wi_local = frame.to_local(wi);
-  const Rgb f = bsdf_eval(s.materials[pt.it.material], frame.to_local(pt.wo), wi_local);
+  const Rgb f = bsdf_eval(material_of(s, pt), frame.to_local(pt.wo), wi_local);
   const Rgb L = pt.beta * f * sampled.beta * (smooth ? std::abs(wi_local.z) : std::abs(glm::dot(wi, pt.it.ng)));
   if (is_black(L)) return L;
   // The shadow ray as the path tracer casts it: the light's own primitive is skipped (a sphere light's sampled
@@ -513,23 +531,36 @@ Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint3
 // small when internal reflections repeat). `camera` is the camera subpath (its first hit is the tree's root).
 inline constexpr float kSpecularTreeRoulette = 0.05f;
 
-inline bool pure_specular(const Scene& s, const Interaction& it) {
-  return only_specular(bsdf_flags(s.materials[it.material]));
+inline bool pure_specular(const Material& m) { return only_specular(bsdf_flags(m)); }
+inline bool pure_specular(const Scene& s, const BdptVertex& v) { return pure_specular(material_of(s, v)); }
+inline const Material& branch_material(const Scene& s, const SpecularBranch& b) {
+  return b.textured ? b.resolved.m : s.materials[b.it.material];
 }
 
 template <class Sampler, uint32_t F>
 Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng, const std::vector<BdptVertex>& camera,
                             std::vector<SpecularBranch>& stack, RayCount& count) {
   Rgb sum(0.f);
-  if (camera.size() < 2 || camera[1].kind != VertexKind::Surface || !pure_specular(s, camera[1].it) ||
+  if (camera.size() < 2 || camera[1].kind != VertexKind::Surface || !pure_specular(s, camera[1]) ||
       o.max_bounces < 1)
     return sum;
   stack.clear();
-  stack.push_back({camera[1].it, camera[1].wo, Rgb(1.f), 0});
+  SpecularBranch root;
+  root.it = camera[1].it;
+  root.wo = camera[1].wo;
+  root.beta = Rgb(1.f);
+  root.bounce = 0;
+  root.cone_width = o.cone_spread(rng) * glm::length(camera[1].it.p - camera[0].it.p);
+  if (camera[1].material && camera[1].material != &s.materials[camera[1].it.material]) {
+    root.textured = true;
+    new (&root.resolved.m) Material(*camera[1].material);
+  }
+  stack.push_back(root);
+  const float spread = o.cone_spread(rng);
   while (!stack.empty()) {
     const SpecularBranch b = stack.back();
     stack.pop_back();
-    const Material& m = s.materials[b.it.material];
+    const Material& m = branch_material(s, b);
     const bool smooth = b.it.ns != b.it.ng;  // as the camera walk shades it (walk_frame)
     const Frame frame = Frame::from_normal(smooth ? shading_normal(b.it, b.wo) : b.it.ng);
     const Vec3 wo = frame.to_local(b.wo);
@@ -567,12 +598,20 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
         continue;
       }
       v.it = make_interaction<F>(s, ray, h);
+      SpecularBranch next;
+      next.it = v.it;
+      next.wo = -ray.d;
+      next.beta = beta;
+      next.bounce = b.bounce + 1;
+      next.cone_width = b.cone_width + spread * h.t;
+      const Material& mv = material_at<MaterialSet::Any>(s, next.it, ray.d, next.cone_width, next.resolved);
+      next.textured = &mv != &s.materials[next.it.material];
+      v.it = next.it;
       v.wo = -ray.d;
       v.light = s.light_of(v.it.prim);
       if (v.emits()) sum += beta * emitted(s, v);
       // The next vertex scatters event bounce + 1, within max_bounces events in all (the walk's limit).
-      if (b.bounce + 2 <= static_cast<uint32_t>(o.max_bounces) && pure_specular(s, v.it))
-        stack.push_back({v.it, v.wo, beta, b.bounce + 1});
+      if (b.bounce + 2 <= static_cast<uint32_t>(o.max_bounces) && pure_specular(mv)) stack.push_back(next);
     }
   }
   return sum;
@@ -583,7 +622,7 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
 inline bool specular_chain_to(const Scene& s, const std::vector<BdptVertex>& camera, int t) {
   if (t < 3) return false;
   for (int i = 1; i <= t - 2; ++i)
-    if (camera[i].kind != VertexKind::Surface || !pure_specular(s, camera[i].it)) return false;
+    if (camera[i].kind != VertexKind::Surface || !pure_specular(s, camera[i])) return false;
   return true;
 }
 
@@ -597,8 +636,10 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   std::vector<BdptVertex>& light = scratch.light;
   L = Rgb(0.f);
   FirstVertexSplit split;
-  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, features, split, count, cancel)) return false;
-  if (!light_subpath<Sampler, F>(s, o, rng, light, count, cancel)) return false;
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, scratch.camera_materials, features, split, count,
+                                  cancel))
+    return false;
+  if (!light_subpath<Sampler, F>(s, o, rng, light, scratch.light_materials, count, cancel)) return false;
   const int nl = static_cast<int>(light.size());
   const bool only = o.only_s >= 0;
   // The eye's pure-specular chains to a light, summed over their lobes (off for a single strategy's image).
@@ -610,7 +651,7 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
     // chains, the lobes summed, not the emission of the one lobe the walk sampled: with that, a Fresnel
     // reflection of the lamp that 1 sample in 25 picks became a lone bright pixel in the feature, which the
     // denoiser adds back unfiltered over an image that has it 25 times weaker.
-    if (features && camera.size() >= 2 && camera[1].kind == VertexKind::Surface && pure_specular(s, camera[1].it))
+    if (features && camera.size() >= 2 && camera[1].kind == VertexKind::Surface && pure_specular(s, camera[1]))
       features->emission = (camera[1].emits() ? camera[1].beta * emitted(s, camera[1]) : Rgb(0.f)) + chain;
   }
   // The strategies with t camera vertices, their contributions scaled by `scale` (a branch's probability).
@@ -659,7 +700,9 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   if (!split.active) return true;
   FirstVertexSplit other;
   other.forced_uc = split.other_uc;
-  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, nullptr, other, count, cancel)) return false;
+  if (!camera_subpath<Sampler, F>(s, o, rng, camera_ray, camera, scratch.camera_materials, nullptr, other, count,
+                                  cancel))
+    return false;
   nc = static_cast<int>(camera.size());
   for (int t = 3; t <= nc; ++t) {
     if (t % 64 == 0 && cancel && cancel->load(std::memory_order_relaxed)) return false;

@@ -148,7 +148,7 @@ inline bool manifold_solution(const Scene& s, const ChainPick& pick, const BdptV
   out.p_m = static_cast<float>(p_choice * sphere_chain_area_per_solid_angle(sph, xd, w, y, n_y));
   if (!(out.p_m > 0.f) || !std::isfinite(out.p_m)) return false;
   const Frame frame_x = walk_frame(x, x.wo);
-  out.p_0 = bsdf_pdf(s.materials[x.it.material], frame_x.to_local(x.wo), frame_x.to_local(Vec3(w))) * choice;
+  out.p_0 = bsdf_pdf(material_of(s, x), frame_x.to_local(x.wo), frame_x.to_local(Vec3(w))) * choice;
   return true;
 }
 
@@ -183,7 +183,7 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
   const Vec3 y = sample_polygon_area(s.polygons, l.prim, rng.get_2d(BdptDimensions::connection_point(bounce)));
   const Vec3 n_y = s.polygons.normal[l.prim];
   const float p_choice = pick.prob * s.light_pmf[li] / l.area;  // of the chain, the light and the point y
-  const Material& mx = s.materials[x.it.material];
+  const Material& mx = material_of(s, x);
   const bool smooth = smooth_vertex(x);  // bdpt_vertex.h
   const Frame frame_x = walk_frame(x, x.wo);
   const Vec3 wo_x = frame_x.to_local(x.wo);

@@ -9,6 +9,7 @@
 #pragma once
 #include "geometry/interaction.h"
 #include "lights/light_emission.h"
+#include "lights/light_sampling.h"
 #include "materials/bsdf.h"
 
 namespace pt {
@@ -23,6 +24,9 @@ struct BdptVertex {
   // Position, rounding bound, normal, primitive and material. Area light vertices: the emitting side's normal.
   // Vertices at infinity: it.ng is the direction light travels, into the scene. The camera: p is the eye.
   Interaction it{};
+  // A surface vertex's material as its textures make it there (material_at.h), held by BdptScratch; null for
+  // the camera, lights, and vertices made before their material was looked up (then Scene::materials's).
+  const Material* material = nullptr;
   Vec3 wo{0.f};           // unit direction towards the previous vertex of its own subpath
   Rgb beta{1.f};          // the subpath's throughput up to and including this vertex's arrival
   float pdf_fwd = 0.f, pdf_rev = 0.f;
@@ -35,6 +39,10 @@ struct BdptVertex {
 };
 
 namespace bdpt_detail {
+
+inline const Material& material_of(const Scene& s, const BdptVertex& v) {
+  return v.material ? *v.material : s.materials[v.it.material];
+}
 
 // Unit direction from vertex a towards vertex b and their squared distance (infinite towards a vertex at
 // infinity).
@@ -94,7 +102,7 @@ inline Frame walk_frame(const BdptVertex& v, Vec3 from) {
 // f_sn above.
 inline Rgb vertex_f(const Scene& s, const BdptVertex& v, const BdptVertex& next, bool light_subpath) {
   const Vec3 w = link(v, next).w;
-  const Material& m = s.materials[v.it.material];
+  const Material& m = material_of(s, v);
   if (smooth_vertex(v)) {
     const Vec3 w_eye = light_subpath ? w : v.wo, w_light = light_subpath ? v.wo : w;
     const Frame frame = walk_frame(v, w_eye);
@@ -111,7 +119,7 @@ inline Rgb vertex_f(const Scene& s, const BdptVertex& v, const BdptVertex& next,
 // A connection may end at v: a non-specular lobe to evaluate, or a light or the camera.
 inline bool connectible(const Scene& s, const BdptVertex& v) {
   if (v.kind != VertexKind::Surface) return !v.infinite;
-  return has_non_specular(bsdf_flags(s.materials[v.it.material]));
+  return has_non_specular(bsdf_flags(material_of(s, v)));
 }
 
 // Density per unit area at `to` with which light vertex v (or an emitting surface) emits towards it; `l` is
@@ -142,7 +150,11 @@ inline Rgb emitted(const Scene& s, const BdptVertex& v) {
     for (const uint32_t li : s.infinite_lights) Le += infinite_light_Le(s, s.lights[li], -v.it.ng);
     return Le;
   }
-  return area_light_emission(s.lights[v.light], v.it.ng, v.wo);
+  const Light& light = s.lights[v.light];
+  Rgb Le = area_light_emission(light, v.it.ng, v.wo);
+  // An emission texture as the path tracer reads it where a ray hits the light (path_tracer.h).
+  if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, v.it.uv);
+  return Le;
 }
 
 // Density per unit area at `next` with which vertex v samples it, v having been reached from `prev` (pbrt-v3
@@ -156,7 +168,7 @@ inline float pdf_at(const Scene& s, const BdptVertex& v, const Link* to_prev, co
     pdf = s.camera.direction_pdf(to_next.w);
   } else {
     const Frame frame = walk_frame(v, to_prev->w);
-    pdf = bsdf_pdf(s.materials[v.it.material], frame.to_local(to_prev->w), frame.to_local(to_next.w));
+    pdf = bsdf_pdf(material_of(s, v), frame.to_local(to_prev->w), frame.to_local(to_next.w));
   }
   return to_area_density(pdf, to_next, v, next);
 }

@@ -61,7 +61,7 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
   if (scene.camera.aperture_radius > 0.0)
     return {Estimator::Mis, "mis: a thin-lens camera, which bdpt does not support yet"};
-  if (textured(scene)) return {Estimator::Mis, "mis: textures, which bdpt does not support yet"};
+  if (normal_mapped(scene)) return {Estimator::Mis, "mis: normal maps, which bdpt does not support yet"};
   if (!scene.punctual_lights.empty())
     return {Estimator::Mis, "mis: point, spot or directional lights, which bdpt does not support yet"};
   const Estimator e = pick(scan, scene.render.max_bounces);

@@ -214,6 +214,16 @@ std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSetting
   return {};
 }
 
+std::string validate_normal_maps_for_estimator(const SceneDesc& s, const RenderSettings& r) {
+  if (r.estimator != Estimator::Bdpt || !normal_mapped(s)) return {};
+  return "render.estimator: the bdpt estimator does not support normal maps for now (use mis, or auto)";
+}
+
+bool normal_mapped(const SceneDesc& s) {
+  return std::any_of(s.materials.begin(), s.materials.end(),
+                     [](const MaterialDesc& m) { return m.normal_map.texture != nullptr; });
+}
+
 std::string validate_punctual_for_estimator(const SceneDesc& s, const RenderSettings& r) {
   if (s.punctual_lights.empty()) return {};
   if (r.estimator == Estimator::Uniform || r.estimator == Estimator::Cosine)
@@ -243,16 +253,6 @@ std::string validate_punctual_lights(const SceneDesc& s) {
 }
 
 }  // namespace
-
-std::string validate_shading_for_estimator(const SceneDesc& s, const RenderSettings& r) {
-  if (r.estimator != Estimator::Bdpt) return {};
-  if (textured(s)) return "render.estimator: the bdpt estimator does not support textures for now (use mis, or auto)";
-  return {};
-}
-
-bool textured(const SceneDesc& s) {
-  return std::any_of(s.materials.begin(), s.materials.end(), [](const MaterialDesc& m) { return m.textured(); });
-}
 
 namespace {
 
@@ -360,7 +360,7 @@ std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
   if (std::string err = validate_lens_for_estimator(s.camera, s.render); !err.empty()) return err;
-  if (std::string err = validate_shading_for_estimator(s, s.render); !err.empty()) return err;
+  if (std::string err = validate_normal_maps_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_lights(s); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;
