@@ -1,6 +1,9 @@
 // Shared helpers of the test suites: small scenes built in code, and rendering into a film.
 #pragma once
+#include <doctest/doctest.h>
+
 #include <memory>
+#include <string>
 
 #include "film/film.h"
 #include "render/renderer.h"
@@ -72,6 +75,27 @@ inline Film render_film(const SceneDesc& desc, int spp, int threads = 0, bool fe
   Renderer renderer(threads);
   renderer.render_pass(*scene, desc.render, film, spp);
   return film;
+}
+
+// The scene under estimator `e` with `seed` (for bdpt, only strategy (only_s, only_t) when they are ≥ 0, unweighted),
+// on 2 threads.
+inline Film render_estimator(SceneDesc d, Estimator e, int spp, uint64_t seed, int only_s = -1, int only_t = -1) {
+  d.render.estimator = e;
+  d.render.seed = seed;
+  d.render.bdpt_only.s = only_s;
+  d.render.bdpt_only.t = only_t;
+  return render_film(d, spp, 2);
+}
+
+// Whether two films estimate the same image: z-scores of 8×8 block means from the films' own variances
+// (stress::compare_blocks: Bonferroni bound at α = 1e-5 over all blocks and channels, and a χ² bound on the mean
+// z²), with at least 16 blocks; the figures are reported under `what`.
+inline bool blocks_agree(const Film& a, const Film& b, const std::string& what) {
+  const stress::Agreement g = stress::compare_blocks(a, b, 8);
+  MESSAGE(what << ": max |z| " << g.max_abs_z << " (bound " << g.z_bound << "), mean z² " << g.mean_z2
+               << " (bound " << g.z2_bound << ") over " << g.n);
+  CHECK(g.n >= 16);
+  return g.pass;
 }
 
 }  // namespace pt::test

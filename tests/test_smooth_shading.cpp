@@ -25,6 +25,8 @@
 #include "test_helpers.h"
 
 using namespace pt;
+using test::blocks_agree;
+using test::render_estimator;
 
 TEST_CASE("smooth shading: the terminator offset of a hand-computed triangle") {
   // Triangle (0,0,0), (1,0,0), (0,1,0) with normals (0,0,1), (1,0,1)/√2, (0,0,1), hit at barycentrics
@@ -228,24 +230,6 @@ TEST_CASE("smooth shading: the scalar and wavefront loops render the same bits")
 
 namespace {
 
-Film render_estimator(SceneDesc d, Estimator e, int spp, uint64_t seed, int only_s = -1, int only_t = -1) {
-  d.render.estimator = e;
-  d.render.seed = seed;
-  d.render.bdpt_only.s = only_s;
-  d.render.bdpt_only.t = only_t;
-  return test::render_film(d, spp, 2);
-}
-
-// z-scores of 8×8 block means from the films' own variances (stress::compare_blocks: Bonferroni bound at
-// α = 1e-5 over all blocks and channels, and a χ² bound on the mean z²).
-bool agree(const Film& a, const Film& b, const std::string& what) {
-  const stress::Agreement g = stress::compare_blocks(a, b, 8);
-  MESSAGE(what << ": max |z| " << g.max_abs_z << " (bound " << g.z_bound << "), mean z² " << g.mean_z2
-               << " (bound " << g.z2_bound << ") over " << g.n);
-  CHECK(g.n >= 16);
-  return g.pass;
-}
-
 // The lit smooth sphere of lit_sphere_scene over a large diffuse floor at y = −1, for paths of two bounces.
 SceneDesc sphere_on_floor(int kind) {
   SceneDesc s = lit_sphere_scene(kind, 12);
@@ -336,8 +320,8 @@ TEST_CASE("smooth shading: bdpt's light tracing shades with the shading normal a
   // gives) fails the same comparison, so the test can tell them apart (dropping the factor fails it: checked).
   const SceneDesc d = lit_floor(true);
   const Film mis = render_estimator(d, Estimator::Mis, 256, 1);
-  CHECK(agree(render_estimator(d, Estimator::Bdpt, 256, 2, 2, 1), mis, "light tracing vs mis"));
-  CHECK(agree(render_estimator(d, Estimator::Bdpt, 128, 3), mis, "bdpt vs mis"));
+  CHECK(blocks_agree(render_estimator(d, Estimator::Bdpt, 256, 2, 2, 1), mis, "light tracing vs mis"));
+  CHECK(blocks_agree(render_estimator(d, Estimator::Bdpt, 128, 3), mis, "bdpt vs mis"));
   CHECK_FALSE(stress::compare_blocks(render_estimator(lit_floor(false), Estimator::Mis, 256, 4), mis, 8).pass);
 }
 
@@ -349,8 +333,8 @@ TEST_CASE("smooth shading: bdpt renders the coarse smooth sphere as mis does, it
   // light-sampling strategy, and the whole estimator agrees.
   SceneDesc d = lit_sphere_scene(2, 12);
   d.width = d.height = 32;
-  CHECK(agree(render_estimator(d, Estimator::Bdpt, 256, 3), render_estimator(d, Estimator::Mis, 512, 4),
-              "bdpt vs mis"));
+  CHECK(blocks_agree(render_estimator(d, Estimator::Bdpt, 256, 3), render_estimator(d, Estimator::Mis, 512, 4),
+                     "bdpt vs mis"));
 }
 
 TEST_CASE("smooth shading: every bdpt strategy alone renders the two-bounce paths alike (the light walk's adjoint)") {
@@ -363,15 +347,15 @@ TEST_CASE("smooth shading: every bdpt strategy alone renders the two-bounce path
   const SceneDesc d = lit_floor(true, true);
   const Film ref = render_estimator(d, Estimator::Bdpt, 256, 10, 1, 3);
   for (const auto& [s, t, spp] : {std::tuple{3, 1, 512}, std::tuple{2, 2, 256}, std::tuple{0, 4, 1024}})
-    CHECK(agree(render_estimator(d, Estimator::Bdpt, spp, 11 + static_cast<uint64_t>(s), s, t), ref,
-                "strategy (" + std::to_string(s) + ", " + std::to_string(t) + ") vs (1, 3)"));
-  CHECK(agree(render_estimator(d, Estimator::Bdpt, 128, 20), render_estimator(d, Estimator::Mis, 256, 21),
-              "bdpt vs mis"));
+    CHECK(blocks_agree(render_estimator(d, Estimator::Bdpt, spp, 11 + static_cast<uint64_t>(s), s, t), ref,
+                       "strategy (" + std::to_string(s) + ", " + std::to_string(t) + ") vs (1, 3)"));
+  CHECK(blocks_agree(render_estimator(d, Estimator::Bdpt, 128, 20), render_estimator(d, Estimator::Mis, 256, 21),
+                     "bdpt vs mis"));
   SceneDesc sphere = sphere_on_floor(2);
   sphere.render.max_bounces = 2;
   sphere.render.sampler = SamplerType::Independent;
-  CHECK(agree(render_estimator(sphere, Estimator::Bdpt, 256, 22), render_estimator(sphere, Estimator::Mis, 512, 23),
-              "sphere on the floor: bdpt vs mis"));
+  CHECK(blocks_agree(render_estimator(sphere, Estimator::Bdpt, 256, 22),
+                     render_estimator(sphere, Estimator::Mis, 512, 23), "sphere on the floor: bdpt vs mis"));
 }
 
 TEST_CASE("smooth shading: bdpt takes smooth meshes, and auto picks it for their caustics") {
@@ -396,7 +380,6 @@ TEST_CASE("smooth shading: bdpt takes smooth meshes, and auto picks it for their
 }
 
 namespace {
-
 
 void check_normal(Vec3 got, Vec3 want) {
   INFO("got " << got.x << " " << got.y << " " << got.z << ", want " << want.x << " " << want.y << " " << want.z);

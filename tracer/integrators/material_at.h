@@ -19,15 +19,14 @@ inline float pixel_angle_of(const Camera& camera) {
   return 2.f * camera.tan_half_y / static_cast<float>(std::max(camera.height, 1));
 }
 
-// The ray cone's spread angle for the pixel's sample number `index`, for pixels spanning `pixel_angle`, kept
-// along the whole path (Akenine-Möller et al. 2021 track its change at curved mirrors; a bounce off a rough
-// surface blurs far more than any texture level). The jittered samples integrate the pixel's area themselves, so a texture filtered
-// over a whole pixel would blur every pixel over two; as pbrt-v4 scales its ray differentials by
-// max(1/8, 1/√spp), the cone of sample k spans max(1/8, 1/√(k+1)) of a pixel: the first samples of a
-// progressive render are smooth, later ones sharp, and the converged image filters over an eighth of a pixel.
-// Measured on a receding checkerboard against its supersampled image (tests/test_textures.cpp): a whole-pixel
-// cone errs by 0.088 rms at 64 spp, this one by 0.036; at 4 spp far from the camera, unfiltered lookups err
-// by 0.135, these by 0.085.
+// The ray cone's spread angle for the pixel's sample number `index`, for pixels spanning `pixel_angle`, kept along
+// the whole path (Akenine-Möller et al. 2021 track its change at curved mirrors; a bounce off a rough surface blurs
+// far more than any texture level). The jittered samples integrate the pixel's area themselves, so a texture
+// filtered over a whole pixel would blur every pixel over two; as pbrt-v4 scales its ray differentials by max(1/8,
+// 1/√spp), the cone of sample k spans max(1/8, 1/√(k+1)) of a pixel: the first samples of a progressive render are
+// smooth, later ones sharp, and the converged image filters over an eighth of a pixel. Measured on a receding
+// checkerboard against its supersampled image (tests/test_textures.cpp): a whole-pixel cone errs by 0.088 rms at 64
+// spp, this one by 0.036; at 4 spp far from the camera, unfiltered lookups err by 0.135, these by 0.085.
 inline float ray_cone_spread(float pixel_angle, uint32_t index) {
   return pixel_angle * std::max(0.125f, 1.f / std::sqrt(static_cast<float>(index) + 1.f));
 }
