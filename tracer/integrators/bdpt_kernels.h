@@ -248,8 +248,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       if (!survives_roulette(beta, max_component(beta) * eta_scale / beta_scale, rng.get_1d(dim))) return true;
     }
     if (is_black(beta) || !is_finite(beta)) return true;
-    // As the path tracer leaves a smooth vertex: on the side the shading frame sampled (path_tracer.h).
-    ray = {smooth ? offset_ray_origin(path[cur].it, bs.wi.z < 0.f) : offset_ray_origin(path[cur].it, wi), wi};
+    ray = {leaving_origin(path[cur].it, wi, bs.wi.z), wi};
     skip = skip_on_leave(path[cur].it);
   }
 }
@@ -550,19 +549,18 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
   root.wo = camera[1].wo;
   root.beta = Rgb(1.f);
   root.bounce = 0;
-  root.cone_width = o.cone_spread(rng) * glm::length(camera[1].it.p - camera[0].it.p);
+  const float spread = o.cone_spread(rng);
+  root.cone_width = spread * glm::length(camera[1].it.p - camera[0].it.p);
   if (camera[1].material && camera[1].material != &s.materials[camera[1].it.material]) {
     root.textured = true;
     new (&root.resolved.m) Material(*camera[1].material);
   }
   stack.push_back(root);
-  const float spread = o.cone_spread(rng);
   while (!stack.empty()) {
     const SpecularBranch b = stack.back();
     stack.pop_back();
     const Material& m = branch_material(s, b);
-    const bool smooth = b.it.ns != b.it.ng;  // as the camera walk shades it (walk_frame)
-    const Frame frame = Frame::from_normal(smooth ? shading_normal(b.it, b.wo) : b.it.ng);
+    const Frame frame = shading_frame(b.it, b.wo);  // as the camera walk shades it
     const Vec3 wo = frame.to_local(b.wo);
     // The vertex's Dirac lobes: the two ends of the lobe-choice dimension (find_other_lobe's rule).
     BsdfSample lobes[2];
@@ -584,7 +582,7 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
       }
       if (is_black(beta) || !is_finite(beta)) continue;
       const Vec3 wi = frame.to_world(bs.wi);
-      const Ray ray{smooth ? offset_ray_origin(b.it, bs.wi.z < 0.f) : offset_ray_origin(b.it, wi), wi};
+      const Ray ray{leaving_origin(b.it, wi, bs.wi.z), wi};
       ++count.rays;
       Hit h;
       BdptVertex v;

@@ -201,8 +201,9 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
     if (is_black(Le) || is_black(f)) continue;
     // Visibility, segment by segment, with the scene's own rays.
     Interaction a, b, c;
-    const Vec3 from = smooth ? offset_ray_origin(x.it, wf_x.z < 0.f) : offset_ray_origin(x.it, wf);
-    if (!reaches<F>(s, from, wf, skip_on_leave(x.it), prim, glm::length(ch.p1 - xd), a, count)) continue;
+    if (!reaches<F>(s, leaving_origin(x.it, wf, wf_x.z), wf, skip_on_leave(x.it), prim, glm::length(ch.p1 - xd), a,
+                    count))
+      continue;
     const Interaction* exit = &a;
     if (sph.refracts) {
       const Vec3 in(glm::normalize(ch.p2 - ch.p1));

@@ -92,9 +92,16 @@ inline float to_area_density(float pdf, const BdptVertex& from, const BdptVertex
 // (Veach 1997, §5.3; pbrt-v3's CorrectShadingNormal). Flat vertices (ns = ng) take the plain frame and cosines,
 // bit for bit the arithmetic of flat scenes.
 inline bool smooth_vertex(const BdptVertex& v) { return v.it.ns != v.it.ng; }
-// The frame a walk samples in at v, having arrived from direction `from` (the path tracer's frame for wo = from).
-inline Frame walk_frame(const BdptVertex& v, Vec3 from) {
-  return Frame::from_normal(smooth_vertex(v) ? shading_normal(v.it, from) : v.it.ng);
+// The frame a walk samples in at `it`, having arrived from direction `from` (the path tracer's frame for
+// wo = from).
+inline Frame shading_frame(const Interaction& it, Vec3 from) {
+  return Frame::from_normal(it.ns != it.ng ? shading_normal(it, from) : it.ng);
+}
+inline Frame walk_frame(const BdptVertex& v, Vec3 from) { return shading_frame(v.it, from); }
+// The origin of a ray leaving `it` along w (local_z: w's z in the shading frame), as the path tracer leaves a
+// vertex: a smooth one on the side its shading frame sampled, a flat one on the side w points to.
+inline Vec3 leaving_origin(const Interaction& it, Vec3 w, float local_z) {
+  return it.ns != it.ng ? offset_ray_origin(it, local_z < 0.f) : offset_ray_origin(it, w);
 }
 
 // BSDF value at surface vertex v towards `next`, for light flowing along the path. v on the camera subpath:
