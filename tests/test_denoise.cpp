@@ -145,8 +145,11 @@ TEST_CASE("denoiser: the regression spreads a firefly over its window and keeps 
   const std::vector<float> out = denoise_regression(input, RegressionSettings{}, pool);
   double in_sum = 0.0, out_sum = 0.0;
   for (size_t k = 0; k < out.size(); ++k) in_sum += color[k], out_sum += out[k];
-  const int window = 2 * RegressionSettings{}.radius + 1;  // the firefly's excess is spread over its window
-  for (int c = 0; c < 3; ++c) CHECK(out[3 * f + c] == doctest::Approx(0.2 + 4.8 / (window * window)).epsilon(0.1));
+  // The firefly's excess is spread as the bump k(dx)·k(dy) of fireflies.cpp; its own pixel keeps the peak share.
+  const int R = RegressionSettings{}.firefly_radius;
+  double bump_sum = 0.0;
+  for (int d = -R; d <= R; ++d) bump_sum += std::pow(1.0 - std::pow(d / (R + 1.0), 2), 2);
+  for (int c = 0; c < 3; ++c) CHECK(out[3 * f + c] == doctest::Approx(0.2 + 4.8 / (bump_sum * bump_sum)).epsilon(0.1));
   CHECK(out_sum == doctest::Approx(in_sum).epsilon(1e-3));
   RegressionSettings off;
   off.firefly_ratio = 0.f;
@@ -254,7 +257,7 @@ TEST_CASE("fireflies: a cluster of three is cut to 1.5x the neighbours median an
   double sum_before = 0.0, sum_after = 0.0;
   for (size_t k = 0; k < 3 * n; ++k) sum_before += before[k], sum_after += radiance[k] + spread[k];
   CHECK(sum_after == doctest::Approx(sum_before).epsilon(1e-6));
-  // Spread over the 17×17 window: the middle firefly's neighbourhood gains, a far corner gains nothing.
+  // Spread over the 33×33 window: the middle firefly's neighbourhood gains, a far corner gains nothing.
   CHECK(spread[3 * (10 * w + 11)] > 0.f);
   CHECK(spread[3 * (31 * w + 31)] == 0.f);
   FireflySettings off;
@@ -262,6 +265,38 @@ TEST_CASE("fireflies: a cluster of three is cut to 1.5x the neighbours median an
   std::vector<float> untouched = before;
   CHECK(spread_fireflies(w, h, off, untouched, variance, pool).empty());
   CHECK(untouched == before);
+}
+
+TEST_CASE("fireflies: a cut is spread as a smooth round bump, not a square") {
+  // One firefly in the middle of a flat 64×64 field. Its spread must fall off smoothly from the middle: no step
+  // between neighbouring pixels above 12 % of the peak (the bump's steepest is 9 % at radius 16), the same value
+  // along a row and a column, and the diagonal lower than the axis at the same offset. A box (the first version)
+  // fails all three: a step of 100 % of the peak at its edge, and the corner equal to the middle.
+  const int w = 64, h = 64, cx = 32, cy = 32;
+  const size_t n = static_cast<size_t>(w) * h;
+  std::vector<float> radiance(3 * n, 0.1f), variance(3 * n, 1e-4f);
+  for (int c = 0; c < 3; ++c) {
+    radiance[3 * (static_cast<size_t>(cy) * w + cx) + c] = 50.f;
+    variance[3 * (static_cast<size_t>(cy) * w + cx) + c] = 40.f * 40.f;
+  }
+  ThreadPool pool(2);
+  const std::vector<float> spread = spread_fireflies(w, h, FireflySettings{}, radiance, variance, pool);
+  REQUIRE(spread.size() == 3 * n);
+  const auto at = [&](int x, int y) { return spread[3 * (static_cast<size_t>(y) * w + x)]; };
+  const float peak = at(cx, cy);
+  REQUIRE(peak > 0.f);
+  float steepest = 0.f;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x + 1 < w; ++x) {
+      steepest = std::max(steepest, std::abs(at(x + 1, y) - at(x, y)));
+      steepest = std::max(steepest, std::abs(at(y, x + 1) - at(y, x)));
+    }
+  MESSAGE("steepest step " << steepest / peak << " of the peak");
+  CHECK(steepest <= 0.12f * peak);
+  for (int d = 1; d <= 12; ++d) {
+    CHECK(at(cx + d, cy) == doctest::Approx(at(cx, cy + d)).epsilon(1e-5));
+    CHECK(at(cx + d, cy + d) < at(cx + d, cy));
+  }
 }
 
 TEST_CASE("denoiser: both filters take images smaller than their windows, and non-finite variances") {

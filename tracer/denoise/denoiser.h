@@ -83,9 +83,12 @@ struct RegressionSettings {
   float sigma_normal = 0.3f;
   float sigma_albedo = 0.3f;
   // Fireflies: a pixel brighter than firefly_ratio × the (upper) median of its 8 neighbours whose mean's
-  // standard deviation exceeds firefly_deviation × its mean has the excess spread over its window (0: off).
+  // standard deviation exceeds firefly_deviation × its mean has the excess spread over firefly_radius (twice the
+  // window's; fireflies.h; ratio 0: off). The coarse scale spreads over the same area (half the radius in its
+  // pixels), so that the two scales do not differ by the spread's shape.
   float firefly_ratio = 1.5f;
   float firefly_deviation = 0.5f;
+  int firefly_radius = 14;
   // The coarse scale (two_scale.h): the same regression over the image's 2×2 means with this window radius (0:
   // none), whose difference from the fine output's 2×2 means, limited to coarse_limit × the standard deviation of
   // the 2×2 mean, is upsampled and added: the low frequencies the fine window leaves as blotches.

@@ -68,19 +68,34 @@ std::vector<float> spread_fireflies(int w, int h, const FireflySettings& st, std
   size_t count = 0;
   for (const auto& row : cuts) count += row.size();
   if (count == 0) return {};
-  // Each cut's excess divided by the number of in-image pixels of its window and added to each of them. Output
-  // rows run in parallel, each gathering the cuts of the rows within R of it (a firefly is rare: a few thousand at
-  // 512², 16 spp, against 2.6·10⁵ pixels).
+  // Each cut's excess is spread with a smooth bump, k(dx)·k(dy) over the (2R+1)² window, k(d) = (1 − (d/(R+1))²)²
+  // (the biweight), normalised over the window's in-image pixels. A box over half that radius (the first version)
+  // drew each cut as a square: where fireflies are dense (a glass mesh's light-traced caustics on the walls at a
+  // few samples per pixel) the viewer showed a mosaic of squares; the bump over the same half radius, distinct
+  // round spots (docs/denoising.md). Output rows run in parallel, each gathering the cuts of the rows within R of it (a firefly is rare:
+  // a few thousand at 512², 16 spp, against 2.6·10⁵ pixels).
   const int R = st.radius;
-  const auto window = [R](int p, int size) { return std::min(p + R, size - 1) - std::max(p - R, 0) + 1; };
+  std::vector<float> bump(static_cast<size_t>(2 * R + 1));
+  for (int d = -R; d <= R; ++d) {
+    const float t = static_cast<float>(d) / static_cast<float>(R + 1);
+    bump[static_cast<size_t>(d + R)] = sqr(1.f - t * t);
+  }
+  // Σ k over the part of the window around p that lies in [0, size).
+  const auto bump_sum = [&](int p, int size) {
+    float sum = 0.f;
+    for (int q = std::max(p - R, 0); q <= std::min(p + R, size - 1); ++q) sum += bump[static_cast<size_t>(q - p + R)];
+    return sum;
+  };
   std::vector<float> spread(3 * n, 0.f);
   pool.parallel_for(h, [&](int y, int) {
     float* out = &spread[3 * at(0, y)];
     for (int sy = std::max(y - R, 0); sy <= std::min(y + R, h - 1); ++sy)
       for (const Cut& cut : cuts[static_cast<size_t>(sy)]) {
-        const float share = 1.f / static_cast<float>(window(cut.x, w) * window(sy, h));
-        for (int x = std::max(cut.x - R, 0); x <= std::min(cut.x + R, w - 1); ++x)
+        const float row_share = bump[static_cast<size_t>(y - sy + R)] / (bump_sum(cut.x, w) * bump_sum(sy, h));
+        for (int x = std::max(cut.x - R, 0); x <= std::min(cut.x + R, w - 1); ++x) {
+          const float share = row_share * bump[static_cast<size_t>(x - cut.x + R)];
           for (int c = 0; c < 3; ++c) out[3 * x + c] += cut.excess[c] * share;
+        }
       }
   });
   return spread;

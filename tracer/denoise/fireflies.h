@@ -2,8 +2,8 @@
 // samples (its mean's standard deviation is a large part of the mean) would stay a spike, or, spread by a filter's
 // weights, a blotch. Its excess over `ratio` × the median of its 8 neighbours (the upper of the two middle values,
 // so that clusters of up to three fireflies are caught) is taken out of the radiance to be filtered and spread
-// evenly over the (2·radius + 1)² window around it instead: the image keeps its energy and the spike becomes a
-// faint wash. Measured on both filters in docs/denoising.md.
+// over the (2·radius + 1)² window around it instead, with a smooth bump (fireflies.cpp): the image keeps its
+// energy and the spike becomes a faint wash. Measured on both filters in docs/denoising.md.
 #pragma once
 #include <vector>
 
@@ -14,7 +14,7 @@ namespace pt {
 struct FireflySettings {
   float ratio = 1.5f;      // bound: ratio × the neighbours' median luminance (0: the step is off)
   float deviation = 0.5f;  // only pixels whose mean's standard deviation exceeds deviation × their mean
-  int radius = 8;          // the excess is spread over the (2·radius + 1)² window
+  int radius = 16;         // the excess is spread over the (2·radius + 1)² window (twice the filters' own)
 };
 
 // `radiance` and `variance`: 3 floats per pixel, row-major, w × h (the variance of each pixel's mean; a pixel

@@ -307,7 +307,7 @@ std::vector<float> regress(const DenoiseInput& input, const RegressionSettings& 
   std::vector<float> radiance(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) radiance[i] = (*input.color)[i] - (input.emission ? (*input.emission)[i] : 0.f);
   const std::vector<float> excess =
-      spread_fireflies(w, h, {st.firefly_ratio, st.firefly_deviation, st.radius}, radiance, *input.variance, pool);
+      spread_fireflies(w, h, {st.firefly_ratio, st.firefly_deviation, st.firefly_radius}, radiance, *input.variance, pool);
   pool.parallel_for(in.height_padded(), [&](int row, int) {
     const int y = std::clamp(row - in.margin, 0, h - 1);
     for (int col = 0; col < in.width_padded(); ++col) {
@@ -345,7 +345,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   check_denoise_input(input);
   if (st.radius < 1 || st.patch < 0 || !(st.k > 0.f) || !(st.ridge >= 0.f) || !(st.sigma_normal >= 0.f) ||
       !(st.sigma_albedo >= 0.f) || !(st.firefly_ratio >= 0.f) || !(st.firefly_deviation >= 0.f) ||
-      st.coarse_radius < 0 || !(st.coarse_limit >= 0.f))
+      st.coarse_radius < 0 || !(st.coarse_limit >= 0.f) || st.firefly_radius < 0)
     throw std::invalid_argument("denoise: bad regression settings");
   std::vector<float> out = regress(input, st, pool, cancel);
   if (out.empty() || st.coarse_radius == 0) return out;
@@ -353,6 +353,7 @@ std::vector<float> denoise_regression(const DenoiseInput& input, const Regressio
   const HalfScale half = half_scale(input, out, pool);
   RegressionSettings coarse_settings = st;
   coarse_settings.radius = st.coarse_radius;
+  coarse_settings.firefly_radius = (st.firefly_radius + 1) / 2;
   const std::vector<float> coarse = regress(half.planes.input(), coarse_settings, pool, cancel);
   if (coarse.empty()) return {};
   add_coarse_correction(half, coarse, st.coarse_limit, input.width, input.height, out, pool);
