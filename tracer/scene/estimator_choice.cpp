@@ -1,5 +1,6 @@
 #include "scene/estimator_choice.h"
 
+#include <algorithm>
 #include <vector>
 
 #include "scene/scene.h"
@@ -49,6 +50,15 @@ Estimator pick(const Scan& scan, int max_bounces) {
   return scan.focusing >= 0 && scan.receiver && max_bounces <= kMaxBdptBounces ? Estimator::Bdpt : Estimator::Mis;
 }
 
+// What bdpt does not take yet, asked of a description or of a compiled scene alike: the reason auto leaves the
+// scene to mis, or null.
+const char* bdpt_unsupported(bool thin_lens, bool normal_maps, bool punctual_lights) {
+  if (thin_lens) return "mis: a thin-lens camera, which bdpt does not support yet";
+  if (normal_maps) return "mis: normal maps, which bdpt does not support yet";
+  if (punctual_lights) return "mis: point, spot or directional lights, which bdpt does not support yet";
+  return nullptr;
+}
+
 }  // namespace
 
 EstimatorChoice choose_estimator(const SceneDesc& scene) {
@@ -59,11 +69,9 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
     for (int m : in.materials)
       if (m >= 0 && static_cast<size_t>(m) < used.size()) used[static_cast<size_t>(m)] = 1;
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
-  if (scene.camera.aperture_radius > 0.0)
-    return {Estimator::Mis, "mis: a thin-lens camera, which bdpt does not support yet"};
-  if (normal_mapped(scene)) return {Estimator::Mis, "mis: normal maps, which bdpt does not support yet"};
-  if (!scene.punctual_lights.empty())
-    return {Estimator::Mis, "mis: point, spot or directional lights, which bdpt does not support yet"};
+  if (const char* reason =
+          bdpt_unsupported(scene.camera.aperture_radius > 0.0, normal_mapped(scene), !scene.punctual_lights.empty()))
+    return {Estimator::Mis, reason};
   const Estimator e = pick(scan, scene.render.max_bounces);
   if (e == Estimator::Bdpt) {
     const MaterialDesc& m = scene.materials[static_cast<size_t>(scan.focusing)];
@@ -77,8 +85,9 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
 }
 
 Estimator choose_estimator(const Scene& scene, int max_bounces) {
-  if (scene.camera.thin_lens() || scene.features.smooth_shading || scene.features.textures || !scene.punctual_lights.empty())
-    return Estimator::Mis;
+  const bool normal_maps = std::any_of(scene.materials.begin(), scene.materials.end(),
+                                       [](const Material& m) { return m.normal_map.texture != nullptr; });
+  if (bdpt_unsupported(scene.camera.thin_lens(), normal_maps, !scene.punctual_lights.empty())) return Estimator::Mis;
   return pick(scan_materials(scene.materials,
                              [&](size_t i) { return i < scene.material_used.size() && scene.material_used[i] != 0; }),
               max_bounces);
