@@ -366,10 +366,10 @@ TEST_CASE("bdpt: the MIS weights from per-subpath sums equal those walked vertex
               uint32_t px = 0;
               const BdptVertex& qs = scratch.light[ns - 1];
               possible = bdpt_detail::connectible(sc, qs) &&
-                         !is_black(bdpt_detail::connect_eye<kAllFeatures>(sc, qs, sampled, px, count));
+                         !is_black(bdpt_detail::connect_eye<SobolSampler, kAllFeatures>(sc, rng, qs, sampled, px, count));
             } else if (ns == 1) {
               possible = bdpt_detail::connectible(sc, pt) &&
-                         !is_black(bdpt_detail::connect_light_sample<SobolSampler, kAllFeatures>(sc, rng, pt, t,
+                         !is_black(bdpt_detail::connect_light_sample<SobolSampler, kAllFeatures>(sc, o, rng, pt, t,
                                                                                                  sampled, count));
             } else {
               possible = bdpt_detail::connectible(sc, pt) && bdpt_detail::connectible(sc, scratch.light[ns - 1]);

@@ -99,6 +99,33 @@ TEST_CASE("sampler: a value depends on its dimension only, not on what was asked
   CHECK(SobolSampler(42, 18, 9).get_2d(5).x != late.x);
 }
 
+TEST_CASE("sampler: bdpt's layout gives each decision its own dimension, a lens two more before the bounces") {
+  for (bool lens : {false, true}) {
+    const BdptDimensions dims(lens);
+    std::set<uint32_t> two_d{BdptDimensions::kCameraJitter, BdptDimensions::kEmissionPoint,
+                             BdptDimensions::kEmissionDirection};
+    std::set<uint32_t> one_d{BdptDimensions::kLightChoice};
+    if (lens) {
+      CHECK(two_d.insert(BdptDimensions::kCameraLens).second);
+      CHECK(two_d.insert(BdptDimensions::kEyeLens).second);
+    }
+    const BdptDimensions pinhole(false);
+    CHECK(pinhole.camera_direction(0) == 3u);  // the layout bdpt's pinhole images were made with
+    for (uint32_t b = 0; b < 50; ++b) {
+      CHECK(dims.camera_direction(b) == pinhole.camera_direction(b) + (lens ? 2u : 0u));
+      CHECK(two_d.insert(dims.camera_direction(b)).second);
+      CHECK(two_d.insert(dims.connection_point(b)).second);
+      CHECK(two_d.insert(dims.light_direction(b)).second);
+      for (const uint32_t d : {BdptDimensions::camera_lobe(b), BdptDimensions::camera_roulette(b),
+                               BdptDimensions::connection_light_choice(b), BdptDimensions::light_lobe(b),
+                               BdptDimensions::light_roulette(b), BdptDimensions::manifold_chain_choice(b)})
+        CHECK(one_d.insert(d).second);
+    }
+    CHECK(*two_d.rbegin() == two_d.size() - 1);  // dense
+    CHECK(*one_d.rbegin() == one_d.size() - 1);
+  }
+}
+
 TEST_CASE("sampler: the dimension layout gives each decision of each bounce its own dimension") {
   for (bool light_sampling : {false, true})
   for (bool lens : {false, true}) {

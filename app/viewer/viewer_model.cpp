@@ -133,7 +133,6 @@ bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {
 
 bool ViewerModel::set_render(const RenderSettings& render) {
   std::string err = validate_render_settings(render);
-  if (err.empty()) err = validate_lens_for_estimator(scene_.camera, render);
   if (err.empty()) err = validate_normal_maps_for_estimator(scene_, render);
   if (err.empty()) err = validate_punctual_for_estimator(scene_, render);
   if (!err.empty()) {
@@ -203,7 +202,7 @@ bool ViewerModel::set_lens(double aperture_radius, double focus_distance) {
   CameraDesc candidate = camera_.camera();
   candidate.aperture_radius = aperture_radius;
   candidate.focus_distance = focus_distance;
-  if (std::string err = validate_lens_for_estimator(candidate, scene_.render); !err.empty()) {
+  if (std::string err = validate_edit(scene_, candidate); !err.empty()) {
     set_status("not applied: " + err, true);
     return false;
   }

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <set>
+#include <cmath>
 
 #include <chrono>
 #include <cstdlib>
@@ -377,7 +378,7 @@ TEST_CASE("viewer: pick finds the material under an image point, double-click's 
   CHECK(glm::length(centre->point - left->point) < 1.0);
 }
 
-TEST_CASE("viewer: the lens's radius and focus are set live, Alt+click focuses on the surface, bdpt is refused with a lens") {
+TEST_CASE("viewer: the lens's radius and focus are set live, Alt+click focuses on the surface, bdpt takes the lens") {
   ViewerModel model(small_cornell(), "cornell", stop_at(1));
   REQUIRE(model.set_lens(20.0, 0.0));
   CHECK(model.camera().camera().aperture_radius == 20.0);
@@ -390,16 +391,18 @@ TEST_CASE("viewer: the lens's radius and focus are set live, Alt+click focuses o
   CHECK(c.focus_distance > 800.0);  // beyond the box's open front (z = 0, the eye at z = -800)
   // The session renders with the lens (its film restarts and completes a pass).
   REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
-  // bdpt supports a pinhole only: switching to it with a lens, or a lens under bdpt, is refused with a status.
+  // bdpt takes the lens: switching to it keeps the lens, and the lens can change under it; a negative or
+  // non-finite radius is refused with a status.
   RenderSettings r = model.scene().render;
   r.estimator = Estimator::Bdpt;
-  CHECK_FALSE(model.set_render(r));
-  CHECK(model.status_is_error());
-  CHECK(model.status().find("pinhole") != std::string::npos);
-  REQUIRE(model.set_lens(0.0, 0.0));
   REQUIRE(model.set_render(r));
-  CHECK_FALSE(model.set_lens(5.0, 0.0));
-  CHECK(model.camera().camera().aperture_radius == 0.0);  // the controller kept the pinhole
+  CHECK(model.camera().camera().aperture_radius == 20.0);
+  REQUIRE(model.set_lens(5.0, 0.0));
+  CHECK(model.camera().camera().aperture_radius == 5.0);
+  REQUIRE(model.session().wait_for([](const SessionStats& s) { return s.done; }, 60.0));
+  CHECK_FALSE(model.set_lens(std::nan(""), 0.0));
+  CHECK(model.status_is_error());
+  CHECK(model.camera().camera().aperture_radius == 5.0);
 }
 
 TEST_CASE("viewer: a click on a block picks the whole block: its material and transform move its five quads, undo restores") {

@@ -23,11 +23,13 @@ struct Options {
         has_lights(!s.lights.empty()),
         // It connects to a light: none without one (choose_light has nothing to choose from).
         manifold(r.bdpt_manifold && s.features.spheres && only_s < 0 && has_lights),
-        pixel_angle(pixel_angle_of(s.camera)) {}
+        pixel_angle(pixel_angle_of(s.camera)),
+        dims(s.camera.thin_lens()) {}
   int max_bounces, rr_depth, only_s, only_t;
   bool has_lights;
   bool manifold;      // the manifold strategy through smooth spheres (bdpt_manifold.h)
   float pixel_angle;  // for the camera subpath's ray cone (material_at.h), as the path tracer's
+  BdptDimensions dims;  // the sampler's dimensions (sampling/sample_dimensions.h): shifted by a thin lens
   template <class Sampler>
   float cone_spread(const Sampler& rng) const {
     return ray_cone_spread(pixel_angle, rng.sample_index());
@@ -202,7 +204,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     const bool first_split = split && bounce == 0;
     float uc = rng.get_1d(light_subpath ? D::light_lobe(bounce) : D::camera_lobe(bounce));
     if (first_split && split->forced_uc >= 0.f) uc = split->forced_uc;
-    const Vec2 u = rng.get_2d(light_subpath ? D::light_direction(bounce) : D::camera_direction(bounce));
+    const Vec2 u = rng.get_2d(light_subpath ? o.dims.light_direction(bounce) : o.dims.camera_direction(bounce));
     BsdfSample bs;
     const TransportMode mode = light_subpath ? TransportMode::Importance : TransportMode::Radiance;
     if (!bsdf_sample<kM>(m, wo, uc, u, bs, mode) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
@@ -267,7 +269,7 @@ bool camera_subpath(const Scene& s, const Options& o, const Sampler& rng, const 
   eye.it.p = ray.o;
   eye.it.ng = Vec3(0.f);
   path.push_back(eye);
-  if (!random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.d), false, path,
+  if (!random_walk<Sampler, F>(s, o, rng, ray, ~0u, Rgb(1.f), s.camera.direction_pdf(ray.o, ray.d), false, path,
                                max_vertices, materials.data(), o.cone_spread(rng), features, &split, count, cancel))
     return false;
   camera_mis_prefix(path);
@@ -450,13 +452,13 @@ bool unoccluded(const Scene& s, const BdptVertex& a, const BdptVertex& b, RayCou
 
 // Strategy s = 1: a light sampled from camera vertex pt (its index t − 1; bounce t − 2). Fills `sampled`.
 template <class Sampler, uint32_t F>
-Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& pt, int t, BdptVertex& sampled,
-                         RayCount& count) {
+Rgb connect_light_sample(const Scene& s, const Options& o, const Sampler& rng, const BdptVertex& pt, int t,
+                         BdptVertex& sampled, RayCount& count) {
   const uint32_t bounce = static_cast<uint32_t>(t - 2);
   const int li = choose_light(s, rng.get_1d(D::connection_light_choice(bounce)));
   const Light& l = s.lights[li];
   const float pmf = s.light_pmf[li];
-  const Vec2 u = rng.get_2d(D::connection_point(bounce));
+  const Vec2 u = rng.get_2d(o.dims.connection_point(bounce));
   sampled = BdptVertex{};
   sampled.kind = VertexKind::Light;
   sampled.light = li;
@@ -493,22 +495,25 @@ Rgb connect_light_sample(const Scene& s, const Sampler& rng, const BdptVertex& p
   return L;
 }
 
-// Strategy t = 1: light vertex qs joined to the eye. Fills `sampled` (the eye) and the pixel it lands on.
-template <uint32_t F>
-Rgb connect_eye(const Scene& s, const BdptVertex& qs, BdptVertex& sampled, uint32_t& pixel, RayCount& count) {
+// Strategy t = 1: light vertex qs joined to the eye, or to a point of a thin lens (uniform over it; one point
+// per sample, shared by the light subpath's vertices). Fills `sampled` (the eye) and the pixel it lands on.
+template <class Sampler, uint32_t F>
+Rgb connect_eye(const Scene& s, const Sampler& rng, const BdptVertex& qs, BdptVertex& sampled, uint32_t& pixel,
+                RayCount& count) {
   const Camera& cam = s.camera;
-  const Vec3 d = qs.it.p - cam.origin;
+  const Vec3 eye = cam.thin_lens() ? cam.lens_point(rng.get_2d(BdptDimensions::kEyeLens)) : cam.origin;
+  const Vec3 d = qs.it.p - eye;
   const float dist2 = glm::dot(d, d);
   if (!(dist2 > 0.f)) return Rgb(0.f);
   const Vec3 w = d / std::sqrt(dist2);
   float x, y;
-  if (!cam.raster_of(w, x, y)) return Rgb(0.f);
+  if (!cam.raster_of(eye, w, x, y)) return Rgb(0.f);
   sampled = BdptVertex{};
   sampled.kind = VertexKind::Camera;
-  sampled.it.p = cam.origin;
+  sampled.it.p = eye;
   sampled.it.ng = Vec3(0.f);
   // We·cos θ at the eye over the density of the eye as seen from qs (per solid angle: dist²/cos at a lens of
-  // unit area), pbrt-v3 PerspectiveCamera::Sample_Wi with lens radius 0.
+  // unit area), pbrt-v3 PerspectiveCamera::Sample_Wi; with a thin lens the lens area cancels (scene/camera.h).
   sampled.beta = Rgb(cam.importance_cos(w) / dist2);
   const Rgb L = qs.beta * vertex_f(s, qs, sampled, true) * sampled.beta * std::abs(glm::dot(w, qs.it.ng));
   if (is_black(L) || !unoccluded<F>(s, qs, sampled, count)) return Rgb(0.f);
@@ -655,7 +660,7 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
   // The strategies with t camera vertices, their contributions scaled by `scale` (a branch's probability).
   const auto strategies = [&](int t, float scale) {
     if (o.manifold && t >= 3 && manifold_vertex(s, camera, t - 1))
-      L += scale * connect_through_spheres<Sampler, F>(s, rng, camera[t - 1], t, o.max_bounces, count);
+      L += scale * connect_through_spheres<Sampler, F>(s, rng, o.dims, camera[t - 1], t, o.max_bounces, count);
     for (int ns = 0; ns <= nl; ++ns) {
       const int depth = ns + t - 2;
       if ((ns == 1 && t == 1) || depth < 0 || depth > o.max_bounces) continue;
@@ -669,9 +674,9 @@ bool bdpt_sample(const Scene& s, const RenderSettings& settings, const Sampler& 
         if (pt.emits() && !(chains && specular_chain_to(s, camera, t))) c = pt.beta * emitted(s, pt);
       } else if (t == 1) {
         const BdptVertex& qs = light[ns - 1];
-        if (connectible(s, qs)) c = connect_eye<F>(s, qs, sampled, pixel, count);
+        if (connectible(s, qs)) c = connect_eye<Sampler, F>(s, rng, qs, sampled, pixel, count);
       } else if (ns == 1) {
-        if (connectible(s, pt)) c = connect_light_sample<Sampler, F>(s, rng, pt, t, sampled, count);
+        if (connectible(s, pt)) c = connect_light_sample<Sampler, F>(s, o, rng, pt, t, sampled, count);
       } else {
         const BdptVertex& qs = light[ns - 1];
         if (connectible(s, qs) && connectible(s, pt)) {

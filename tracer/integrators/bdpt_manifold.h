@@ -169,8 +169,8 @@ bool reaches(const Scene& s, Vec3 from, Vec3 d, uint32_t skip, uint32_t prim, do
 // Strategy "manifold" at camera vertex x = camera[t − 1] (manifold_vertex): one chain drawn, the sum over its
 // solutions, MIS-weighted against path tracing.
 template <class Sampler, uint32_t F>
-Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex& x, int t, int max_bounces,
-                            RayCount& count) {
+Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptDimensions& dims, const BdptVertex& x,
+                            int t, int max_bounces, RayCount& count) {
   const uint32_t bounce = static_cast<uint32_t>(t - 2);
   const DVec3 xd(x.it.p);
   ChainPick pick;
@@ -180,7 +180,7 @@ Rgb connect_through_spheres(const Scene& s, const Sampler& rng, const BdptVertex
   const int li = choose_light(s, rng.get_1d(BdptDimensions::connection_light_choice(bounce)));
   const Light& l = s.lights[li];
   if (!manifold_light(l)) return Rgb(0.f);
-  const Vec3 y = sample_polygon_area(s.polygons, l.prim, rng.get_2d(BdptDimensions::connection_point(bounce)));
+  const Vec3 y = sample_polygon_area(s.polygons, l.prim, rng.get_2d(dims.connection_point(bounce)));
   const Vec3 n_y = s.polygons.normal[l.prim];
   const float p_choice = pick.prob * s.light_pmf[li] / l.area;  // of the chain, the light and the point y
   const Material& mx = material_of(s, x);

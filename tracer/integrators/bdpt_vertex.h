@@ -172,7 +172,7 @@ inline float pdf_at(const Scene& s, const BdptVertex& v, const Link* to_prev, co
   if (v.kind == VertexKind::Light) return pdf_light(s, v, to_next, next);
   float pdf;
   if (v.kind == VertexKind::Camera) {
-    pdf = s.camera.direction_pdf(to_next.w);
+    pdf = s.camera.direction_pdf(v.it.p, to_next.w);
   } else {
     const Frame frame = walk_frame(v, to_prev->w);
     pdf = bsdf_pdf(material_of(s, v), frame.to_local(to_prev->w), frame.to_local(to_next.w));

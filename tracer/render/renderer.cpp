@@ -20,11 +20,13 @@ PixelRect tile_rect(int tile, int tiles_x, const PixelRect& area) {
 }
 
 // The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel (and through a point
-// of the lens, with a thin lens).
+// of the lens, with a thin lens: 2D dimension `lens_dimension`, which the estimator's layout names).
 template <class Sampler>
-Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y) {
+Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y,
+               uint32_t lens_dimension = SampleDimensions::kLens) {
+  static_assert(SampleDimensions::kCameraJitter == BdptDimensions::kCameraJitter);
   const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
-  const Vec2 lens = scene.camera.thin_lens() ? sampler.get_2d(SampleDimensions::kLens) : Vec2(0.5f);
+  const Vec2 lens = scene.camera.thin_lens() ? sampler.get_2d(lens_dimension) : Vec2(0.5f);
   return scene.camera.generate_ray(static_cast<float>(x) + jitter.x, static_cast<float>(y) + jitter.y, lens);
 }
 
@@ -136,7 +138,8 @@ bool render_tile_bdpt(const Scene& scene, const RenderSettings& settings, const 
       Rgb L;
       PixelFeatures* f = nullptr;
       if (gather) *(f = &features[pixel]) = PixelFeatures{};
-      if (!kernel(scene, settings, sampler, camera_ray(scene, sampler, x, y), scratch, splats, L, f, count, cancel))
+      if (!kernel(scene, settings, sampler, camera_ray(scene, sampler, x, y, BdptDimensions::kCameraLens), scratch, splats, L, f,
+                  count, cancel))
         return false;
       estimate[pixel] = glm::dvec3(L);
     }

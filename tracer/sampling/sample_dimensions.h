@@ -36,25 +36,35 @@ class SampleDimensions {
 };
 
 // The bidirectional estimator's layout (integrators/bdpt.h). 2D: 0 the camera jitter, 1 and 2 the light path's
-// origin (point, direction); then per bounce b three: the camera path's BSDF direction, the light point of the
-// light-sampling connection (s = 1) at camera vertex b, and the light path's BSDF direction. 1D: 0 the light
-// path's light choice; then per bounce six: the camera path's lobe and roulette, the s = 1 light choice, the
-// light path's lobe and roulette, and the manifold strategy's choice of a specular sphere (bdpt_manifold.h; it
-// shares the s = 1 light sample). The first bounces' directions fall in the Sobol-stratified dimensions.
-struct BdptDimensions {
+// origin (point, direction); with a thin lens, 3 the camera ray's lens point and 4 the lens point that light
+// tracing (t = 1) connects to; then per bounce b three: the camera path's BSDF direction, the light point of the
+// light-sampling connection (s = 1) at camera vertex b, and the light path's BSDF direction (a pinhole's layout
+// is the one it had before the lens, so its images are too). 1D: 0 the light path's light choice; then per bounce
+// six: the camera path's lobe and roulette, the s = 1 light choice, the light path's lobe and roulette, and the
+// manifold strategy's choice of a specular sphere (bdpt_manifold.h; it shares the s = 1 light sample). The lens
+// points and the first bounces' directions fall in the Sobol-stratified dimensions.
+class BdptDimensions {
+ public:
+  explicit BdptDimensions(bool thin_lens = false) : first_bounce_pair_(thin_lens ? 5u : 3u) {}
+
   static constexpr uint32_t kCameraJitter = 0;
   static constexpr uint32_t kEmissionPoint = 1;
   static constexpr uint32_t kEmissionDirection = 2;
+  static constexpr uint32_t kCameraLens = 3;  // only with a thin lens
+  static constexpr uint32_t kEyeLens = 4;     // only with a thin lens
   static constexpr uint32_t kLightChoice = 0;
-  static uint32_t camera_direction(uint32_t bounce) { return 3 + 3 * bounce; }
-  static uint32_t connection_point(uint32_t bounce) { return 4 + 3 * bounce; }
-  static uint32_t light_direction(uint32_t bounce) { return 5 + 3 * bounce; }
+  uint32_t camera_direction(uint32_t bounce) const { return first_bounce_pair_ + 3 * bounce; }
+  uint32_t connection_point(uint32_t bounce) const { return first_bounce_pair_ + 1 + 3 * bounce; }
+  uint32_t light_direction(uint32_t bounce) const { return first_bounce_pair_ + 2 + 3 * bounce; }
   static uint32_t camera_lobe(uint32_t bounce) { return 1 + 6 * bounce; }
   static uint32_t camera_roulette(uint32_t bounce) { return 2 + 6 * bounce; }
   static uint32_t connection_light_choice(uint32_t bounce) { return 3 + 6 * bounce; }
   static uint32_t light_lobe(uint32_t bounce) { return 4 + 6 * bounce; }
   static uint32_t light_roulette(uint32_t bounce) { return 5 + 6 * bounce; }
   static uint32_t manifold_chain_choice(uint32_t bounce) { return 6 + 6 * bounce; }
+
+ private:
+  uint32_t first_bounce_pair_;
 };
 
 }  // namespace pt

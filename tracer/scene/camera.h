@@ -30,10 +30,16 @@ struct Camera {
     const float sy = (1.f - 2.f * y / static_cast<float>(height)) * tan_half_y;
     const Vec3 d = glm::normalize(forward + sx * right + sy * up);
     if (!thin_lens()) return {origin, d};
-    const Vec2 lens = lens_radius * sample_uniform_disk_concentric(u_lens);
     const Vec3 focus = origin + d * (focus_distance / glm::dot(d, forward));
-    const Vec3 o = origin + lens.x * right + lens.y * up;
+    const Vec3 o = lens_point(u_lens);
     return {o, glm::normalize(focus - o)};
+  }
+  // The point of the lens that `u` picks (concentric disk mapping, uniform over the lens's area); the eye for a
+  // pinhole.
+  Vec3 lens_point(Vec2 u) const {
+    if (!thin_lens()) return origin;
+    const Vec2 lens = lens_radius * sample_uniform_disk_concentric(u);
+    return origin + lens.x * right + lens.y * up;
   }
 
   // Importance (light tracing, integrators/bdpt.h). The image plane at distance 1 has area A = 4·tan_x·tan_y;
@@ -41,6 +47,12 @@ struct Camera {
   // that makes a pixel the mean radiance over its square is We = 1/(A·cos⁴θ) (pbrt-v3 §16.1.1, the pinhole
   // with lens area 1), normalised over the whole film: a light-traced path adds to pixel j with We, and one
   // light path per pixel and pass makes the sum over the pass an estimate of every pixel.
+  // With a thin lens (pbrt-v4 PerspectiveCamera::We, PDF_We, SampleWi) the ray from lens point p in direction w
+  // meets the focus plane at a point uniform over the image of the film there (area A·f², f the focus
+  // distance, at distance f/cos θ from p), so its density per solid angle is again 1/(A·cos³θ), θ the angle of
+  // w to the axis; We = 1/(A·A_lens·cos⁴θ), and a connection that picks the lens point uniformly (density
+  // 1/A_lens per area, dist²/(cos θ·A_lens) per solid angle) carries We·cos θ/pdf = 1/(A·cos³θ·dist²): the
+  // pinhole's, the lens area cancels.
   float image_plane_area() const { return 4.f * tan_half_x * tan_half_y; }
   // The image point (pixel units) a unit direction from the eye passes through; false when it misses the film.
   bool raster_of(Vec3 w, float& x, float& y) const {
@@ -51,14 +63,25 @@ struct Camera {
     y = 0.5f * (1.f - sy) * static_cast<float>(height);
     return x >= 0.f && x < static_cast<float>(width) && y >= 0.f && y < static_cast<float>(height);
   }
-  // Density per solid angle with which generate_ray (with a uniform jitter over the film) produces direction w.
-  float direction_pdf(Vec3 w) const {
+  // The image point of the ray from lens point p along unit direction w: through the point where it meets the
+  // focus plane (with a thin lens), or w itself (a pinhole, p the eye).
+  bool raster_of(Vec3 p, Vec3 w, float& x, float& y) const {
+    if (!thin_lens()) return raster_of(w, x, y);
+    const float c = glm::dot(w, forward);
+    if (!(c > 0.f)) return false;
+    const Vec3 to_focus = p + w * (focus_distance / c) - origin;
+    return raster_of(glm::normalize(to_focus), x, y);
+  }
+  // Density per solid angle with which generate_ray (with a uniform jitter over the film) produces direction w
+  // from lens point p (the eye, for a pinhole).
+  float direction_pdf(Vec3 p, Vec3 w) const {
     float x, y;
-    if (!raster_of(w, x, y)) return 0.f;
+    if (!raster_of(p, w, x, y)) return 0.f;
     const float c = glm::dot(w, forward);
     return 1.f / (image_plane_area() * c * c * c);
   }
-  // We(w)·cos θ: the importance times the cosine at the (unit-area) lens, what a connection to the eye carries.
+  // We(w)·cos θ / (the lens point's density per area): what a connection to a uniformly chosen lens point
+  // carries, over dist² (above).
   float importance_cos(Vec3 w) const {
     const float c = glm::dot(w, forward);
     return c > 0.f ? 1.f / (image_plane_area() * c * c * c) : 0.f;

@@ -208,12 +208,6 @@ std::optional<size_t> object_containing(const SceneDesc& s, size_t shape) {
   return static_cast<size_t>(it - 1 - s.objects.begin());
 }
 
-std::string validate_lens_for_estimator(const CameraDesc& c, const RenderSettings& r) {
-  if (c.aperture_radius > 0.0 && r.estimator == Estimator::Bdpt)
-    return "camera.aperture_radius: the bdpt estimator supports only a pinhole camera for now (use mis, or auto)";
-  return {};
-}
-
 std::string validate_normal_maps_for_estimator(const SceneDesc& s, const RenderSettings& r) {
   if (r.estimator != Estimator::Bdpt || !normal_mapped(s)) return {};
   return "render.estimator: the bdpt estimator does not support normal maps for now (use mis, or auto)";
@@ -359,7 +353,6 @@ std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
-  if (std::string err = validate_lens_for_estimator(s.camera, s.render); !err.empty()) return err;
   if (std::string err = validate_normal_maps_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_lights(s); !err.empty()) return err;
@@ -1038,10 +1031,7 @@ std::string validate_edit(const SceneDesc& desc, const SceneEdit& edit) {
                  ".emission: an instanced mesh has this material, and instanced meshes cannot emit light";
     return validate_material(m->material);
   }
-  if (const auto* c = std::get_if<CameraDesc>(&edit)) {
-    if (std::string err = validate_camera(*c); !err.empty()) return err;
-    return validate_lens_for_estimator(*c, desc.render);
-  }
+  if (const auto* c = std::get_if<CameraDesc>(&edit)) return validate_camera(*c);
   if (const auto* f = std::get_if<FilmSize>(&edit)) return validate_film_size(f->width, f->height);
   return validate_environment(std::get<EnvironmentDesc>(edit));
 }

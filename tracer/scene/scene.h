@@ -213,9 +213,6 @@ std::string validate_render_settings(const RenderSettings& render);
 // "" or why a film of width × height cannot be rendered (each side 1 … kMaxFilmSide).
 std::string validate_film_size(int width, int height);
 
-// A thin-lens camera (aperture_radius > 0) with the bdpt estimator: its light-tracing strategies assume a
-// pinhole, so the pair is refused (auto picks mis for such a camera).
-std::string validate_lens_for_estimator(const CameraDesc& camera, const RenderSettings& render);
 // A normal map with the bdpt estimator: refused (auto picks mis for such a scene). bdpt shades a smooth vertex in
 // the frame the path tracer uses, which is bent for the direction towards the eye's side (interaction.h:
 // shading_normal); its light walk samples in the frame bent for the light's direction instead, and where a map
