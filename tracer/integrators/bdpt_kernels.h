@@ -106,14 +106,14 @@ inline RatioStep camera_step(const std::vector<BdptVertex>& camera, int i) {
   }
   return {remap0(rev) / remap0(fwd), !camera[i].delta && !camera[i - 1].delta};
 }
-// Light vertex i, 0 ≤ i < size − 1 (no light is a Dirac: every kind has an extent).
+// Light vertex i, 0 ≤ i < size − 1 (a punctual light, vertex 0, is a Dirac: no camera path reaches it).
 inline RatioStep light_step(const std::vector<BdptVertex>& light, int i) {
   float rev = light[i].pdf_rev, fwd = light[i].pdf_fwd;
   if (light[i].delta) {
     if (!light[i - 1].delta) fwd = projected(fwd, light[i], light[i - 1]);
     if (!light[i + 1].delta) rev = projected(rev, light[i], light[i + 1]);
   }
-  return {remap0(rev) / remap0(fwd), !light[i].delta && !(i > 0 && light[i - 1].delta)};
+  return {remap0(rev) / remap0(fwd), !light[i].delta && !light[i].delta_light && !(i > 0 && light[i - 1].delta)};
 }
 
 // The recursion's sums over the vertices no strategy edits, once per subpath instead of once per strategy. A
@@ -295,7 +295,8 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
   if (is_black(es.Le)) return true;
   BdptVertex v;
   v.kind = VertexKind::Light;
-  v.infinite = l.infinite();
+  v.infinite = l.infinite() || l.kind == LightKind::Directional;
+  v.delta_light = l.delta();
   v.light = li;
   v.it.p = es.p;
   v.it.p_error = es.p_error;
@@ -318,7 +319,7 @@ bool light_subpath(const Scene& s, const Options& o, const Sampler& rng, std::ve
       path[1].pdf_fwd = es.pdf_pos;
       if (path[1].on_surface()) path[1].pdf_fwd *= std::abs(glm::dot(es.d, path[1].it.ng));
     }
-    path[0].pdf_fwd = infinite_lights_origin_pdf(s, -es.d);
+    path[0].pdf_fwd = pdf_light_origin(s, path[0]);
   }
   light_mis_prefix(path);
   return true;
@@ -382,7 +383,7 @@ inline RatioStep camera_end_step(const std::vector<BdptVertex>& camera, const Bd
   return {remap0(pt.pdf_rev) / remap0(pt.pdf_fwd), !camera[nt - 2].delta};
 }
 inline RatioStep light_end_step(const std::vector<BdptVertex>& light, const BdptVertex& qs, int ns) {
-  return {remap0(qs.pdf_rev) / remap0(qs.pdf_fwd), !(ns > 1 && light[ns - 2].delta)};
+  return {remap0(qs.pdf_rev) / remap0(qs.pdf_fwd), !qs.delta_light && !(ns > 1 && light[ns - 2].delta)};
 }
 
 // The power-heuristic weight of strategy (s, t) for the path it made: the strategy's own end vertices and
@@ -471,12 +472,19 @@ Rgb connect_light_sample(const Scene& s, const Options& o, const Sampler& rng, c
     sampled.it.ng = -wi;
     sampled.beta = Le / (pdf * pmf);
   } else {
+    // An area light's point, or a punctual light's Dirac (pdf 1, Le the irradiance's factor: light_sampling.h).
     LightSample ls;
     if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng, pt.it.prim}, u, ls) || is_black(ls.Le)) return Rgb(0.f);
     wi = ls.wi;
-    sampled.it.p = ls.p;
-    sampled.it.ng = area_light_normal(s, l, ls.p);
-    sampled.it.prim = l.prim;
+    sampled.delta_light = l.delta();
+    if (l.kind == LightKind::Directional) {
+      sampled.infinite = true;
+      sampled.it.ng = -wi;
+    } else {
+      sampled.it.p = ls.p;
+      sampled.it.ng = l.delta() ? -wi : area_light_normal(s, l, ls.p);
+      sampled.it.prim = l.prim;
+    }
     sampled.beta = ls.Le / (ls.pdf * pmf);
   }
   sampled.pdf_fwd = pdf_light_origin(s, sampled);

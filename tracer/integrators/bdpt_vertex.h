@@ -20,6 +20,9 @@ struct BdptVertex {
   VertexKind kind = VertexKind::Surface;
   bool delta = false;     // the direction sampled here was specular: no connection may end here
   bool infinite = false;  // a light vertex at infinity: only its direction (it.ng) means anything
+  // A point, spot or directional light's vertex: a Dirac in position or direction, which no ray hits, so no
+  // strategy ends a camera path there (s = 0); a point or spot light has no surface (no cosine at it).
+  bool delta_light = false;
   int32_t light = -1;     // light index of a Light vertex or an emitting surface (Scene::light_of_prim), else −1
   // Position, rounding bound, normal, primitive and material. Area light vertices: the emitting side's normal.
   // Vertices at infinity: it.ng is the direction light travels, into the scene. The camera: p is the eye.
@@ -34,7 +37,9 @@ struct BdptVertex {
   // to the strategy that splits it just after this vertex (bdpt_kernels.h, mis_prefix_sums).
   double mis_prefix = 0.0;
 
-  bool on_surface() const { return kind == VertexKind::Surface || (kind == VertexKind::Light && !infinite); }
+  bool on_surface() const {
+    return kind == VertexKind::Surface || (kind == VertexKind::Light && !infinite && !delta_light);
+  }
   bool emits() const { return kind == VertexKind::Light || light >= 0; }
 };
 
@@ -138,14 +143,18 @@ inline float pdf_light(const Scene& s, const BdptVertex& v, const Link& l, const
     return pdf;
   }
   if (!(l.dist2 > 0.f)) return 0.f;
-  float pdf = area_emission_pdf_dir(s.lights[v.light], v.it.ng, l.w) / l.dist2;
+  const Light& light = s.lights[v.light];
+  float pdf = (v.delta_light ? punctual_emission_pdf_dir(light, l.w) : area_emission_pdf_dir(light, v.it.ng, l.w)) /
+              l.dist2;
   if (to.on_surface()) pdf *= std::abs(glm::dot(to.it.ng, l.w));
   return pdf;
 }
 
 // Density with which a light subpath starts at light vertex v (an emitting surface, or at infinity); `to` is
-// the next vertex towards the camera (pbrt-v3 PdfLightOrigin). Per unit area; per solid angle at infinity.
+// the next vertex towards the camera (pbrt-v3 PdfLightOrigin). Per unit area; per solid angle at infinity; a
+// punctual light's Dirac counts its choice alone.
 inline float pdf_light_origin(const Scene& s, const BdptVertex& v) {
+  if (v.delta_light) return s.light_pmf[v.light];
   if (v.infinite) return infinite_lights_origin_pdf(s, -v.it.ng);
   return s.light_pmf[v.light] / s.lights[v.light].area;
 }

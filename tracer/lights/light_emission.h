@@ -16,6 +16,11 @@
 //   it a sun over a large ground plane (`sky`: a 2·10⁶ wide quad) aimed its light paths at the whole plane, and
 //   almost none ever reached the glass and gold balls: their caustics on the ground were left to camera paths
 //   that hit the sun by chance, as fireflies.
+// - Punctual lights (pbrt-v4 PointLight / SpotLight / DistantLight::SampleLe): a point light at its position
+//   (pdf_pos 1: a Dirac in position) with a direction uniform over the sphere, a spot light with one uniform
+//   in its outer cone (1/(2π(1 − cos_outer))) and Le = I × its falloff; both with n = d (no surface, no
+//   cosine). A directional light: its one direction (pdf_dir 1, a Dirac) and a point on the disks of the
+//   infinite lights, Le = its irradiance E (the power through the disk is E πR²).
 //
 // The same densities serve the MIS weights of every strategy that reaches a light (bdpt_connect.h). The
 // bidirectional estimator's light-sampling strategy (s = 1) samples infinite lights with these direction
@@ -36,6 +41,13 @@ struct EmissionSample {
   float pdf_pos;  // per unit area
   float pdf_dir;  // per unit solid angle
 };
+
+// Direction density of a point or spot light's emission along w (0 outside a spot's outer cone).
+inline float punctual_emission_pdf_dir(const Light& l, Vec3 w) {
+  if (l.kind == LightKind::Spot)
+    return glm::dot(w, l.direction) >= l.cos_outer ? uniform_cone_pdf(1.f - l.cos_outer) : 0.f;
+  return uniform_sphere_pdf();
+}
 
 // Direction density of an area light's emission towards w from a point with front normal n.
 inline float area_emission_pdf_dir(const Light& l, Vec3 n, Vec3 w) {
@@ -108,36 +120,62 @@ inline Vec2 sample_focus_disk(Vec2 u) {
   return {rho * std::cos(phi), rho * std::sin(phi)};
 }
 
+// The point of a light path arriving from infinity along −w (w towards the light), with u_pos: on the disk
+// covering the scene or the focus disk (above); sets es.d, es.n, es.p, es.p_error and es.pdf_pos.
+inline bool sample_emission_disk(const Scene& s, Vec3 w, Vec2 u_pos, EmissionSample& es) {
+  const float r = emission_disk_radius(s);
+  const Frame f = Frame::from_normal(w);
+  es.d = -w;
+  es.n = es.d;
+  es.p_error = Vec3(0.f);
+  // The point on the disk (in the plane through its centre, where the density is evaluated: far out along w
+  // the subtraction in infinite_emission_pdf_pos would round), and the ray's start outside the scene.
+  Vec2 u = u_pos;
+  Vec3 on_disk;
+  if (s.emission_focus_radius > 0.f && u.x < kEmissionFocusShare) {  // the focus disk
+    u.x = std::min(u.x / kEmissionFocusShare, kOneMinusEpsilon);
+    const Vec2 disk = sample_focus_disk(u);
+    const Vec3 c = s.emission_focus_center;
+    on_disk = c + s.emission_focus_radius * (f.s * disk.x + f.t * disk.y);
+    es.p = on_disk + (r + glm::length(c)) * w;  // c is inside the bounding sphere: this starts beyond it
+  } else {
+    if (s.emission_focus_radius > 0.f)
+      u.x = std::min((u.x - kEmissionFocusShare) / (1.f - kEmissionFocusShare), kOneMinusEpsilon);
+    const Vec2 disk = sample_uniform_disk_concentric(u);
+    on_disk = r * (f.s * disk.x + f.t * disk.y);
+    es.p = r * (w + f.s * disk.x + f.t * disk.y);  // as before the focus existed: the same bits without one
+  }
+  es.pdf_pos = infinite_emission_pdf_pos(s, es.d, on_disk);
+  return es.pdf_pos > 0.f && std::isfinite(es.pdf_pos);
+}
+
 // Samples light l's emission with u_pos (the point) and u_dir (the direction). False when nothing usable came out.
 template <uint32_t F = kAllFeatures>
 inline bool sample_emission(const Scene& s, const Light& l, Vec2 u_pos, Vec2 u_dir, EmissionSample& es) {
   if (l.infinite()) {
     Vec3 w;
     if (!sample_infinite_light_direction(s, l, u_dir, w, es.Le, es.pdf_dir)) return false;
-    const float r = emission_disk_radius(s);
-    const Frame f = Frame::from_normal(w);
-    es.d = -w;
-    es.n = es.d;
+    return sample_emission_disk(s, w, u_pos, es);
+  }
+  if (l.kind == LightKind::Directional) {
+    es.Le = l.emission;
+    es.pdf_dir = 1.f;
+    return sample_emission_disk(s, l.direction, u_pos, es);
+  }
+  if (l.kind == LightKind::Point || l.kind == LightKind::Spot) {
+    es.p = l.position;
     es.p_error = Vec3(0.f);
-    // The point on the disk (in the plane through its centre, where the density is evaluated: far out along w
-    // the subtraction in infinite_emission_pdf_pos would round), and the ray's start outside the scene.
-    Vec2 u = u_pos;
-    Vec3 on_disk;
-    if (s.emission_focus_radius > 0.f && u.x < kEmissionFocusShare) {  // the focus disk
-      u.x = std::min(u.x / kEmissionFocusShare, kOneMinusEpsilon);
-      const Vec2 disk = sample_focus_disk(u);
-      const Vec3 c = s.emission_focus_center;
-      on_disk = c + s.emission_focus_radius * (f.s * disk.x + f.t * disk.y);
-      es.p = on_disk + (r + glm::length(c)) * w;  // c is inside the bounding sphere: this starts beyond it
+    es.pdf_pos = 1.f;
+    if (l.kind == LightKind::Spot) {
+      es.d = Frame::from_normal(l.direction).to_world(sample_uniform_cone(u_dir, 1.f - l.cos_outer));
+      es.Le = l.emission * spot_falloff(l, glm::dot(es.d, l.direction));
     } else {
-      if (s.emission_focus_radius > 0.f)
-        u.x = std::min((u.x - kEmissionFocusShare) / (1.f - kEmissionFocusShare), kOneMinusEpsilon);
-      const Vec2 disk = sample_uniform_disk_concentric(u);
-      on_disk = r * (f.s * disk.x + f.t * disk.y);
-      es.p = r * (w + f.s * disk.x + f.t * disk.y);  // as before the focus existed: the same bits without one
+      es.d = sample_uniform_sphere(u_dir);
+      es.Le = l.emission;
     }
-    es.pdf_pos = infinite_emission_pdf_pos(s, es.d, on_disk);
-    return es.pdf_pos > 0.f && std::isfinite(es.pdf_pos);
+    es.n = es.d;
+    es.pdf_dir = punctual_emission_pdf_dir(l, es.d);
+    return es.pdf_dir > 0.f;
   }
   if (l.kind == LightKind::Sphere) {
     if constexpr ((F & kFeatureSpheres) == 0) return false;

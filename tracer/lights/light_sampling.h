@@ -40,6 +40,14 @@ struct LightReference {
   uint32_t prim = kNoPrimitive;  // the receiver's primitive: a planar light does not light its own surface
 };
 
+// A spot light's falloff at cos_axis, the cosine between its axis and the direction it shines along: glTF's
+// (KHR_lights_punctual, "Inner and Outer Cone Angles"), t = clamp((cos θ − cos_outer)/(cos_inner − cos_outer),
+// 0, 1), intensity × t².
+inline float spot_falloff(const Light& l, float cos_axis) {
+  const float t = std::clamp((cos_axis - l.cos_outer) / std::max(l.cos_inner - l.cos_outer, 1e-3f), 0.f, 1.f);
+  return t * t;
+}
+
 [[gnu::always_inline]] inline int choose_light(const Scene& s, float u) {
   const auto it = std::upper_bound(s.light_cdf.begin(), s.light_cdf.end(), u);
   return static_cast<int>(std::min<size_t>(it - s.light_cdf.begin(), s.light_cdf.size() - 1));
@@ -194,9 +202,7 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
     case LightKind::Point:
     case LightKind::Spot: {
       // A Dirac in direction: the "radiance" times the cosine over the pdf must give the irradiance I·cos/d², so
-      // Le carries I/d² and pdf is 1 (pbrt-v4's PointLight::SampleLi). The spot's falloff is glTF's
-      // (KHR_lights_punctual, "Inner and Outer Cone Angles"): t = clamp((cos θ − cos_outer)/(cos_inner −
-      // cos_outer), 0, 1), intensity × t².
+      // Le carries I/d² and pdf is 1 (pbrt-v4's PointLight::SampleLi); a spot's falloff multiplies it.
       ls.p = l.position;
       const Vec3 d = l.position - ref.p;
       const float dist2 = glm::dot(d, d);
@@ -204,11 +210,7 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       ls.dist = std::sqrt(dist2);
       ls.wi = d / ls.dist;
       float scale = 1.f / dist2;
-      if (l.kind == LightKind::Spot) {
-        const float c = glm::dot(-ls.wi, l.direction);
-        const float t = std::clamp((c - l.cos_outer) / std::max(l.cos_inner - l.cos_outer, 1e-3f), 0.f, 1.f);
-        scale *= t * t;
-      }
+      if (l.kind == LightKind::Spot) scale *= spot_falloff(l, glm::dot(-ls.wi, l.direction));
       ls.Le = l.emission * scale;
       ls.pdf = 1.f;
       ls.delta = true;

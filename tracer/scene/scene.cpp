@@ -222,10 +222,7 @@ std::string validate_punctual_for_estimator(const SceneDesc& s, const RenderSett
   if (s.punctual_lights.empty()) return {};
   if (r.estimator == Estimator::Uniform || r.estimator == Estimator::Cosine)
     return std::string("render.estimator: ") + to_string(r.estimator) +
-           " cannot reach point, spot or directional lights (no ray hits a light of no size): use nee, mis or auto";
-  if (r.estimator == Estimator::Bdpt)
-    return "render.estimator: the bdpt estimator does not support point, spot or directional lights for now (use mis, "
-           "or auto)";
+           " cannot reach point, spot or directional lights (no ray hits a light of no size): use nee, mis, bdpt or auto";
   return {};
 }
 

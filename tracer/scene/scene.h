@@ -223,7 +223,7 @@ std::string validate_normal_maps_for_estimator(const SceneDesc& scene, const Ren
 // Some material has a normal map.
 bool normal_mapped(const SceneDesc& scene);
 // Punctual lights (glTF's point, spot and directional lights) with an estimator that does not sample lights
-// (uniform, cosine: no ray can hit a light of no size) or with bdpt (not supported yet): refused.
+// (uniform, cosine: no ray can hit a light of no size): refused.
 std::string validate_punctual_for_estimator(const SceneDesc& scene, const RenderSettings& render);
 // At most this many triangles placed by instances (their ids follow the scene's own primitives' in 32 bits).
 inline constexpr size_t kMaxInstancedTriangles = size_t{1} << 31;
