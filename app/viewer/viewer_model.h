@@ -99,7 +99,7 @@ class ViewerModel {
   void apply_input(const ViewInput& input, double seconds);
   void set_fov(double fov_deg);
   // Depth of field (a view, like the camera's moves): the lens radius and the focus distance along the view
-  // direction (0: the target's). Refused with a status while the estimator is bdpt (pinhole only).
+  // direction (0: the target's). A negative or non-finite radius is refused with a status.
   bool set_lens(double aperture_radius, double focus_distance);
   // Focuses on the surface under image point (x, y) (Alt+click): its distance along the view direction.
   bool focus_at(double x, double y);

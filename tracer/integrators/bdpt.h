@@ -5,8 +5,9 @@
 // - s = 0: the camera subpath found a light by itself (through specular vertices only, E S+ L: summed over
 //   both lobes of every glass vertex instead, specular_chain_emission in bdpt_kernels.h);
 // - s = 1: a light sampled from a camera vertex (next-event estimation, lights/light_sampling.h);
-// - t = 1: a light-subpath vertex joined to the eye (light tracing): its contribution lands on whatever pixel
-//   the eye sees the vertex through, a "splat", which the renderer adds after the pass (render/renderer.h);
+// - t = 1: a light-subpath vertex joined to the eye, or to a point of a thin lens (light tracing): its
+//   contribution lands on whatever pixel sees the vertex, a "splat", which the renderer adds after the pass
+//   (render/renderer.h);
 // - s, t ≥ 2: the two subpaths' end vertices joined by a shadow ray;
 // - manifold: at a camera vertex that no connection can serve (seen through or in a smooth sphere or mirror),
 //   next-event estimation through a smooth sphere, the specular path to a light point solved for

@@ -25,7 +25,8 @@ struct BdptVertex {
   bool delta_light = false;
   int32_t light = -1;     // light index of a Light vertex or an emitting surface (Scene::light_of_prim), else −1
   // Position, rounding bound, normal, primitive and material. Area light vertices: the emitting side's normal.
-  // Vertices at infinity: it.ng is the direction light travels, into the scene. The camera: p is the eye.
+  // Vertices at infinity: it.ng is the direction light travels, into the scene. The camera: p is the eye, or the
+  // point of a thin lens the subpath left from (or light tracing joined).
   Interaction it{};
   // A surface vertex's material as its textures make it there (material_at.h), held by BdptScratch; null for
   // the camera, lights, and vertices made before their material was looked up (then Scene::materials's).
@@ -150,9 +151,8 @@ inline float pdf_light(const Scene& s, const BdptVertex& v, const Link& l, const
   return pdf;
 }
 
-// Density with which a light subpath starts at light vertex v (an emitting surface, or at infinity); `to` is
-// the next vertex towards the camera (pbrt-v3 PdfLightOrigin). Per unit area; per solid angle at infinity; a
-// punctual light's Dirac counts its choice alone.
+// Density with which a light subpath starts at light vertex v (an emitting surface, or at infinity; pbrt-v3
+// PdfLightOrigin). Per unit area; per solid angle at infinity; a punctual light's Dirac counts its choice alone.
 inline float pdf_light_origin(const Scene& s, const BdptVertex& v) {
   if (v.delta_light) return s.light_pmf[v.light];
   if (v.infinite) return infinite_lights_origin_pdf(s, -v.it.ng);

@@ -1,4 +1,4 @@
-// Emission sampling: where light paths start (bidirectional path tracing, integrators/bdpt_subpaths.h). A point
+// Emission sampling: where light paths start (bidirectional path tracing, integrators/bdpt_kernels.h). A point
 // on a light and a direction leaving it, with both densities, as pbrt-v3's Light::Sample_Le / Pdf_Le (§12.3,
 // §16.1.2). light_sampling.h samples lights as seen from a receiver; this file samples them as sources.
 //
@@ -22,7 +22,7 @@
 //   cosine). A directional light: its one direction (pdf_dir 1, a Dirac) and a point on the disks of the
 //   infinite lights, Le = its irradiance E (the power through the disk is E πR²).
 //
-// The same densities serve the MIS weights of every strategy that reaches a light (bdpt_connect.h). The
+// The same densities serve the MIS weights of every strategy that reaches a light (bdpt_vertex.h). The
 // bidirectional estimator's light-sampling strategy (s = 1) samples infinite lights with these direction
 // densities too, rather than sample_li's cosine lobe for a constant environment: a strategy's MIS density must
 // be non-zero wherever the strategy can sample, and a cosine lobe about one side's normal cannot sample the
@@ -35,7 +35,8 @@ namespace pt {
 struct EmissionSample {
   Vec3 p;         // origin of the emitted ray (camera-relative); on the disk outside the scene for infinite lights
   Vec3 p_error;   // bound on p's rounding error (area lights; zero for infinite lights)
-  Vec3 n;         // unit normal at p on the emitting side (area lights); the ray direction for infinite lights
+  Vec3 n;         // unit normal at p on the emitting side (area lights); the ray direction for infinite and
+                  // punctual lights (no surface: no cosine)
   Vec3 d;         // unit direction of the emitted ray
   Rgb Le;         // radiance along d
   float pdf_pos;  // per unit area

@@ -22,8 +22,7 @@ PixelRect tile_rect(int tile, int tiles_x, const PixelRect& area) {
 // The camera ray of pixel (x, y) for the sample `sampler` draws: jittered within the pixel (and through a point
 // of the lens, with a thin lens: 2D dimension `lens_dimension`, which the estimator's layout names).
 template <class Sampler>
-Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y,
-               uint32_t lens_dimension = SampleDimensions::kLens) {
+Ray camera_ray(const Scene& scene, const Sampler& sampler, int x, int y, uint32_t lens_dimension) {
   static_assert(SampleDimensions::kCameraJitter == BdptDimensions::kCameraJitter);
   const Vec2 jitter = sampler.get_2d(SampleDimensions::kCameraJitter);
   const Vec2 lens = scene.camera.thin_lens() ? sampler.get_2d(lens_dimension) : Vec2(0.5f);
@@ -47,7 +46,7 @@ bool render_tile_scalar(RadianceKernel<Sampler> radiance, const Scene& scene, co
         const uint32_t index = film.next_sample_index(pixel);
         Sampler sampler(pixel, index, settings.seed);
         PixelFeatures f;
-        const Rgb L = radiance(scene, settings, camera_ray(scene, sampler, x, y), sampler, count,
+        const Rgb L = radiance(scene, settings, camera_ray(scene, sampler, x, y, SampleDimensions::kLens), sampler, count,
                                features ? &f : nullptr, cancel);
         if (cancel && cancel->load(std::memory_order_relaxed)) return false;
         film.note_attempt(pixel);
@@ -91,10 +90,10 @@ bool render_tile_wavefront(BatchKernel<Sampler> batch, const Scene& scene, const
       for (int j = 0, y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x, ++j)
           rays[j] = camera_ray(scene, SamplerWithPoints<Sampler>{samplers[j], SampleDimensions::kCameraJitter,
-                                                                 jitter[j]}, x, y);
+                                                                 jitter[j]}, x, y, SampleDimensions::kLens);
     } else {
       for (int j = 0, y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x, ++j) rays[j] = camera_ray(scene, samplers[j], x, y);
+        for (int x = x0; x < x1; ++x, ++j) rays[j] = camera_ray(scene, samplers[j], x, y, SampleDimensions::kLens);
     }
     if (!batch(scene, settings, samplers, rays, n, L, features ? f : nullptr, count, cancel)) return false;
     n = 0;
