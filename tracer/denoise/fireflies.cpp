@@ -36,7 +36,19 @@ std::vector<float> spread_fireflies(int w, int h, const FireflySettings& st, std
   // The cuts, row by row (each row's task writes only its own list and its own pixels).
   struct Cut {
     int x;
-    float excess[3];
+    float excess[3];  // divided by the bump's sum over the cut's in-image window (its normalisation, once)
+  };
+  // The spread's bump (below) and its sum over the part of a window around p that lies in [0, size).
+  const int R = st.radius;
+  std::vector<float> bump(static_cast<size_t>(2 * R + 1));
+  for (int d = -R; d <= R; ++d) {
+    const float t = static_cast<float>(d) / static_cast<float>(R + 1);
+    bump[static_cast<size_t>(d + R)] = sqr(1.f - t * t);
+  }
+  const auto bump_sum = [&](int p, int size) {
+    float sum = 0.f;
+    for (int q = std::max(p - R, 0); q <= std::min(p + R, size - 1); ++q) sum += bump[static_cast<size_t>(q - p + R)];
+    return sum;
   };
   std::vector<std::vector<Cut>> cuts(static_cast<size_t>(h));
   pool.parallel_for(h, [&](int y, int) {
@@ -58,8 +70,9 @@ std::vector<float> spread_fireflies(int w, int h, const FireflySettings& st, std
       if (!(l > limit)) continue;
       const float keep = limit / l;
       Cut cut{x, {}};
+      const float norm = 1.f / (bump_sum(x, w) * bump_sum(y, h));
       for (int c = 0; c < 3; ++c) {
-        cut.excess[c] = radiance[3 * i + c] * (1.f - keep);
+        cut.excess[c] = radiance[3 * i + c] * (1.f - keep) * norm;
         radiance[3 * i + c] *= keep;
       }
       cuts[static_cast<size_t>(y)].push_back(cut);
@@ -68,30 +81,18 @@ std::vector<float> spread_fireflies(int w, int h, const FireflySettings& st, std
   size_t count = 0;
   for (const auto& row : cuts) count += row.size();
   if (count == 0) return {};
-  // Each cut's excess is spread with a smooth bump, k(dx)·k(dy) over the (2R+1)² window, k(d) = (1 − (d/(R+1))²)²
+  // Each cut's excess is spread with the smooth bump k(dx)·k(dy) over the (2R+1)² window, k(d) = (1 − (d/(R+1))²)²
   // (the biweight), normalised over the window's in-image pixels. A box over half that radius (the first version)
   // drew each cut as a square: where fireflies are dense (a glass mesh's light-traced caustics on the walls at a
   // few samples per pixel) the viewer showed a mosaic of squares; the bump over the same half radius, distinct
-  // round spots (docs/denoising.md). Output rows run in parallel, each gathering the cuts of the rows within R of it (a firefly is rare:
-  // a few thousand at 512², 16 spp, against 2.6·10⁵ pixels).
-  const int R = st.radius;
-  std::vector<float> bump(static_cast<size_t>(2 * R + 1));
-  for (int d = -R; d <= R; ++d) {
-    const float t = static_cast<float>(d) / static_cast<float>(R + 1);
-    bump[static_cast<size_t>(d + R)] = sqr(1.f - t * t);
-  }
-  // Σ k over the part of the window around p that lies in [0, size).
-  const auto bump_sum = [&](int p, int size) {
-    float sum = 0.f;
-    for (int q = std::max(p - R, 0); q <= std::min(p + R, size - 1); ++q) sum += bump[static_cast<size_t>(q - p + R)];
-    return sum;
-  };
+  // round spots (docs/denoising.md). Output rows run in parallel, each gathering the cuts of the rows within R of
+  // it (a firefly is rare: a few thousand at 512², 16 spp, against 2.6·10⁵ pixels).
   std::vector<float> spread(3 * n, 0.f);
   pool.parallel_for(h, [&](int y, int) {
     float* out = &spread[3 * at(0, y)];
     for (int sy = std::max(y - R, 0); sy <= std::min(y + R, h - 1); ++sy)
       for (const Cut& cut : cuts[static_cast<size_t>(sy)]) {
-        const float row_share = bump[static_cast<size_t>(y - sy + R)] / (bump_sum(cut.x, w) * bump_sum(sy, h));
+        const float row_share = bump[static_cast<size_t>(y - sy + R)];
         for (int x = std::max(cut.x - R, 0); x <= std::min(cut.x + R, w - 1); ++x) {
           const float share = row_share * bump[static_cast<size_t>(x - cut.x + R)];
           for (int c = 0; c < 3; ++c) out[3 * x + c] += cut.excess[c] * share;

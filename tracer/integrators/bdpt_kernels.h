@@ -2,8 +2,6 @@
 // their MIS weights. Notation after pbrt-v3 §16.3 (GenerateCameraSubpath, GenerateLightSubpath, RandomWalk,
 // ConnectBDPT, MISWeight); bdpt.cpp instantiates it per sampler.
 #pragma once
-#include <algorithm>
-
 #include "integrators/bdpt.h"
 
 #include "geometry/scene_queries.h"
@@ -20,10 +18,7 @@ struct Options {
   Options(const Scene& s, const RenderSettings& r)
       : max_bounces(std::min(r.max_bounces, kMaxBdptBounces)),  // validated; the clamp guards memory
         // A directional light starts its paths on the infinite lights' disks: the same case as the sun.
-        rr_depth(roulette_depth(r.russian_roulette_depth, true,
-                                !s.infinite_lights.empty() ||
-                                    std::any_of(s.lights.begin(), s.lights.end(),
-                                                [](const Light& l) { return l.kind == LightKind::Directional; }))),
+        rr_depth(roulette_depth(r.russian_roulette_depth, true, !s.infinite_lights.empty() || s.directional_lights)),
         only_s(r.bdpt_only.s),
         only_t(r.bdpt_only.t),
         has_lights(!s.lights.empty()),

@@ -753,6 +753,7 @@ void compile_lights(Scene& s) {
   s.light_pmf.clear();
   s.light_cdf.clear();
   s.infinite_lights.clear();
+  s.directional_lights = false;
   s.features.emissive_spheres = false;
   // Every primitive whose material emits. Selection ∝ emitted power = π·A·mean(Le)·(sides).
   s.light_of_prim.assign(s.primitive_count(), -1);
@@ -827,6 +828,7 @@ void compile_lights(Scene& s) {
     else p = disk * sum;
     if (!(p > 0.0)) continue;
     s.lights.push_back(l);
+    s.directional_lights = s.directional_lights || l.kind == LightKind::Directional;
     power.push_back(p);
   }
   double total = 0.0;

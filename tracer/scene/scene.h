@@ -98,6 +98,7 @@ class Scene : public SceneGeometry {
   std::vector<float> light_pmf;
   std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
   std::vector<Light> punctual_lights;     // compiled from SceneDesc::punctual_lights; compile_lights adds them
+  bool directional_lights = false;        // some light of `lights` is a Directional one (starts paths as the sun)
   double bounding_radius = 0.0;        // of a sphere around all geometry (centred at the camera)
   // Where infinite lights aim half of their light paths (lights/light_emission.h): a sphere around every surface
   // with a glossy or specular lobe (what can focus light into a caustic) and every instanced mesh; radius 0 when
