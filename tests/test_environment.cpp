@@ -177,6 +177,40 @@ TEST_CASE("environment: Distribution1D falls back to uniform for all-zero or inv
   CHECK(pdf == 1.f);
 }
 
+// The guide table (distribution.h) must find the binary search's cell for every u, also at the guide's interval
+// edges k/n, where u·n rounds up into the next interval for the u just below (32 of the 299 inner edges for n =
+// 300; uniform weights put cdf edges exactly there: without the step back the walk returns the next cell), and
+// across runs of zero-weight cells
+// and weights 30 orders of magnitude apart (a long forward walk).
+TEST_CASE("environment: Distribution1D's guide table picks the binary search's cell for every u") {
+  std::vector<std::vector<float>> cases = {
+      {1.f}, {1.f, 1.f}, {1.f, 1.f, 1.f}, std::vector<float>(100, 1.f), std::vector<float>(300, 1.f),
+      std::vector<float>(512, 1.f), std::vector<float>(300, 0.f),
+      {0.f, 1.f, 3.f, 0.f, 0.f, 2.f, 5.f, 0.5f, 0.f}, {1e-30f, 1e-30f, 1.f, 1e-30f, 0.f, 0.f, 0.f, 1e-30f}};
+  Pcg32 gen(3, 7);
+  std::vector<float> random(300);
+  for (float& w : random) w = gen.next_float() < 0.3f ? 0.f : std::exp(30.f * gen.next_float() - 15.f);
+  cases.push_back(random);
+  int checked = 0, differ = 0;
+  for (const auto& w : cases) {
+    const Distribution1D d(w);
+    const int n = static_cast<int>(w.size());
+    std::vector<float> us = {0.f, kOneMinusEpsilon};
+    for (int k = 0; k <= n; ++k) {
+      const float edge = static_cast<float>(static_cast<double>(k) / n);
+      for (float u = std::nextafter(edge, 0.f), i = 0; i < 3; ++i, u = std::nextafter(u, 1.f)) us.push_back(u);
+    }
+    for (int i = 0; i < 20000; ++i) us.push_back(gen.next_float());
+    for (const float u : us) {
+      if (!(u >= 0.f && u < 1.f)) continue;
+      ++checked;
+      if (d.sample_discrete(u) != d.search_cell(u)) ++differ;
+    }
+  }
+  CHECK(checked > 160000);
+  CHECK(differ == 0);
+}
+
 TEST_CASE("environment: Distribution2D samples its weights (chi-square), skips zero rows and columns") {
   const int nu = 7, nv = 5, sub = 2, N = 300000;
   std::vector<float> w(static_cast<size_t>(nu * nv));

@@ -55,6 +55,11 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   }
   power_ = power * scale;
   distribution_ = Distribution2D(weights, W, H);
+  texel_.resize(static_cast<size_t>(W) * H);
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i)
+      texel_[static_cast<size_t>(j) * W + i] =
+          Vec4(scale_ * image_.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)]);
 }
 
 void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
@@ -63,23 +68,20 @@ void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
   j = Distribution1D::cell_of(uv.y, image_.height);
 }
 
-Rgb EnvironmentMap::eval(Vec3 dir) const {
+const Vec4& EnvironmentMap::texel(Vec3 dir) const {
   int i, j;
   texel_of(world_to_map(dir), i, j);
-  return scale_ * image_.at(i, j);
+  return texel_[static_cast<size_t>(j) * static_cast<size_t>(image_.width) + static_cast<size_t>(i)];
 }
 
-float EnvironmentMap::pdf(Vec3 dir) const {
-  int i, j;
-  texel_of(world_to_map(dir), i, j);
-  return distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)];
-}
+Rgb EnvironmentMap::eval(Vec3 dir) const { return Rgb(texel(dir)); }
+
+float EnvironmentMap::pdf(Vec3 dir) const { return texel(dir).w; }
 
 Rgb EnvironmentMap::eval(Vec3 dir, float& pdf_out) const {
-  int i, j;
-  texel_of(world_to_map(dir), i, j);
-  pdf_out = distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)];
-  return scale_ * image_.at(i, j);
+  const Vec4& t = texel(dir);
+  pdf_out = t.w;
+  return Rgb(t);
 }
 
 bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
