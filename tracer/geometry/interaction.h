@@ -50,10 +50,14 @@ struct Interaction {
 inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 3>& uv, const Vec3 v[3], float b0,
                            float b1, float b2, const std::array<Vec3, 2>& dual, Interaction& it,
                            const std::array<Vec4, 3>* tangent = nullptr) {
+  // A face without vertex normals, in a scene whose other faces have some, carries its own normal three times
+  // (scene.cpp): it stays exactly flat, ns = ng and no lift. Interpolated and normalised, that normal came out an
+  // ulp off ng, and bdpt took such a wall for a smooth surface (smooth_vertex), with its bent frames and adjoint.
+  const bool flat = n[0] == it.ng && n[1] == it.ng && n[2] == it.ng;
   const Vec3 sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
   const float len2 = glm::dot(sum, sum);
   const float side = glm::dot(sum, it.ng) < 0.f ? -1.f : 1.f;
-  if (len2 > 1e-12f) it.ns = sum * (side / std::sqrt(len2));
+  if (len2 > 1e-12f && !flat) it.ns = sum * (side / std::sqrt(len2));
   if (tangent) {
     const std::array<Vec4, 3>& t = *tangent;
     const Vec4 mix = b0 * t[0] + b1 * t[1] + b2 * t[2];
@@ -64,6 +68,7 @@ inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 
   const Vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
   it.du_dp = e1.x * dual[0] + e2.x * dual[1];
   it.dv_dp = e1.y * dual[0] + e2.y * dual[1];
+  if (flat) return;
   const float b[3] = {b0, b1, b2};
   Vec3 lift(0.f);
   for (int k = 0; k < 3; ++k) {
