@@ -133,7 +133,6 @@ bool ViewerModel::set_emission(size_t index, Rgb colour, float strength) {
 
 bool ViewerModel::set_render(const RenderSettings& render) {
   std::string err = validate_render_settings(render);
-  if (err.empty()) err = validate_normal_maps_for_estimator(scene_, render);
   if (err.empty()) err = validate_punctual_for_estimator(scene_, render);
   if (!err.empty()) {
     set_status("not applied: " + err, true);

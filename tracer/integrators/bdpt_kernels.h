@@ -185,7 +185,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     BdptVertex& v = path.emplace_back();
     v.it = make_interaction<F>(s, ray, h);
     cone_width += cone_spread * h.t;
-    v.material = &material_at<kM>(s, v.it, ray.d, cone_width, materials[prev + 1]);  // may bend it.ns
+    // May bend it.ns: by a normal map read at its finest level on both walks (material_at.h, NormalLookup).
+    v.material = &material_at<kM>(s, v.it, ray.d, cone_width, materials[prev + 1], NormalLookup::Finest);
     v.wo = -ray.d;
     v.beta = beta;
     v.light = s.light_of(v.it.prim);
@@ -208,7 +209,19 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
     const Vec2 u = rng.get_2d(light_subpath ? o.dims.light_direction(bounce) : o.dims.camera_direction(bounce));
     BsdfSample bs;
     const TransportMode mode = light_subpath ? TransportMode::Importance : TransportMode::Radiance;
-    if (!bsdf_sample<kM>(m, wo, uc, u, bs, mode) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
+    // The light walk's defensive mixture at a smooth vertex (bdpt_vertex.h): the lobe-choice number picks the
+    // uniform direction below kLightWalkUniform and is stretched over the BSDF's choice above it.
+    const bool mixes = light_subpath && smooth && light_walk_mixes(v, m);
+    if (mixes && uc < kLightWalkUniform) {
+      bs.wi = sample_uniform_sphere(u);
+      bs.flags = BsdfFlags::Diffuse | (bs.wi.z * wo.z > 0.f ? BsdfFlags::Reflection : BsdfFlags::Transmission);
+      bs.pdf = light_walk_pdf(bsdf_pdf<kM>(m, wo, bs.wi));
+      if (bs.wi.z == 0.f) return true;
+    } else {
+      if (mixes) uc = std::min((uc - kLightWalkUniform) / (1.f - kLightWalkUniform), kOneMinusEpsilon);
+      if (!bsdf_sample<kM>(m, wo, uc, u, bs, mode) || !(bs.pdf > 0.f) || bs.wi.z == 0.f) return true;
+      if (mixes) bs.pdf = is_specular(bs.flags) ? (1.f - kLightWalkUniform) * bs.pdf : light_walk_pdf(bs.pdf);
+    }
     if (first_split && split->forced_uc < 0.f && is_specular(bs.flags) && only_specular(bsdf_flags<kM>(m)))
       find_other_lobe<kM>(m, wo, u, bs, *split);
     Rgb f = bs.f;
@@ -231,6 +244,8 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       const Vec3 wi_b = back.to_local(wi), wo_b = back.to_local(v.wo);
       pdf_dir = bs.pdf;
       pdf_rev = bsdf_pdf<kM>(m, wi_b, wo_b);
+      // The camera walk's reverse density is the light walk's, arriving from wi: its mixture.
+      if (!light_subpath && light_walk_mixes(v, m)) pdf_rev = light_walk_pdf(pdf_rev);
       if (light_subpath) {
         // f_sn(wi, wo)·|wi·n_g| / |wi·n_s|, so that the product below is f_sn·|wi·n_g|/pdf.
         const float den = std::abs(glm::dot(v.wo, v.it.ng)) * std::abs(bs.wi.z);
@@ -368,12 +383,13 @@ float with_strategy_edits(const Scene& s, std::vector<BdptVertex>& light, std::v
   const Link p_to_q = pt && qs ? link(*pt, *qs) : Link{}, q_to_p = reversed(p_to_q);
   const Link p_to_pm = pt_minus ? link(*pt, *pt_minus) : Link{}, q_to_qm = qs_minus ? link(*qs, *qs_minus) : Link{};
   Scoped<float> a4, a5, a6, a7;
-  if (pt) a4.set(&pt->pdf_rev, ns > 0 ? pdf_at(s, *qs, &q_to_qm, q_to_p, *pt) : pdf_light_origin(s, *pt));
+  // The light walk goes on from qs to pt and from pt to pt_minus; the camera walk from pt to qs and on to qs_minus.
+  if (pt) a4.set(&pt->pdf_rev, ns > 0 ? pdf_at(s, *qs, &q_to_qm, q_to_p, *pt, true) : pdf_light_origin(s, *pt));
   if (pt_minus)
     a5.set(&pt_minus->pdf_rev,
-           ns > 0 ? pdf_at(s, *pt, &p_to_q, p_to_pm, *pt_minus) : pdf_light(s, *pt, p_to_pm, *pt_minus));
-  if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, &p_to_pm, p_to_q, *qs));
-  if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, &q_to_p, q_to_qm, *qs_minus));
+           ns > 0 ? pdf_at(s, *pt, &p_to_q, p_to_pm, *pt_minus, true) : pdf_light(s, *pt, p_to_pm, *pt_minus));
+  if (qs) a6.set(&qs->pdf_rev, pdf_at(s, *pt, &p_to_pm, p_to_q, *qs, false));
+  if (qs_minus) a7.set(&qs_minus->pdf_rev, pdf_at(s, *qs, &q_to_p, q_to_qm, *qs_minus, false));
   return weigh(static_cast<const BdptVertex*>(pt), static_cast<const BdptVertex*>(qs));
 }
 
@@ -615,7 +631,8 @@ Rgb specular_chain_emission(const Scene& s, const Options& o, const Sampler& rng
       next.beta = beta;
       next.bounce = b.bounce + 1;
       next.cone_width = b.cone_width + spread * h.t;
-      const Material& mv = material_at<MaterialSet::Any>(s, next.it, ray.d, next.cone_width, next.resolved);
+      const Material& mv =
+          material_at<MaterialSet::Any>(s, next.it, ray.d, next.cone_width, next.resolved, NormalLookup::Finest);
       next.textured = &mv != &s.materials[next.it.material];
       v.it = next.it;
       v.wo = -ray.d;

@@ -110,6 +110,25 @@ inline Vec3 leaving_origin(const Interaction& it, Vec3 w, float local_z) {
   return it.ns != it.ng ? offset_ray_origin(it, local_z < 0.f) : offset_ray_origin(it, w);
 }
 
+// The light walk's defensive sampling at a smooth vertex. The measurement shades it in the frame bent for the eye's
+// direction w_eye, which the light walk, sampling w_eye, cannot know: it samples in the frame bent for the
+// light's direction. Where a map tilts the normal far from the surface's the two frames differ, and some w_eye
+// the measurement lights lie below the sampling frame's horizon, which the light walk then never draws: light
+// tracing alone missed them (a 30° normal map: (3, 1) off (1, 3) by |z| 7.8) and the MIS weights, which take its
+// density as the strategy's, no longer summed to one over the strategies that make a path (the whole estimator
+// off mis by |z| 5.8). So at a smooth vertex whose material has a non-specular lobe the light walk draws a
+// direction uniform over the sphere with probability kLightWalkUniform instead (Hesterberg's defensive mixture,
+// 1995; Owen and Zhou 2000): its density (light_walk_pdf) is positive wherever the measurement is. Flat vertices
+// keep the BSDF's own sampling, bit for bit; the camera walk samples in the measurement's own frame and needs none.
+inline constexpr float kLightWalkUniform = 0.1f;
+inline bool light_walk_mixes(const BdptVertex& v, const Material& m) {
+  return smooth_vertex(v) && has_non_specular(bsdf_flags(m));
+}
+// The light walk's density at such a vertex of a direction the BSDF's sampling gives density `bsdf_pdf`.
+inline float light_walk_pdf(float bsdf_pdf) {
+  return (1.f - kLightWalkUniform) * bsdf_pdf + kLightWalkUniform * kInv4Pi;
+}
+
 // BSDF value at surface vertex v towards `next`, for light flowing along the path. v on the camera subpath:
 // light arrives from `next`, leaves towards v.wo; on the light subpath the other way round. At a smooth vertex
 // f_sn above.
@@ -174,17 +193,20 @@ inline Rgb emitted(const Scene& s, const BdptVertex& v) {
 }
 
 // Density per unit area at `next` with which vertex v samples it, v having been reached from `prev` (pbrt-v3
-// Vertex::Pdf). The links from v are passed in (mis_weight computes each once): to_next = link(v, next),
-// to_prev = link(v, prev), unused (and may be null) for the camera and for lights.
+// Vertex::Pdf), by the light walk (`light_walk`: prev is on the light's side) or the camera walk. The links from v
+// are passed in (mis_weight computes each once): to_next = link(v, next), to_prev = link(v, prev), unused (and may
+// be null) for the camera and for lights.
 inline float pdf_at(const Scene& s, const BdptVertex& v, const Link* to_prev, const Link& to_next,
-                    const BdptVertex& next) {
+                    const BdptVertex& next, bool light_walk) {
   if (v.kind == VertexKind::Light) return pdf_light(s, v, to_next, next);
   float pdf;
   if (v.kind == VertexKind::Camera) {
     pdf = s.camera.direction_pdf(v.it.p, to_next.w);
   } else {
     const Frame frame = walk_frame(v, to_prev->w);
-    pdf = bsdf_pdf(material_of(s, v), frame.to_local(to_prev->w), frame.to_local(to_next.w));
+    const Material& m = material_of(s, v);
+    pdf = bsdf_pdf(m, frame.to_local(to_prev->w), frame.to_local(to_next.w));
+    if (light_walk && light_walk_mixes(v, m)) pdf = light_walk_pdf(pdf);
   }
   return to_area_density(pdf, to_next, v, next);
 }

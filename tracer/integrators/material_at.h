@@ -48,9 +48,14 @@ static_assert(std::is_trivially_destructible_v<Material>);
 // - glTF's metallic and roughness: the factors times the metallic–roughness texture's blue and green;
 // - the emission: the factor times the emission texture (unfiltered, as lights/light_sampling.h reads it);
 // - the shading normal it.ns: bent by the normal map (materials/normal_map.h), which is why `it` is written.
+// NormalLookup::Finest reads the normal map at its finest level whatever the cone: bdpt's, whose two walks must
+// shade a point with one normal (the light walk has no cone), since every strategy has to evaluate one and the
+// same measurement; the pixel's samples still average the bumps over its footprint.
+enum class NormalLookup { Cone, Finest };
 template <MaterialSet kM>
 [[gnu::always_inline]] inline const Material& material_at(const Scene& s, Interaction& it, Vec3 d, float cone_width,
-                                                         MaterialScratch& scratch) {
+                                                         MaterialScratch& scratch,
+                                                         NormalLookup normals = NormalLookup::Cone) {
   const Material& m = s.materials[it.material];
   if constexpr (kM == MaterialSet::Any) {
     if (has_textures(m)) [[unlikely]] {
@@ -77,9 +82,12 @@ template <MaterialSet kM>
       // The emission as the light reads it (emission_texel), where it does: a model's triangles with uv.
       if (const TextureSlot& em = m.emission_map; em.texture && !s.shading.empty() && it.prim < s.sphere_begin())
         out.emission = m.emission * texture_at(*em.texture, em.uv_transform, it.uv);
-      if (const TextureSlot& nm = m.normal_map; nm.texture)
-        it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, it.tangent, lookup(*nm.texture, nm.uv_transform),
-                              m.normal_scale);
+      if (const TextureSlot& nm = m.normal_map; nm.texture) {
+        const Rgb texel = normals == NormalLookup::Cone
+                              ? lookup(*nm.texture, nm.uv_transform)
+                              : texture_at(*nm.texture, nm.uv_transform, it.uv);
+        it.ns = normal_mapped(it.ns, it.ng, it.du_dp, it.dv_dp, it.tangent, texel, m.normal_scale);
+      }
       return out;
     }
   }

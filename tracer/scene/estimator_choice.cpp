@@ -50,12 +50,6 @@ Estimator pick(const Scan& scan, int max_bounces) {
   return scan.focusing >= 0 && scan.receiver && max_bounces <= kMaxBdptBounces ? Estimator::Bdpt : Estimator::Mis;
 }
 
-// What bdpt does not take yet, asked of a description or of a compiled scene alike: the reason auto leaves the
-// scene to mis, or null.
-const char* bdpt_unsupported(bool normal_maps) {
-  return normal_maps ? "mis: normal maps, which bdpt does not support yet" : nullptr;
-}
-
 }  // namespace
 
 EstimatorChoice choose_estimator(const SceneDesc& scene) {
@@ -66,8 +60,6 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
     for (int m : in.materials)
       if (m >= 0 && static_cast<size_t>(m) < used.size()) used[static_cast<size_t>(m)] = 1;
   const Scan scan = scan_materials(scene.materials, [&](size_t i) { return used[i] != 0; });
-  if (const char* reason = bdpt_unsupported(normal_mapped(scene)))
-    return {Estimator::Mis, reason};
   const Estimator e = pick(scan, scene.render.max_bounces);
   if (e == Estimator::Bdpt) {
     const MaterialDesc& m = scene.materials[static_cast<size_t>(scan.focusing)];
@@ -81,9 +73,6 @@ EstimatorChoice choose_estimator(const SceneDesc& scene) {
 }
 
 Estimator choose_estimator(const Scene& scene, int max_bounces) {
-  const bool normal_maps = std::any_of(scene.materials.begin(), scene.materials.end(),
-                                       [](const Material& m) { return m.normal_map.texture != nullptr; });
-  if (bdpt_unsupported(normal_maps)) return Estimator::Mis;
   return pick(scan_materials(scene.materials,
                              [&](size_t i) { return i < scene.material_used.size() && scene.material_used[i] != 0; }),
               max_bounces);

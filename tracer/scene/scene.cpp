@@ -208,16 +208,6 @@ std::optional<size_t> object_containing(const SceneDesc& s, size_t shape) {
   return static_cast<size_t>(it - 1 - s.objects.begin());
 }
 
-std::string validate_normal_maps_for_estimator(const SceneDesc& s, const RenderSettings& r) {
-  if (r.estimator != Estimator::Bdpt || !normal_mapped(s)) return {};
-  return "render.estimator: the bdpt estimator does not support normal maps for now (use mis, or auto)";
-}
-
-bool normal_mapped(const SceneDesc& s) {
-  return std::any_of(s.materials.begin(), s.materials.end(),
-                     [](const MaterialDesc& m) { return m.normal_map.texture != nullptr; });
-}
-
 std::string validate_punctual_for_estimator(const SceneDesc& s, const RenderSettings& r) {
   if (s.punctual_lights.empty()) return {};
   if (r.estimator == Estimator::Uniform || r.estimator == Estimator::Cosine)
@@ -350,7 +340,6 @@ std::string validate_scene(const SceneDesc& s) {
   if (std::string err = validate_camera(s.camera); !err.empty()) return err;
   if (std::string err = validate_film_size(s.width, s.height); !err.empty()) return err;
   if (std::string err = validate_render_settings(s.render); !err.empty()) return err;
-  if (std::string err = validate_normal_maps_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_for_estimator(s, s.render); !err.empty()) return err;
   if (std::string err = validate_punctual_lights(s); !err.empty()) return err;
   if (std::string err = validate_environment(s.environment); !err.empty()) return err;

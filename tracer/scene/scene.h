@@ -214,15 +214,6 @@ std::string validate_render_settings(const RenderSettings& render);
 // "" or why a film of width × height cannot be rendered (each side 1 … kMaxFilmSide).
 std::string validate_film_size(int width, int height);
 
-// A normal map with the bdpt estimator: refused (auto picks mis for such a scene). bdpt shades a smooth vertex in
-// the frame the path tracer uses, which is bent for the direction towards the eye's side (interaction.h:
-// shading_normal); its light walk samples in the frame bent for the light's direction instead, and where a map
-// tilts the normal far from the surface's the two frames' lobes cover different directions, so its strategies
-// no longer estimate the same image (measured: light tracing alone and the whole estimator off mis by 7 standard
-// errors under a 30° map). Vertex normals tilt little, and bdpt agrees with mis on them (tests).
-std::string validate_normal_maps_for_estimator(const SceneDesc& scene, const RenderSettings& render);
-// Some material has a normal map.
-bool normal_mapped(const SceneDesc& scene);
 // Punctual lights (glTF's point, spot and directional lights) with an estimator that does not sample lights
 // (uniform, cosine: no ray can hit a light of no size): refused.
 std::string validate_punctual_for_estimator(const SceneDesc& scene, const RenderSettings& render);
