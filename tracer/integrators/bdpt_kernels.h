@@ -181,7 +181,7 @@ bool random_walk(const Scene& s, const Options& o, const Sampler& rng, Ray ray, 
       }
       return true;
     }
-    // Made in place, not copied in (with the two copies per weight above: 2 % of bdpt's time).
+    // Made in place, not copied in (this copy and with_strategy_edits's per weight: 2 % of bdpt's time).
     BdptVertex& v = path.emplace_back();
     v.it = make_interaction<F>(s, ray, h);
     cone_width += cone_spread * h.t;
@@ -367,8 +367,7 @@ class Scoped {
 // would have made them and marks the ends non-specular, then calls weigh(pt, qs) with the two end vertices
 // (either may be null); the edits are undone on return. `sampled` is the end vertex the strategy sampled
 // afresh (s = 1: the light point; t = 1: the eye), which stands in for the subpath's first vertex: it is the
-// end (edited and restored like the others, not copied per weight), the subpaths stay as
-// they are.
+// end itself, edited and restored like the others (not copied per weight); the subpaths stay as they are.
 template <class Weigh>
 float with_strategy_edits(const Scene& s, std::vector<BdptVertex>& light, std::vector<BdptVertex>& camera,
                           BdptVertex& sampled, int ns, int nt, const Weigh& weigh) {
