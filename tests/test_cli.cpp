@@ -228,6 +228,30 @@ TEST_CASE("cli: bench --quick writes a sane CSV, summary and plots") {
     CHECK(std::filesystem::file_size(std::string("bench_quick/convergence-") + scene + ".png") > 1000);
 }
 
+TEST_CASE("cli: bench takes a scene file by its path: its reference and plots are named by its stem") {
+  // The whole path went into the reference cache's file name and the plots' ("bench-cache/a dir/it's…", a folder
+  // that does not exist): the bench stopped with "cannot create a temporary file" at its first reference. A
+  // quote in the path and in --out also reaches gnuplot's script and the shell intact.
+  namespace fs = std::filesystem;
+  fs::remove_all("bench file");
+  fs::create_directories("bench file/a dir");
+  std::ofstream("bench file/a dir/it's a room.json") << slurp(std::string(PT_SCENES_DIR) + "/cornell.json");
+  const Run r = run("bench --quick --scenes \"bench file/a dir/it's a room.json\" cornell --estimators mis "
+                    "--samplers sobol --threads 2 --out \"bench file/out'q\" --cache \"bench file/cache\"");
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  int cached = 0;
+  for (const auto& e : fs::directory_iterator("bench file/cache"))
+    cached += e.path().filename().string().starts_with("it_s_a_room-64x64-");
+  CHECK(cached == 1);
+  CHECK(fs::exists("bench file/out'q/convergence-it_s_a_room.gp"));
+  CHECK(slurp("bench file/out'q/convergence.csv").find("bench file/a dir/it's a room.json,mis,sobol") !=
+        std::string::npos);
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) return pt::test::skip_for_missing("gnuplot", "the plot check");
+  CHECK(fs::file_size("bench file/out'q/convergence-it_s_a_room.png") > 1000);
+  CHECK(fs::file_size("bench file/out'q/convergence-cornell.png") > 1000);
+}
+
 TEST_CASE("cli: bench --instructions reads callgrind's total and refuses a binary valgrind cannot run") {
   // The total as valgrind 3.19 prints it, amid the rest of its log; the PID field varies.
   const std::string log =

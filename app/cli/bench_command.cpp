@@ -4,6 +4,7 @@
 // summary.md (time to relMSE 1e-2 and 1e-3, efficiency, throughput, thread scaling, interactive pass times).
 #include "cli/bench_command.h"
 
+#include "cli/file_names.h"
 #include "cli/instruction_count.h"
 #include "cli/option_checks.h"
 #include "cli/ray_throughput.h"
@@ -16,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <unistd.h>
 
@@ -38,7 +40,7 @@ using Clock = std::chrono::steady_clock;
 void add_bench_command(CLI::App& app, BenchOptions& o) {
   CLI::App* b = app.add_subcommand("bench", "Measure run time against error (writes CSV, plots and a summary)");
   b->add_flag("--quick", o.quick, "Smoke run: small images, budgets up to 0.5 s, cheap references (under a minute)");
-  b->add_option("--out", o.out_dir, "Directory for convergence.csv, convergence-<scene>.png, summary.md")
+  b->add_option("--out", o.out_dir, "Directory for convergence.csv, convergence-<scene>.png (a scene file: its name without the extension), summary.md")
       ->capture_default_str();
   b->add_option("--cache", o.cache_dir, "Directory caching converged references (keyed by scene and settings)")
       ->capture_default_str();
@@ -89,6 +91,14 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 
 Image film_image(const Film& f) { return Image{f.width(), f.height(), f.mean_image()}; }
 
+// A scene's name as part of a file name (the reference cache's, the plots'): a built-in scene's name, or a scene
+// file's stem with every character outside [A-Za-z0-9._-] made '_'. The whole path made "bench-cache/a dir/…"
+// and "convergence-/usr/…" folders that do not exist: the bench stopped at its first reference, or wrote no plot.
+std::string file_stem(const std::string& scene) {
+  const std::string stem = file_name_part(fs::path(scene).stem().string());
+  return stem.empty() ? "scene" : stem;
+}
+
 // A converged image of the scene: the independent Cycles reference for the canonical cornell at 512², else a
 // long `mis` render, cached on disk under a key of everything that defines the image.
 Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions& o, Renderer& renderer,
@@ -104,7 +114,7 @@ Image reference_for(const std::string& name, SceneDesc desc, const BenchOptions&
   // The key: the scene's content hash (io/film_state.h; the seed is fixed above), then the sample count.
   char key[32];
   std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(scene_content_hash(desc)));
-  const fs::path path = fs::path(o.cache_dir) / (name + "-" + std::to_string(desc.width) + "x" +
+  const fs::path path = fs::path(o.cache_dir) / (file_stem(name) + "-" + std::to_string(desc.width) + "x" +
                                                  std::to_string(desc.height) + "-" + key + "-" +
                                                  std::to_string(spp) + "spp.pfm");
   label = "mis " + std::to_string(spp) + " spp, cached as " + path.filename().string();
@@ -189,13 +199,31 @@ bool write_report(const fs::path& path, const std::string& text) {
   }
 }
 
-bool write_plot(const fs::path& dir, const std::string& scene, const std::vector<Series>& series, const std::string& ref_label) {
-  const fs::path script = dir / ("convergence-" + scene + ".gp");
+// The plot files' name part, convergence-<stem>.{gp,png}: the scene's file_stem, kept apart from another scene's
+// of the same stem by -2, -3, … (`taken` holds those given out).
+std::string plot_stem(const std::string& scene, std::set<std::string>& taken) {
+  const std::string stem = file_stem(scene);
+  std::string name = stem;
+  for (int k = 2; !taken.insert(name).second; ++k) name = stem + "-" + std::to_string(k);
+  return name;
+}
+
+// A string as gnuplot reads it between single quotes (no escapes there; a quote is written twice).
+std::string gnuplot_quoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+  return q + "'";
+}
+
+bool write_plot(const fs::path& dir, const std::string& scene, const std::string& stem,
+                const std::vector<Series>& series, const std::string& ref_label) {
+  const fs::path script = dir / ("convergence-" + stem + ".gp");
   std::ostringstream gp;
   gp << "# gnuplot script written by pathtracer bench; data in convergence.csv\n"
      << "set terminal pngcairo size 900,600 font ',11'\n"
-     << "set output '" << (dir / ("convergence-" + scene + ".png")).string() << "'\n"
-     << "set title \"" << scene << ": relMSE against wall-clock time (reference: " << ref_label << ")\" noenhanced\n"
+     << "set output " << gnuplot_quoted((dir / ("convergence-" + stem + ".png")).string()) << "\n"
+     << "set title " << gnuplot_quoted(scene + ": relMSE against wall-clock time (reference: " + ref_label + ")")
+     << " noenhanced\n"
      << "set logscale xy\nset format y '%.0e'\nset grid\nset key outside right\n"
      << "set xlabel 'seconds'\nset ylabel 'relMSE'\nset datafile separator ','\n";
   gp << "plot ";
@@ -204,16 +232,16 @@ bool write_plot(const fs::path& dir, const std::string& scene, const std::vector
     const Series& s = series[i];
     if (s.scene != scene) continue;
     if (!anchor || s.estimator == "mis") anchor = &s;
-    gp << "'" << (dir / "convergence.csv").string() << "' using ((strcol(1) eq '" << s.scene << "' && strcol(2) eq '" << s.estimator
-       << "' && strcol(3) eq '" << s.sampler << "') ? $5 : 1/0):7 with linespoints title '" << s.estimator << " / "
-       << s.sampler << "', ";
+    gp << gnuplot_quoted((dir / "convergence.csv").string()) << " using ((strcol(1) eq " << gnuplot_quoted(s.scene)
+       << " && strcol(2) eq '" << s.estimator << "' && strcol(3) eq '" << s.sampler
+       << "') ? $5 : 1/0):7 with linespoints title '" << s.estimator << " / " << s.sampler << "', ";
   }
   // The 1/t slope of an unbiased Monte Carlo estimator, through the anchor series' first point.
   if (anchor && !anchor->points.empty())
     gp << anchor->points[0].relmse * anchor->points[0].seconds << "/x with lines dashtype 2 lc 'gray' title '1/t slope'";
   gp << "\n";
   if (!write_report(script, gp.str())) return false;
-  const std::string cmd = "gnuplot '" + script.string() + "' 2>/dev/null";
+  const std::string cmd = "gnuplot " + shell_quote(script.string()) + " 2>/dev/null";
   return std::system("command -v gnuplot >/dev/null 2>&1") == 0 && std::system(cmd.c_str()) == 0;
 }
 
@@ -435,7 +463,8 @@ int run_bench(const BenchOptions& o) {
   const fs::path dir(o.out_dir);
   if (!write_convergence_csv(dir, all)) return 1;
   bool plotted = true;
-  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, all, ref_labels[name]);
+  std::set<std::string> stems;
+  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, plot_stem(name, stems), all, ref_labels[name]);
   const InteractiveFigures interactive = measure_interactive(o, renderer);
   std::string md = summary_markdown(o, all, ref_labels, budgets.back(), renderer.threads(), interactive);
   md += ray_casting_table(o) + instructions_table(o, counted_binary, dir);

@@ -1,6 +1,7 @@
 #include "cli/instruction_count.h"
 
-#include <cctype>
+#include "cli/file_names.h"
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,13 +13,6 @@ namespace pt {
 namespace fs = std::filesystem;
 
 namespace {
-
-// One argument for /bin/sh, quoted so that no character is special.
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 std::string read_text(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -48,10 +42,7 @@ std::string counted_render_command(const std::string& binary, const std::string&
 }
 
 std::string counted_file_stem(const std::string& scene, const std::string& estimator, int spp) {
-  std::string name = scene + "-" + estimator + "-" + std::to_string(spp);
-  for (char& c : name)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
-  return name;
+  return file_name_part(scene + "-" + estimator + "-" + std::to_string(spp));
 }
 
 InstructionsPerSample count_instructions_per_sample(const std::string& binary, const std::string& scene,

@@ -19,8 +19,8 @@ std::optional<uint64_t> parse_callgrind_total(const std::string& log);
 std::string counted_render_command(const std::string& binary, const std::string& scene, const std::string& estimator,
                                    int width, int height, int spp, const std::string& pfm);
 
-// The name (no directory) of one counted render's files: scene, estimator and spp, with every character other
-// than letters, digits, '.' and '-' made '_' (a scene may be a file path).
+// The name (no directory) of one counted render's files: scene, estimator and spp, as file_name_part makes them
+// (cli/file_names.h: a scene may be a file path).
 std::string counted_file_stem(const std::string& scene, const std::string& estimator, int spp);
 
 struct InstructionsPerSample {
