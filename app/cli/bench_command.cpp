@@ -40,7 +40,9 @@ using Clock = std::chrono::steady_clock;
 void add_bench_command(CLI::App& app, BenchOptions& o) {
   CLI::App* b = app.add_subcommand("bench", "Measure run time against error (writes CSV, plots and a summary)");
   b->add_flag("--quick", o.quick, "Smoke run: small images, budgets up to 0.5 s, cheap references (under a minute)");
-  b->add_option("--out", o.out_dir, "Directory for convergence.csv, convergence-<scene>.png (a scene file: its name without the extension), summary.md")
+  b->add_option("--out", o.out_dir,
+                "Directory for convergence.csv, convergence-<scene>.png (a scene file: its name without the "
+                "extension), summary.md")
       ->capture_default_str();
   b->add_option("--cache", o.cache_dir, "Directory caching converged references (keyed by scene and settings)")
       ->capture_default_str();
@@ -464,7 +466,8 @@ int run_bench(const BenchOptions& o) {
   if (!write_convergence_csv(dir, all)) return 1;
   bool plotted = true;
   std::set<std::string> stems;
-  for (const std::string& name : o.scenes) plotted &= write_plot(dir, name, plot_stem(name, stems), all, ref_labels[name]);
+  for (const std::string& name : o.scenes)
+    plotted &= write_plot(dir, name, plot_stem(name, stems), all, ref_labels[name]);
   const InteractiveFigures interactive = measure_interactive(o, renderer);
   std::string md = summary_markdown(o, all, ref_labels, budgets.back(), renderer.threads(), interactive);
   md += ray_casting_table(o) + instructions_table(o, counted_binary, dir);

@@ -8,7 +8,7 @@
 namespace pt {
 
 // s with every character other than letters, digits, '.', '_' and '-' made '_': usable as one part of a file
-// name, never a folder or an option.
+// name (no separator, space or quote left in it).
 inline std::string file_name_part(std::string s) {
   for (char& c : s)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
