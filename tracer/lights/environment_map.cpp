@@ -28,7 +28,8 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   const double dtheta = std::numbers::pi / H;
   row_cos_.resize(static_cast<size_t>(H) + 1);
   row_cos_width_.resize(static_cast<size_t>(H));
-  row_inv_jacobian_.resize(static_cast<size_t>(H));
+  // 1/(2π · H · (cos θ_j − cos θ_{j+1})): a row's pdf_uv → pdf per sr, folded into texel_ below.
+  std::vector<float> row_inv_jacobian(static_cast<size_t>(H));
   std::vector<double> width(static_cast<size_t>(H));
   for (int j = 0; j <= H; ++j) row_cos_[static_cast<size_t>(j)] = static_cast<float>(std::cos(j * dtheta));
   row_cos_.front() = 1.f;
@@ -37,7 +38,7 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
     const double w = 2.0 * std::sin((j + 0.5) * dtheta) * std::sin(0.5 * dtheta);
     width[static_cast<size_t>(j)] = w;
     row_cos_width_[static_cast<size_t>(j)] = static_cast<float>(w);
-    row_inv_jacobian_[static_cast<size_t>(j)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * H * w));
+    row_inv_jacobian[static_cast<size_t>(j)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * H * w));
   }
 
   // Sampling weights: luminance × the row's exact solid-angle factor (scaled by H/2 to keep them near the
@@ -59,7 +60,7 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i)
       texel_[static_cast<size_t>(j) * W + i] =
-          Vec4(scale_ * image_.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian_[static_cast<size_t>(j)]);
+          Vec4(scale_ * image_.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
 }
 
 void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {

@@ -82,11 +82,11 @@ struct EnvironmentMap {
   float scale_ = 1.f, rotation_deg_ = 0.f, cos_rot_ = 1.f, sin_rot_ = 0.f;
   std::vector<float> row_cos_;            // cos θ_j at the row boundaries, H + 1 entries (1 … −1)
   std::vector<float> row_cos_width_;      // cos θ_j − cos θ_{j+1} (from a cancellation-free product)
-  std::vector<float> row_inv_jacobian_;   // 1/(2π · H · (cos θ_j − cos θ_{j+1})): pdf_uv → pdf per sr
   Distribution2D distribution_;
   // Per texel, row-major: the scaled radiance (scale × texel) and the solid-angle density (the distribution's cell
-  // density × the row's Jacobian), the products eval() and pdf() return, computed once: a lookup reads one
-  // 16-byte record instead of the image, the row's distribution and the Jacobian (four cache lines).
+  // density × the row's Jacobian 1/(2π · H · (cos θ_j − cos θ_{j+1}))), the products eval() and pdf() return,
+  // computed once: a lookup reads one 16-byte record instead of the image, the row's distribution and the
+  // Jacobian (four cache lines).
   std::vector<Vec4> texel_;
   double power_ = 0.0;
 };
