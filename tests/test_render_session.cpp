@@ -225,6 +225,40 @@ TEST_CASE("session: once a stop condition is met the thread sleeps, raising the 
   REQUIRE(session.wait_for([](const SessionStats& s) { return s.done && s.spp == 9; }, 60.0));
 }
 
+// A regression (seen once in CI as 389 spp against a limit of 8): a region change makes the session publish its
+// film anew before the next pass, and the stop condition was then judged by the newest settings while the pass
+// was sized by the worker's older copy. A limit raised in that window (4 → 5 here) let one pass run unbounded,
+// far past it. The window is microseconds wide, so each round sends the second setting after a different delay
+// (0 to 400 µs in steps of 10, on an 8 × 8 film); without the fix, five runs out of five failed here, each at
+// a round with a 10 µs delay (rounds 42, 83 or 124: spp 1066 against a limit of 43). Each round must end at
+// exactly its limit.
+TEST_CASE("session: a limit raised while the film is republished for a region change bounds the next pass") {
+  SceneDesc d = small_cornell(8, 2);
+  SessionSettings s = settings_with(1);
+  s.threads = 1;
+  RenderSession session(d, s);
+  REQUIRE(session.wait_for([](const SessionStats& st) { return st.done; }, 60.0));
+  int overshoots = 0;
+  for (uint64_t round = 1; round <= 400 && overshoots == 0; ++round) {
+    // The whole film as the region: the accumulation is unchanged, but the region setting differs, so the film
+    // is republished; it alternates with no region.
+    s.region = round % 2 ? std::optional<PixelRect>(PixelRect{0, 0, 8, 8}) : std::nullopt;
+    session.set_settings(s);
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto delay = std::chrono::microseconds(static_cast<int>(round % 41) * 10);
+    while (std::chrono::steady_clock::now() - t0 < delay) {
+    }
+    s.stop.spp = round + 1;
+    session.set_settings(s);
+    const uint64_t limit = s.stop.spp;
+    REQUIRE(session.wait_for([&](const SessionStats& st) { return st.done && st.spp >= limit; }, 60.0));
+    const SessionStats st = session.stats();
+    INFO("round " << round << ": spp " << st.spp << " against a limit of " << limit);
+    overshoots += st.spp != limit;
+    CHECK(st.spp == limit);
+  }
+}
+
 // "0 % CPU once a stop condition is met or when paused; nothing is traced when nothing changed." Every session and
 // pool thread must then block on a condition variable: no busy waits, no sleep-polling.
 // Bounds, over 0.5 s of wall time while this thread sleeps:

@@ -412,9 +412,12 @@ bool RenderSession::prepare(Worker& w, bool restart) {
 }
 
 // Sizes the next pass and marks it running; false if it should not run (paused, done, or a newer request).
+// Settings changed since take_requests are a newer request too: stats_.done is judged by settings_, the pass
+// sized by the worker's copy, and the two must agree (a limit raised while a region change republished the film
+// let a pass run unbounded past it).
 bool RenderSession::begin_pass(Worker& w, bool preview, int& spp) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!w.scene_ok || paused_ || stats_.done || pending_scene_ || pending_restart_) return false;
+  if (!w.scene_ok || paused_ || stats_.done || pending_scene_ || pending_restart_ || settings_changed_) return false;
   spp = preview ? 1
                 : next_pass_spp(w.full_seconds_per_spp, target_pass_seconds(stats_.seconds), w.settings.stop, w.film_spp,
                                 stats_.seconds, stats_.estimated_relmse);
