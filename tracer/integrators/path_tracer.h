@@ -169,7 +169,7 @@ template <class Sampler, uint32_t F>
     if (sample_direct<kM, F>(s, it, n, frame, m, wo_local, u_light, u_point, d)) {
       ++count.rays;
       if (d.shadow.t_max > 0.f) {
-        const float w = o.mis && !d.ls.delta ? power_heuristic(d.ls.pdf, bsdf_pdf<kM>(m, wo_local, d.wi_local)) : 1.f;
+        const float w = o.mis && !d.ls.delta ? power_heuristic(d.ls.pdf, d.bsdf_pdf) : 1.f;
         shadow = {d.shadow.ray, d.shadow.t_max, skip_on_leave(it), d.ls.prim,
                   p.beta * d.f * d.ls.Le * (std::abs(d.wi_local.z) * w / d.ls.pdf)};
         result.shadow_ray = true;

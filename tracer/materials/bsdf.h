@@ -74,59 +74,61 @@ inline BsdfFlags bsdf_flags(const Material& m) {
   return BsdfFlags::None;
 }
 
-// f(wo, wi) of the non-specular lobes.
-template <MaterialSet S = MaterialSet::Any>
-inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
-  if constexpr (S == MaterialSet::Lambert) return wo.z * wi.z > 0.f ? diffuse_f(m.albedo) : Rgb(0.f);
-  if (m.type == MaterialType::Dielectric) return dielectric_eval(m, wo, wi);
+// f(wo, wi) (kF) and the solid-angle density with which bsdf_sample produces wi from wo (kPdf) of the
+// non-specular lobes (each weighted by its selection probability), in one pass (BsdfValue). bsdf_eval and
+// bsdf_pdf below ask for one part; next-event estimation under MIS asks for both.
+template <MaterialSet S = MaterialSet::Any, bool kF = true, bool kPdf = true>
+inline BsdfValue bsdf_value(const Material& m, Vec3 wo, Vec3 wi) {
+  BsdfValue r;
+  if constexpr (S == MaterialSet::Lambert) {
+    if (wo.z * wi.z > 0.f) {
+      if constexpr (kF) r.f = diffuse_f(m.albedo);
+      if constexpr (kPdf) r.pdf = cosine_hemisphere_pdf(std::abs(wi.z));
+    }
+    return r;
+  }
+  if (m.type == MaterialType::Dielectric) {
+    if constexpr (kF) r.f = dielectric_eval(m, wo, wi);
+    if constexpr (kPdf) r.pdf = dielectric_pdf(m, wo, wi);
+    return r;
+  }
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);
   wi = bsdf_detail::front(wi, flip);
   switch (m.type) {
     case MaterialType::Diffuse:
-      return diffuse_eval(m, wo, wi);
+      if constexpr (kF) r.f = diffuse_eval(m, wo, wi);
+      if constexpr (kPdf) r.pdf = diffuse_pdf(wo, wi);
+      break;
     case MaterialType::Mirror:
-      return Rgb(0.f);
+      break;
     case MaterialType::Conductor:
-      return conductor_eval(m, wo, wi);
+      return conductor_value<kF, kPdf>(m, wo, wi);
     case MaterialType::Plastic:
-      return plastic_eval(m, wo, wi);
+      return plastic_value<kF, kPdf>(m, wo, wi);
     case MaterialType::Subsurface:
-      return subsurface_eval(m, wo, wi);
+      if constexpr (kF) r.f = subsurface_eval(m, wo, wi);
+      if constexpr (kPdf) r.pdf = subsurface_pdf(wo, wi);
+      break;
     case MaterialType::MetallicRoughness:
-      return metallic_roughness_eval(m, wo, wi);
+      return metallic_roughness_value<kF, kPdf>(m, wo, wi);
     case MaterialType::Dielectric:
       break;
   }
-  return Rgb(0.f);
+  return r;
+}
+
+// f(wo, wi) of the non-specular lobes.
+template <MaterialSet S = MaterialSet::Any>
+inline Rgb bsdf_eval(const Material& m, Vec3 wo, Vec3 wi) {
+  return bsdf_value<S, true, false>(m, wo, wi).f;
 }
 
 // Solid-angle density with which bsdf_sample produces wi from wo (non-specular lobes only, each weighted by its
 // selection probability).
 template <MaterialSet S = MaterialSet::Any>
 inline float bsdf_pdf(const Material& m, Vec3 wo, Vec3 wi) {
-  if constexpr (S == MaterialSet::Lambert) return wo.z * wi.z > 0.f ? cosine_hemisphere_pdf(std::abs(wi.z)) : 0.f;
-  if (m.type == MaterialType::Dielectric) return dielectric_pdf(m, wo, wi);
-  const bool flip = wo.z < 0.f;
-  wo = bsdf_detail::front(wo, flip);
-  wi = bsdf_detail::front(wi, flip);
-  switch (m.type) {
-    case MaterialType::Diffuse:
-      return diffuse_pdf(wo, wi);
-    case MaterialType::Mirror:
-      return 0.f;
-    case MaterialType::Conductor:
-      return conductor_pdf(m, wo, wi);
-    case MaterialType::Plastic:
-      return plastic_pdf(m, wo, wi);
-    case MaterialType::Subsurface:
-      return subsurface_pdf(wo, wi);
-    case MaterialType::MetallicRoughness:
-      return metallic_roughness_pdf(m, wo, wi);
-    case MaterialType::Dielectric:
-      break;
-  }
-  return 0.f;
+  return bsdf_value<S, false, true>(m, wo, wi).pdf;
 }
 
 // Samples wi from wo with uc (lobe choice) and u (direction). Returns false when no sample was produced

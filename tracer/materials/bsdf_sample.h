@@ -30,6 +30,15 @@ constexpr bool any(BsdfFlags a) { return a != BsdfFlags::None; }
 // importance, so a refracting lobe's value depends on it; every other lobe is symmetric.
 enum class TransportMode { Radiance, Importance };
 
+// f (sr⁻¹, without the cosine) and the solid-angle pdf at one pair of directions, as the lobes' value functions
+// return them (Mitsuba 3's BSDF::eval_pdf): a caller that needs both (next-event estimation under MIS, a rough
+// lobe's sample) gets them in one pass, which computes what they share once (the half vector, D, a layer's
+// albedo at wo). A part the caller did not ask for is left 0.
+struct BsdfValue {
+  Rgb f{0.f};
+  float pdf = 0.f;
+};
+
 struct BsdfSample {
   Vec3 wi{0.f};
   Rgb f{0.f};

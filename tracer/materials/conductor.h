@@ -36,38 +36,47 @@ inline Rgb conductor_fresnel(const Material& m, float cos_theta) {
   return m.complex_ior ? fresnel_complex(cos_theta, m.eta, m.k) : fresnel_schlick(m.albedo, cos_theta);
 }
 
-// Probability of sampling the multiple-scattering (cosine) lobe.
-inline float conductor_ms_prob(const Material& m, float cos_o) {
-  return m.energy.e_avg < 1.f ? std::clamp(1.f - m.energy(cos_o), 0.f, 1.f) : 0.f;
+// Probability of sampling the multiple-scattering (cosine) lobe, from E(μo).
+inline float conductor_ms_prob(const Material& m, float e_o) {
+  return m.energy.e_avg < 1.f ? std::clamp(1.f - e_o, 0.f, 1.f) : 0.f;
 }
 
-inline Rgb conductor_ms(const Material& m, float cos_o, float cos_i) {
+// f_ms from E(μo) and μi.
+inline Rgb conductor_ms(const Material& m, float e_o, float cos_i) {
   const float one_minus_e_avg = 1.f - m.energy.e_avg;
   if (!(one_minus_e_avg > 1e-6f)) return Rgb(0.f);
   const Rgb& fa = m.f_avg;
   const Rgb f_ms = fa * fa * m.energy.e_avg / (Rgb(1.f) - fa * one_minus_e_avg);
-  return f_ms * ((1.f - m.energy(cos_o)) * (1.f - m.energy(cos_i)) / (kPi * one_minus_e_avg));
+  return f_ms * ((1.f - e_o) * (1.f - m.energy(cos_i)) / (kPi * one_minus_e_avg));
 }
 
-inline Rgb conductor_eval(const Material& m, Vec3 wo, Vec3 wi) {
-  if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return Rgb(0.f);
+// f (kF) and pdf (kPdf) of the rough lobes (BsdfValue): E(μo), the half vector and D computed once.
+template <bool kF, bool kPdf>
+inline BsdfValue conductor_value(const Material& m, Vec3 wo, Vec3 wi) {
+  BsdfValue r;
+  if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return r;
+  const float e_o = m.energy(wo.z);
   const Vec3 h = wo + wi;
-  Rgb f = conductor_ms(m, wo.z, wi.z);
-  if (glm::dot(h, h) > 0.f) {
-    const Vec3 wm = glm::normalize(h);
-    const float d_v = ggx_d(wm, m.alpha) * 0.25f * ggx_g2_over_cos2(wo, wi, m.alpha);
-    f += d_v * conductor_fresnel(m, glm::dot(wo, wm));
+  const bool has_half = glm::dot(h, h) > 0.f;
+  const Vec3 wm = has_half ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
+  const float d = has_half ? ggx_d(wm, m.alpha) : 0.f;
+  if constexpr (kF) {
+    r.f = conductor_ms(m, e_o, wi.z);
+    if (has_half) {
+      const float d_v = d * 0.25f * ggx_g2_over_cos2(wo, wi, m.alpha);
+      r.f += d_v * conductor_fresnel(m, glm::dot(wo, wm));
+    }
   }
-  return f;
+  if constexpr (kPdf) {
+    const float p_ms = conductor_ms_prob(m, e_o);
+    const float p_ss = has_half ? ggx_reflection_pdf(wo, wm, d, m.alpha) : 0.f;
+    r.pdf = (1.f - p_ms) * p_ss + p_ms * cosine_hemisphere_pdf(wi.z);
+  }
+  return r;
 }
 
-inline float conductor_pdf(const Material& m, Vec3 wo, Vec3 wi) {
-  if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
-  const float p_ms = conductor_ms_prob(m, wo.z);
-  const Vec3 h = wo + wi;
-  const float p_ss = glm::dot(h, h) > 0.f ? ggx_reflection_pdf(wo, glm::normalize(h), m.alpha) : 0.f;
-  return (1.f - p_ms) * p_ss + p_ms * cosine_hemisphere_pdf(wi.z);
-}
+inline Rgb conductor_eval(const Material& m, Vec3 wo, Vec3 wi) { return conductor_value<true, false>(m, wo, wi).f; }
+inline float conductor_pdf(const Material& m, Vec3 wo, Vec3 wi) { return conductor_value<false, true>(m, wo, wi).pdf; }
 
 inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
@@ -79,16 +88,16 @@ inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfS
     return true;
   }
   Vec3 wi;
-  if (uc < conductor_ms_prob(m, wo.z)) {
+  if (uc < conductor_ms_prob(m, m.energy(wo.z))) {
     wi = sample_cosine_hemisphere(u);
   } else {
     const Vec3 wm = ggx_sample_vndf(wo, m.alpha, u);
     wi = reflect(-wo, wm);
   }
   if (!(wi.z > 0.f)) return false;
-  const float pdf = conductor_pdf(m, wo, wi);
-  if (!(pdf > 0.f)) return false;
-  out = {wi, conductor_eval(m, wo, wi), pdf, BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
+  const BsdfValue v = conductor_value<true, true>(m, wo, wi);
+  if (!(v.pdf > 0.f)) return false;
+  out = {wi, v.f, v.pdf, BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
   return true;
 }
 

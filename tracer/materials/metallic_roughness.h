@@ -60,58 +60,69 @@ inline float gltf_layer_albedo_avg(const Material& m) {
   return ggx_schlick_albedo_table().e_avg(f0, m.roughness);
 }
 
-inline Rgb gltf_base(const Material& m, float cos_o, float cos_i) {
+// The base from E_d(μo) (gltf_layer_albedo at wo) and μi.
+inline Rgb gltf_base(const Material& m, float e_o, float cos_i) {
   const float one_minus_avg = 1.f - gltf_layer_albedo_avg(m);
   if (!(one_minus_avg > 0.f)) return Rgb(0.f);
-  const float s = (1.f - gltf_layer_albedo(m, cos_o)) * (1.f - gltf_layer_albedo(m, cos_i)) / one_minus_avg;
+  const float s = (1.f - e_o) * (1.f - gltf_layer_albedo(m, cos_i)) / one_minus_avg;
   return gltf_diffuse_colour(m) * (kInvPi * s);
 }
 
-inline float gltf_specular_prob(const Material& m, float cos_o) {
-  const float fs = std::clamp(luminance(gltf_fresnel(gltf_f0(m), cos_o)), 0.f, 1.f);
-  const float diffuse = std::max(luminance(gltf_diffuse_colour(m)), 0.f) * (1.f - gltf_layer_albedo(m, cos_o));
+// p_s from f0 (gltf_f0), μo and E_d(μo).
+inline float gltf_specular_prob(const Material& m, Rgb f0, float cos_o, float e_o) {
+  const float fs = std::clamp(luminance(gltf_fresnel(f0, cos_o)), 0.f, 1.f);
+  const float diffuse = std::max(luminance(gltf_diffuse_colour(m)), 0.f) * (1.f - e_o);
   const float denom = fs + diffuse;
   return denom > 0.f ? fs / denom : 1.f;
 }
 
-inline Rgb metallic_roughness_eval(const Material& m, Vec3 wo, Vec3 wi) {
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return Rgb(0.f);
-  const Rgb base = gltf_base(m, wo.z, wi.z);
+// f (kF) and pdf (kPdf) (BsdfValue): f0, E_d(μo), the half vector and D computed once.
+template <bool kF, bool kPdf>
+inline BsdfValue metallic_roughness_value(const Material& m, Vec3 wo, Vec3 wi) {
+  BsdfValue r;
+  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
+  const Rgb f0 = gltf_f0(m);
+  const float e_o = gltf_layer_albedo(m, wo.z);
   const Vec3 h = wo + wi;
-  if (effectively_smooth(m.alpha) || !(glm::dot(h, h) > 0.f)) return base;
-  const Vec3 wm = glm::normalize(h);
-  return base + gltf_fresnel(gltf_f0(m), glm::dot(wo, wm)) *
-                    (0.25f * ggx_d(wm, m.alpha) * ggx_g2_over_cos2(wo, wi, m.alpha));
+  const bool rough = !effectively_smooth(m.alpha) && glm::dot(h, h) > 0.f;
+  const Vec3 wm = rough ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
+  const float d = rough ? ggx_d(wm, m.alpha) : 0.f;
+  if constexpr (kF) {
+    r.f = gltf_base(m, e_o, wi.z);
+    if (rough) r.f = r.f + gltf_fresnel(f0, glm::dot(wo, wm)) * (0.25f * d * ggx_g2_over_cos2(wo, wi, m.alpha));
+  }
+  if constexpr (kPdf) {
+    const float p_s = gltf_specular_prob(m, f0, wo.z, e_o);
+    r.pdf = (1.f - p_s) * cosine_hemisphere_pdf(wi.z);
+    if (rough) r.pdf += p_s * ggx_reflection_pdf(wo, wm, d, m.alpha);
+  }
+  return r;
 }
 
+inline Rgb metallic_roughness_eval(const Material& m, Vec3 wo, Vec3 wi) {
+  return metallic_roughness_value<true, false>(m, wo, wi).f;
+}
 inline float metallic_roughness_pdf(const Material& m, Vec3 wo, Vec3 wi) {
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
-  const float p_s = gltf_specular_prob(m, wo.z);
-  float pdf = (1.f - p_s) * cosine_hemisphere_pdf(wi.z);
-  if (!effectively_smooth(m.alpha)) {
-    const Vec3 h = wo + wi;
-    if (glm::dot(h, h) > 0.f) pdf += p_s * ggx_reflection_pdf(wo, glm::normalize(h), m.alpha);
-  }
-  return pdf;
+  return metallic_roughness_value<false, true>(m, wo, wi).pdf;
 }
 
 inline bool metallic_roughness_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
-  const float p_s = gltf_specular_prob(m, wo.z);
+  const Rgb f0 = gltf_f0(m);
+  const float p_s = gltf_specular_prob(m, f0, wo.z, gltf_layer_albedo(m, wo.z));
   const bool specular = uc < p_s;
   if (specular && effectively_smooth(m.alpha)) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
-    const Rgb F = gltf_fresnel(gltf_f0(m), wo.z);
+    const Rgb F = gltf_fresnel(f0, wo.z);
     if (is_black(F)) return false;
     out = {wi, F / wi.z, p_s, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
     return true;
   }
   const Vec3 wi = specular ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  const float pdf = metallic_roughness_pdf(m, wo, wi);
-  if (!(pdf > 0.f)) return false;
-  out = {wi, metallic_roughness_eval(m, wo, wi), pdf,
-         BsdfFlags::Reflection | (specular ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
+  const BsdfValue v = metallic_roughness_value<true, true>(m, wo, wi);
+  if (!(v.pdf > 0.f)) return false;
+  out = {wi, v.f, v.pdf, BsdfFlags::Reflection | (specular ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;
 }
 

@@ -124,8 +124,10 @@ inline Vec3 ggx_sample_vndf(Vec3 wo, float alpha, Vec2 u) {
 
 // Solid-angle density of wi = reflect(−wo, wm) when wm ~ D_wo: D_wo(wm)/(4 wo·wm) = G1(wo) D(wm)/(4 |wo.z|)
 // (the Jacobian of the half-vector map, Walter et al. 2007 eq. 14). wm must be the half vector of wo, wi.
-inline float ggx_reflection_pdf(Vec3 wo, Vec3 wm, float alpha) {
-  return glm::dot(wo, wm) > 0.f ? 0.25f * ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * ggx_d(wm, alpha) : 0.f;
+// `d` = ggx_d(wm, alpha), which the caller has.
+inline float ggx_reflection_pdf(Vec3 wo, Vec3 wm, float d, float alpha) {
+  return glm::dot(wo, wm) > 0.f ? 0.25f * ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * d : 0.f;
 }
+inline float ggx_reflection_pdf(Vec3 wo, Vec3 wm, float alpha) { return ggx_reflection_pdf(wo, wm, ggx_d(wm, alpha), alpha); }
 
 }  // namespace pt

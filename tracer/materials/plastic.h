@@ -23,48 +23,49 @@ inline float plastic_coat_albedo(const Material& m, float cos_theta) {
   return effectively_smooth(m.alpha) ? fresnel_dielectric(cos_theta, m.ior) : m.energy(cos_theta);
 }
 
-inline float plastic_coat_prob(const Material& m, float cos_o) {
-  const float ec = plastic_coat_albedo(m, cos_o);
-  const float denom = ec + (1.f - ec) * std::max(luminance(m.albedo), 0.f);
-  return denom > 0.f ? ec / denom : 1.f;
+// p_c from E_c(μo).
+inline float plastic_coat_prob(const Material& m, float ec_o) {
+  const float denom = ec_o + (1.f - ec_o) * std::max(luminance(m.albedo), 0.f);
+  return denom > 0.f ? ec_o / denom : 1.f;
 }
 
-inline Rgb plastic_diffuse(const Material& m, float cos_o, float cos_i) {
+// The diffuse term from E_c(μo) and μi.
+inline Rgb plastic_diffuse(const Material& m, float ec_o, float cos_i) {
   const float one_minus_avg = 1.f - m.energy.e_avg;
   if (!(one_minus_avg > 0.f)) return Rgb(0.f);
-  const float s = (1.f - plastic_coat_albedo(m, cos_o)) * (1.f - plastic_coat_albedo(m, cos_i)) / one_minus_avg;
+  const float s = (1.f - ec_o) * (1.f - plastic_coat_albedo(m, cos_i)) / one_minus_avg;
   return m.albedo * (kInvPi * s);
 }
 
-inline float plastic_coat_f(const Material& m, Vec3 wo, Vec3 wi) {
+// f (kF) and pdf (kPdf) (BsdfValue): E_c(μo), the half vector and D computed once.
+template <bool kF, bool kPdf>
+inline BsdfValue plastic_value(const Material& m, Vec3 wo, Vec3 wi) {
+  BsdfValue r;
+  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
+  const float ec_o = plastic_coat_albedo(m, wo.z);
   const Vec3 h = wo + wi;
-  if (!(glm::dot(h, h) > 0.f)) return 0.f;
-  const Vec3 wm = glm::normalize(h);
-  return 0.25f * ggx_d(wm, m.alpha) * ggx_g2_over_cos2(wo, wi, m.alpha) *
-         fresnel_dielectric(glm::dot(wo, wm), m.ior);
-}
-
-inline Rgb plastic_eval(const Material& m, Vec3 wo, Vec3 wi) {
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return Rgb(0.f);
-  Rgb f = plastic_diffuse(m, wo.z, wi.z);
-  if (!effectively_smooth(m.alpha)) f += plastic_coat_f(m, wo, wi);
-  return f;
-}
-
-inline float plastic_pdf(const Material& m, Vec3 wo, Vec3 wi) {
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
-  const float p_c = plastic_coat_prob(m, wo.z);
-  float pdf = (1.f - p_c) * cosine_hemisphere_pdf(wi.z);
-  if (!effectively_smooth(m.alpha)) {
-    const Vec3 h = wo + wi;
-    if (glm::dot(h, h) > 0.f) pdf += p_c * ggx_reflection_pdf(wo, glm::normalize(h), m.alpha);
+  const bool rough = !effectively_smooth(m.alpha) && glm::dot(h, h) > 0.f;
+  const Vec3 wm = rough ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
+  const float d = rough ? ggx_d(wm, m.alpha) : 0.f;
+  if constexpr (kF) {
+    r.f = plastic_diffuse(m, ec_o, wi.z);
+    if (rough)
+      r.f += 0.25f * d * ggx_g2_over_cos2(wo, wi, m.alpha) * fresnel_dielectric(glm::dot(wo, wm), m.ior);
   }
-  return pdf;
+  if constexpr (kPdf) {
+    const float p_c = plastic_coat_prob(m, ec_o);
+    r.pdf = (1.f - p_c) * cosine_hemisphere_pdf(wi.z);
+    if (rough) r.pdf += p_c * ggx_reflection_pdf(wo, wm, d, m.alpha);
+  }
+  return r;
 }
+
+inline Rgb plastic_eval(const Material& m, Vec3 wo, Vec3 wi) { return plastic_value<true, false>(m, wo, wi).f; }
+inline float plastic_pdf(const Material& m, Vec3 wo, Vec3 wi) { return plastic_value<false, true>(m, wo, wi).pdf; }
 
 inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
-  const float p_c = plastic_coat_prob(m, wo.z);
+  const float p_c = plastic_coat_prob(m, plastic_coat_albedo(m, wo.z));
   const bool coat = uc < p_c;
   if (effectively_smooth(m.alpha) && coat) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
@@ -74,9 +75,9 @@ inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSam
   }
   const Vec3 wi = coat ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  const float pdf = plastic_pdf(m, wo, wi);
-  if (!(pdf > 0.f)) return false;
-  out = {wi, plastic_eval(m, wo, wi), pdf, BsdfFlags::Reflection | (coat ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
+  const BsdfValue v = plastic_value<true, true>(m, wo, wi);
+  if (!(v.pdf > 0.f)) return false;
+  out = {wi, v.f, v.pdf, BsdfFlags::Reflection | (coat ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;
 }
 
