@@ -87,11 +87,7 @@ inline BsdfValue bsdf_value(const Material& m, Vec3 wo, Vec3 wi) {
     }
     return r;
   }
-  if (m.type == MaterialType::Dielectric) {
-    if constexpr (kF) r.f = dielectric_eval(m, wo, wi);
-    if constexpr (kPdf) r.pdf = dielectric_pdf(m, wo, wi);
-    return r;
-  }
+  if (m.type == MaterialType::Dielectric) return dielectric_value<kF, kPdf>(m, wo, wi);
   const bool flip = wo.z < 0.f;
   wo = bsdf_detail::front(wo, flip);
   wi = bsdf_detail::front(wi, flip);

@@ -52,7 +52,7 @@ inline Rgb conductor_ms(const Material& m, float e_o, float cos_i) {
 
 // f (kF) and pdf (kPdf) of the rough lobes (BsdfValue): E(μo), the half vector and D computed once.
 template <bool kF, bool kPdf>
-inline BsdfValue conductor_value(const Material& m, Vec3 wo, Vec3 wi) {
+[[gnu::noinline]] inline BsdfValue conductor_value(const Material& m, Vec3 wo, Vec3 wi) {
   BsdfValue r;
   if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return r;
   const float e_o = m.energy(wo.z);

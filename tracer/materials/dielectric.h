@@ -40,37 +40,35 @@ inline bool dielectric_half_vector(Vec3 wo, Vec3 wi, float eta, Vec3& wm, float&
   return glm::dot(wm, wi) * wi.z >= 0.f && glm::dot(wm, wo) > 0.f;
 }
 
-// f for wo.z > 0 (rough lobe only).
-inline float dielectric_eval_up(Vec3 wo, Vec3 wi, float alpha, float eta) {
-  if (!(wo.z > 0.f) || wi.z == 0.f) return 0.f;
+// f (kF) and pdf (kPdf) of the rough lobe for wo.z > 0 (BsdfValue): the half vector, F and D computed once.
+template <bool kF, bool kPdf>
+inline BsdfValue dielectric_value_up(Vec3 wo, Vec3 wi, float alpha, float eta) {
+  BsdfValue r;
+  if (!(wo.z > 0.f) || wi.z == 0.f) return r;
   Vec3 wm;
   float etap;
-  if (!dielectric_half_vector(wo, wi, eta, wm, etap)) return 0.f;
+  if (!dielectric_half_vector(wo, wi, eta, wm, etap)) return r;
   const float cos_om = glm::dot(wo, wm);
   const float F = fresnel_dielectric(cos_om, eta);
-  const float dg = ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha);
-  if (wi.z > 0.f) return 0.25f * dg * F;
+  const float d = ggx_d(wm, alpha);
+  if (wi.z > 0.f) {
+    if constexpr (kF) r.f = Rgb(0.25f * (d * ggx_g2_over_cos2(wo, wi, alpha)) * F);
+    if constexpr (kPdf) r.pdf = ggx_vndf_pdf(wo, wm, d, alpha) * F / (4.f * cos_om);
+    return r;
+  }
   const float cos_im = glm::dot(wi, wm);
   const float denom = sqr(cos_im + cos_om / etap);
-  if (!(denom > 0.f)) return 0.f;
-  const float f = dg * (1.f - F) * std::abs(cos_im * cos_om) / (denom * etap * etap);
-  return std::isfinite(f) ? f : 0.f;
-}
-
-inline float dielectric_pdf_up(Vec3 wo, Vec3 wi, float alpha, float eta) {
-  if (!(wo.z > 0.f) || wi.z == 0.f) return 0.f;
-  Vec3 wm;
-  float etap;
-  if (!dielectric_half_vector(wo, wi, eta, wm, etap)) return 0.f;
-  const float cos_om = glm::dot(wo, wm);
-  const float F = fresnel_dielectric(cos_om, eta);
-  const float d_wo = ggx_vndf_pdf(wo, wm, alpha);
-  if (wi.z > 0.f) return d_wo * F / (4.f * cos_om);
-  const float cos_im = glm::dot(wi, wm);
-  const float denom = sqr(cos_im + cos_om / etap);
-  if (!(denom > 0.f)) return 0.f;
-  const float pdf = d_wo * (1.f - F) * std::abs(cos_im) / denom;
-  return std::isfinite(pdf) ? pdf : 0.f;
+  if (!(denom > 0.f)) return r;
+  if constexpr (kF) {
+    const float dg = d * ggx_g2_over_cos2(wo, wi, alpha);
+    const float f = dg * (1.f - F) * std::abs(cos_im * cos_om) / (denom * etap * etap);
+    r.f = Rgb(std::isfinite(f) ? f : 0.f);
+  }
+  if constexpr (kPdf) {
+    const float pdf = ggx_vndf_pdf(wo, wm, d, alpha) * (1.f - F) * std::abs(cos_im) / denom;
+    r.pdf = std::isfinite(pdf) ? pdf : 0.f;
+  }
+  return r;
 }
 
 inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float eta, TransportMode mode,
@@ -119,18 +117,13 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
 // Relative index η = n_t/n_i for light leaving along wo's side.
 inline float dielectric_eta(const Material& m, Vec3 wo) { return wo.z > 0.f ? m.ior : 1.f / m.ior; }
 
-inline Rgb dielectric_eval(const Material& m, Vec3 wo, Vec3 wi) {
-  if (effectively_smooth(m.alpha) || wo.z == 0.f) return Rgb(0.f);
+// f and pdf (BsdfValue) of the rough lobes; a smooth interface has none (only sample returns its Dirac lobes).
+template <bool kF, bool kPdf>
+[[gnu::noinline]] inline BsdfValue dielectric_value(const Material& m, Vec3 wo, Vec3 wi) {
+  if (effectively_smooth(m.alpha) || wo.z == 0.f) return {};
   const float eta = dielectric_eta(m, wo);
   if (wo.z < 0.f) wo = flip_z(wo), wi = flip_z(wi);
-  return Rgb(dielectric_eval_up(wo, wi, m.alpha, eta));
-}
-
-inline float dielectric_pdf(const Material& m, Vec3 wo, Vec3 wi) {
-  if (effectively_smooth(m.alpha) || wo.z == 0.f) return 0.f;
-  const float eta = dielectric_eta(m, wo);
-  if (wo.z < 0.f) wo = flip_z(wo), wi = flip_z(wi);
-  return dielectric_pdf_up(wo, wi, m.alpha, eta);
+  return dielectric_value_up<kF, kPdf>(wo, wi, m.alpha, eta);
 }
 
 inline bool dielectric_sample(const Material& m, Vec3 wo, float uc, Vec2 u, TransportMode mode, BsdfSample& out) {

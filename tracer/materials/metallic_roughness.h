@@ -78,7 +78,7 @@ inline float gltf_specular_prob(const Material& m, Rgb f0, float cos_o, float e_
 
 // f (kF) and pdf (kPdf) (BsdfValue): f0, E_d(μo), the half vector and D computed once.
 template <bool kF, bool kPdf>
-inline BsdfValue metallic_roughness_value(const Material& m, Vec3 wo, Vec3 wi) {
+[[gnu::noinline]] inline BsdfValue metallic_roughness_value(const Material& m, Vec3 wo, Vec3 wi) {
   BsdfValue r;
   if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
   const Rgb f0 = gltf_f0(m);

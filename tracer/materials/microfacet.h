@@ -98,9 +98,11 @@ inline float ggx_g2_over_cos2(Vec3 wo, Vec3 wi, float alpha) {
 
 // Density of visible normals D_wo(wm) = G1(wo)·max(0, wo·wm)·D(wm)/|wo.z| (per steradian of wm). Requires
 // wo.z ≠ 0 or α > 0 (finite either way).
-inline float ggx_vndf_pdf(Vec3 wo, Vec3 wm, float alpha) {
-  return ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * std::max(0.f, glm::dot(wo, wm)) * ggx_d(wm, alpha);
+// `d` = ggx_d(wm, alpha), which the caller may have.
+inline float ggx_vndf_pdf(Vec3 wo, Vec3 wm, float d, float alpha) {
+  return ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * std::max(0.f, glm::dot(wo, wm)) * d;
 }
+inline float ggx_vndf_pdf(Vec3 wo, Vec3 wm, float alpha) { return ggx_vndf_pdf(wo, wm, ggx_d(wm, alpha), alpha); }
 
 // Samples a visible normal wm ~ D_wo (Heitz 2018, listing 1, isotropic α). wo must be in the upper hemisphere
 // (wo.z ≥ 0); the caller mirrors directions from below. The result has wm.z ≥ 0 and wo·wm ≥ 0.

@@ -39,7 +39,7 @@ inline Rgb plastic_diffuse(const Material& m, float ec_o, float cos_i) {
 
 // f (kF) and pdf (kPdf) (BsdfValue): E_c(μo), the half vector and D computed once.
 template <bool kF, bool kPdf>
-inline BsdfValue plastic_value(const Material& m, Vec3 wo, Vec3 wi) {
+[[gnu::noinline]] inline BsdfValue plastic_value(const Material& m, Vec3 wo, Vec3 wi) {
   BsdfValue r;
   if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
   const float ec_o = plastic_coat_albedo(m, wo.z);
