@@ -50,12 +50,11 @@ inline Rgb conductor_ms(const Material& m, float e_o, float cos_i) {
   return f_ms * ((1.f - e_o) * (1.f - m.energy(cos_i)) / (kPi * one_minus_e_avg));
 }
 
-// f (kF) and pdf (kPdf) of the rough lobes (BsdfValue): E(μo), the half vector and D computed once.
+// f (kF) and pdf (kPdf) of the rough lobes (BsdfValue) for wo.z > 0 and wi.z > 0, given E(μo) = e_o (a sample
+// has it from its lobe choice): the half vector and D computed once.
 template <bool kF, bool kPdf>
-[[gnu::noinline]] inline BsdfValue conductor_value(const Material& m, Vec3 wo, Vec3 wi) {
+inline BsdfValue conductor_value_at(const Material& m, float e_o, Vec3 wo, Vec3 wi) {
   BsdfValue r;
-  if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return r;
-  const float e_o = m.energy(wo.z);
   const Vec3 h = wo + wi;
   const bool has_half = glm::dot(h, h) > 0.f;
   const Vec3 wm = has_half ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
@@ -75,6 +74,13 @@ template <bool kF, bool kPdf>
   return r;
 }
 
+// The same for any directions (0 where a lobe is not).
+template <bool kF, bool kPdf>
+[[gnu::noinline]] inline BsdfValue conductor_value(const Material& m, Vec3 wo, Vec3 wi) {
+  if (effectively_smooth(m.alpha) || !(wo.z > 0.f) || !(wi.z > 0.f)) return {};
+  return conductor_value_at<kF, kPdf>(m, m.energy(wo.z), wo, wi);
+}
+
 inline Rgb conductor_eval(const Material& m, Vec3 wo, Vec3 wi) { return conductor_value<true, false>(m, wo, wi).f; }
 inline float conductor_pdf(const Material& m, Vec3 wo, Vec3 wi) { return conductor_value<false, true>(m, wo, wi).pdf; }
 
@@ -87,15 +93,16 @@ inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfS
     out = {wi, F / wi.z, 1.f, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
     return true;
   }
+  const float e_o = m.energy(wo.z);
   Vec3 wi;
-  if (uc < conductor_ms_prob(m, m.energy(wo.z))) {
+  if (uc < conductor_ms_prob(m, e_o)) {
     wi = sample_cosine_hemisphere(u);
   } else {
     const Vec3 wm = ggx_sample_vndf(wo, m.alpha, u);
     wi = reflect(-wo, wm);
   }
   if (!(wi.z > 0.f)) return false;
-  const BsdfValue v = conductor_value<true, true>(m, wo, wi);
+  const BsdfValue v = conductor_value_at<true, true>(m, e_o, wo, wi);
   if (!(v.pdf > 0.f)) return false;
   out = {wi, v.f, v.pdf, BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
   return true;

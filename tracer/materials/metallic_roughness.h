@@ -76,13 +76,11 @@ inline float gltf_specular_prob(const Material& m, Rgb f0, float cos_o, float e_
   return denom > 0.f ? fs / denom : 1.f;
 }
 
-// f (kF) and pdf (kPdf) (BsdfValue): f0, E_d(μo), the half vector and D computed once.
+// f (kF) and pdf (kPdf) (BsdfValue) for wo.z > 0 and wi.z > 0, given f0 = gltf_f0(m) and E_d(μo) = e_o (a sample
+// has both from its lobe choice): the half vector and D computed once.
 template <bool kF, bool kPdf>
-[[gnu::noinline]] inline BsdfValue metallic_roughness_value(const Material& m, Vec3 wo, Vec3 wi) {
+inline BsdfValue metallic_roughness_value_at(const Material& m, Rgb f0, float e_o, Vec3 wo, Vec3 wi) {
   BsdfValue r;
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
-  const Rgb f0 = gltf_f0(m);
-  const float e_o = gltf_layer_albedo(m, wo.z);
   const Vec3 h = wo + wi;
   const bool rough = !effectively_smooth(m.alpha) && glm::dot(h, h) > 0.f;
   const Vec3 wm = rough ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
@@ -99,6 +97,13 @@ template <bool kF, bool kPdf>
   return r;
 }
 
+// The same for any directions (0 below the surface).
+template <bool kF, bool kPdf>
+[[gnu::noinline]] inline BsdfValue metallic_roughness_value(const Material& m, Vec3 wo, Vec3 wi) {
+  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
+  return metallic_roughness_value_at<kF, kPdf>(m, gltf_f0(m), gltf_layer_albedo(m, wo.z), wo, wi);
+}
+
 inline Rgb metallic_roughness_eval(const Material& m, Vec3 wo, Vec3 wi) {
   return metallic_roughness_value<true, false>(m, wo, wi).f;
 }
@@ -109,7 +114,8 @@ inline float metallic_roughness_pdf(const Material& m, Vec3 wo, Vec3 wi) {
 inline bool metallic_roughness_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
   const Rgb f0 = gltf_f0(m);
-  const float p_s = gltf_specular_prob(m, f0, wo.z, gltf_layer_albedo(m, wo.z));
+  const float e_o = gltf_layer_albedo(m, wo.z);
+  const float p_s = gltf_specular_prob(m, f0, wo.z, e_o);
   const bool specular = uc < p_s;
   if (specular && effectively_smooth(m.alpha)) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
@@ -120,7 +126,7 @@ inline bool metallic_roughness_sample(const Material& m, Vec3 wo, float uc, Vec2
   }
   const Vec3 wi = specular ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  const BsdfValue v = metallic_roughness_value<true, true>(m, wo, wi);
+  const BsdfValue v = metallic_roughness_value_at<true, true>(m, f0, e_o, wo, wi);
   if (!(v.pdf > 0.f)) return false;
   out = {wi, v.f, v.pdf, BsdfFlags::Reflection | (specular ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;

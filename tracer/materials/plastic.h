@@ -37,12 +37,11 @@ inline Rgb plastic_diffuse(const Material& m, float ec_o, float cos_i) {
   return m.albedo * (kInvPi * s);
 }
 
-// f (kF) and pdf (kPdf) (BsdfValue): E_c(μo), the half vector and D computed once.
+// f (kF) and pdf (kPdf) (BsdfValue) for wo.z > 0 and wi.z > 0, given E_c(μo) = ec_o (a sample has it from its
+// lobe choice): the half vector and D computed once.
 template <bool kF, bool kPdf>
-[[gnu::noinline]] inline BsdfValue plastic_value(const Material& m, Vec3 wo, Vec3 wi) {
+inline BsdfValue plastic_value_at(const Material& m, float ec_o, Vec3 wo, Vec3 wi) {
   BsdfValue r;
-  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return r;
-  const float ec_o = plastic_coat_albedo(m, wo.z);
   const Vec3 h = wo + wi;
   const bool rough = !effectively_smooth(m.alpha) && glm::dot(h, h) > 0.f;
   const Vec3 wm = rough ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
@@ -60,12 +59,20 @@ template <bool kF, bool kPdf>
   return r;
 }
 
+// The same for any directions (0 below the surface).
+template <bool kF, bool kPdf>
+[[gnu::noinline]] inline BsdfValue plastic_value(const Material& m, Vec3 wo, Vec3 wi) {
+  if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
+  return plastic_value_at<kF, kPdf>(m, plastic_coat_albedo(m, wo.z), wo, wi);
+}
+
 inline Rgb plastic_eval(const Material& m, Vec3 wo, Vec3 wi) { return plastic_value<true, false>(m, wo, wi).f; }
 inline float plastic_pdf(const Material& m, Vec3 wo, Vec3 wi) { return plastic_value<false, true>(m, wo, wi).pdf; }
 
 inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
-  const float p_c = plastic_coat_prob(m, plastic_coat_albedo(m, wo.z));
+  const float ec_o = plastic_coat_albedo(m, wo.z);
+  const float p_c = plastic_coat_prob(m, ec_o);
   const bool coat = uc < p_c;
   if (effectively_smooth(m.alpha) && coat) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
@@ -75,7 +82,7 @@ inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSam
   }
   const Vec3 wi = coat ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  const BsdfValue v = plastic_value<true, true>(m, wo, wi);
+  const BsdfValue v = plastic_value_at<true, true>(m, ec_o, wo, wi);
   if (!(v.pdf > 0.f)) return false;
   out = {wi, v.f, v.pdf, BsdfFlags::Reflection | (coat ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;
