@@ -385,7 +385,7 @@ TEST_CASE("cli: --path-loop and --generic-kernel keep the image's bits and chang
   CHECK(path_line(wave) == "path: wavefront loop, kernel for polygons with Lambert materials, SIMD shading lanes");
   CHECK(path_line(scalar) == "path: scalar loop, kernel for polygons with Lambert materials");
   CHECK(path_line(generic) == "path: wavefront loop, generic kernel (every feature), SIMD shading lanes");
-  CHECK(path_line(automatic) == path_line(wave));  // auto: the Cornell box's 17 polygons take the wavefront
+  CHECK(path_line(automatic) == path_line(wave));  // auto: the wavefront
 }
 
 TEST_CASE("cli: --sampler and --rr-depth change the image as they say, and the defaults are what the scene names") {

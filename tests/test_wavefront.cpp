@@ -3,13 +3,18 @@
 #include <doctest/doctest.h>
 
 #include <chrono>
+#include <fstream>
 #include <cstring>
 #include <thread>
 
+#include "geometry/alpha_mask.h"
 #include "integrators/wavefront.h"
+#include "materials/texture.h"
 #include "render/renderer.h"
 #include "scene/scene_json.h"
+#include "skip.h"
 #include "test_helpers.h"
+#include "uv_scenes.h"
 
 using namespace pt;
 using namespace pt::test;
@@ -86,6 +91,64 @@ TEST_CASE("wavefront: the same through the generic kernel, a mesh in a BVH and n
   check_loops_agree(bunny);
 }
 
+TEST_CASE("wavefront: the scalar loop's bits on users' scenes: glTF, thin lens, textures, normal maps, kept instances, cut-outs in a BVH") {
+  // Since auto runs the wavefront on every scene, each kind of scene a user brings must give the scalar loop's
+  // image: these run through a BVH (or the instances' two levels), textures, normal maps and cut-out filters.
+  std::vector<std::pair<std::string, SceneDesc>> scenes;
+  scenes.emplace_back("torus-and-gem.glb", load_scene(std::string(PT_SCENES_DIR) + "/torus-and-gem.glb"));
+  scenes.emplace_back("cornell-gltf (thin lens)", load_scene(std::string(PT_SCENES_DIR) + "/cornell-gltf.json"));
+  scenes.emplace_back("ball.obj (texture, normal map)", load_scene(std::string(PT_SCENES_DIR) + "/ball.obj"));
+  const std::string engine = "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+  if (std::ifstream(engine).good()) {
+    SceneDesc d = load_scene(engine);
+    d.render.instancing = Instancing::Keep;  // the instances' own hierarchy, not placed polygons
+    scenes.emplace_back("2CylinderEngine.glb, instances kept", d);
+  } else {
+    skip_for_missing("assimp-testmodels", "the instanced engine's part of this test");
+  }
+  {
+    // 80 cut-out blockers (160 triangles: a BVH) above a floor lit by a sun straight down.
+    SceneDesc d;
+    look_down_from_4(d, 40.0);
+    d.render.max_bounces = 3;
+    MaterialDesc floor, blocker;
+    floor.name = "floor";
+    floor.albedo = Rgb(0.5f);
+    blocker.name = "blocker";
+    blocker.albedo = Rgb(0.7f);
+    auto mask = std::make_shared<AlphaMask>();
+    mask->alpha = make_texture(2, 1, {0, 0, 0, 1, 1, 1}, TextureWrap::Clamp, TextureWrap::Clamp, "half");
+    mask->cutoff = 0.5f;
+    blocker.cutout = mask;
+    d.materials = {floor, blocker};
+    auto shading = std::make_shared<std::vector<TriangleShading>>();
+    add_uv_square(d, *shading, 0.0, 10.0, 0);
+    for (int i = 0; i < 80; ++i) add_uv_square(d, *shading, 6.0 + 0.01 * i, 1.0 + 0.1 * i, 1, 1.f, true);
+    d.shading = shading;
+    PunctualLightDesc sun;
+    sun.kind = PunctualKind::Directional;
+    sun.direction = DVec3(0.3, -1, 0.2);
+    sun.intensity = Rgb(2.f);
+    d.punctual_lights = {sun};
+    scenes.emplace_back("cut-outs in a BVH", d);
+  }
+  for (auto& [name, desc] : scenes) {
+    desc.width = 24;
+    desc.height = 16;
+    const auto scene = compile_scene(desc);
+    if (name == "cut-outs in a BVH") {
+      REQUIRE(scene->has_cutouts());
+      REQUIRE_FALSE(scene->polygon_bvh.empty());
+    }
+    if (name.rfind("2CylinderEngine", 0) == 0) REQUIRE_FALSE(scene->instances.empty());
+    for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
+      desc.render.estimator = est;
+      INFO(name << " " << std::string(to_string(est)));
+      check_loops_agree(desc);
+    }
+  }
+}
+
 TEST_CASE("wavefront: the shading lanes agree with the scalar loop for lights seen from behind, two-sided and triangular") {
   // cornell plus a one-sided square light standing upright in the room (half the room sees its back), then the
   // same light two-sided, then a triangular light (not a parallelogram: those lanes take the scalar path).
@@ -152,20 +215,24 @@ TEST_CASE("wavefront: among other materials and spheres, the lanes shade the Lam
   }
 }
 
-TEST_CASE("wavefront: auto takes it where polygons are searched by brute force, and only there") {
+TEST_CASE("wavefront: auto takes it on every scene, the scalar loop only when asked") {
   RenderSettings settings;
+  REQUIRE(settings.path_loop == PathLoop::Auto);
   const auto cornell = compile_scene(load_scene("cornell"));
   const auto bunny = compile_scene(load_scene(std::string(PT_SCENES_DIR) + "/cornell-bunny.json"));
   const auto ball = compile_scene(furnace_scene(Rgb(1.f), Rgb(0.5f), 4, -1, Estimator::Mis));
-  CHECK(wavefront_pays(*cornell));
-  CHECK_FALSE(wavefront_pays(*bunny));  // polygons in a BVH
-  CHECK_FALSE(wavefront_pays(*ball));   // a sphere only
-  CHECK(has_batch_kernel<SobolSampler>(*cornell, settings));
-  CHECK_FALSE(has_batch_kernel<SobolSampler>(*bunny, settings));
-  settings.path_loop = PathLoop::Scalar;
-  CHECK_FALSE(has_batch_kernel<SobolSampler>(*cornell, settings));
-  settings.path_loop = PathLoop::Wavefront;
-  CHECK(has_batch_kernel<IndependentSampler>(*ball, settings));
+  settings.estimator = Estimator::Mis;  // describe_path names bdpt's rounds, not a loop
+  REQUIRE_FALSE(bunny->polygon_bvh.empty());  // polygons in a BVH
+  REQUIRE(ball->polygons.size() == 0);        // a sphere only
+  for (const Scene* scene : {cornell.get(), bunny.get(), ball.get()}) {
+    settings.path_loop = PathLoop::Auto;
+    CHECK(has_batch_kernel<SobolSampler>(*scene, settings));
+    CHECK(has_batch_kernel<IndependentSampler>(*scene, settings));
+    CHECK(Renderer::describe_path(*scene, settings).rfind("wavefront loop", 0) == 0);
+    settings.path_loop = PathLoop::Scalar;
+    CHECK_FALSE(has_batch_kernel<SobolSampler>(*scene, settings));
+    CHECK(Renderer::describe_path(*scene, settings).rfind("scalar loop", 0) == 0);
+  }
 }
 
 TEST_CASE("wavefront: a pass cancelled while paths never end stops and keeps only whole samples") {

@@ -84,7 +84,7 @@ void add_render_command(CLI::App& app, RenderOptions& o) {
   r->add_option("--path-loop", o.path_loop,
                 enum_names_joined<PathLoop>(" | ") +
                     ": trace paths one at a time, or a tile's paths together bounce by bounce with 16-ray packets "
-                    "(same image; auto: the wavefront where polygons are few enough for brute force)")
+                    "(same image; auto: the wavefront, on every scene)")
       ->check(CLI::IsMember(enum_name_list<PathLoop>()))
       ->capture_default_str();
   r->add_option("--instancing", o.instancing,

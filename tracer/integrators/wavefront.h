@@ -7,7 +7,9 @@
 // Each path performs exactly the arithmetic of the scalar loop (path_tracer.h), and its random numbers
 // depend on (pixel, sample, seed, dimension) alone (sample_dimensions.h), so every sample's radiance is
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
-// sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain).
+// sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
+// on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
+// Lambertian polygons are shaded in SIMD lanes (lambert_lanes.h), and each stage's loop runs one kind of work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -28,16 +30,9 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
                              int n, Rgb* L, PixelFeatures* features, RayCount& count, const std::atomic<bool>* cancel);
 
 // The batch kernel compiled for the scene's feature set (or all features with settings.generic_kernel), or null
-// where settings.path_loop asks for the scalar loop (PathLoop::Auto: the wavefront only where polygons are
-// searched by brute force, which is where the packet kernels pay).
+// where settings.path_loop asks for the scalar loop.
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
-
-// What PathLoop::Auto resolves to for this scene: the wavefront where polygons are searched by brute force (and
-// no instanced mesh is searched ray by ray besides).
-inline bool wavefront_pays(const Scene& scene) {
-  return (scene.kernel_features() & kFeaturePolygons) != 0 && scene.polygon_bvh.empty() && scene.instances.empty();
-}
 
 // Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
 // (lambert_lanes.h; at the bounces where lights are sampled): kernels with polygons, in scenes with a
@@ -51,9 +46,10 @@ inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
                      [&](const Light& l) { return l.polygon() && scene.polygons.parallelogram[l.prim]; });
 }
 
-// Whether settings.path_loop, resolved for this scene, runs the wavefront loop (select_batch_kernel's choice).
-inline bool runs_wavefront(const Scene& scene, const RenderSettings& settings) {
-  return settings.path_loop == PathLoop::Wavefront || (settings.path_loop == PathLoop::Auto && wavefront_pays(scene));
-}
+// Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on
+// every scene: it measured level with the scalar loop or faster on each one tried, brute-force polygons, polygons
+// in a BVH, instances and spheres alone (docs/performance.md, session 38); the scalar loop stays for tests and
+// measurements.
+inline bool runs_wavefront(const RenderSettings& settings) { return settings.path_loop != PathLoop::Scalar; }
 
 }  // namespace pt

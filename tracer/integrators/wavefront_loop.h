@@ -157,7 +157,7 @@ constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> kBatchKernels = mak
 
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings) {
-  if (!runs_wavefront(scene, settings)) return nullptr;
+  if (!runs_wavefront(settings)) return nullptr;
   return integrator_detail::kBatchKernels<Sampler>[selected_kernel_features(scene, settings.generic_kernel)];
 }
 

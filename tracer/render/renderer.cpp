@@ -218,7 +218,7 @@ PassStats Renderer::render_bdpt_rounds(const Scene& scene, const RenderSettings&
 std::string Renderer::describe_path(const Scene& scene, const RenderSettings& settings) {
   const RenderSettings s = resolved_render_settings(scene, settings);
   if (s.estimator == Estimator::Bdpt) return "bdpt rounds";
-  const bool wavefront = runs_wavefront(scene, s);
+  const bool wavefront = runs_wavefront(s);
   const uint32_t f = selected_kernel_features(scene, s.generic_kernel);
   std::string out = wavefront ? "wavefront loop, " : "scalar loop, ";
   if (f == kAllFeatures) {
