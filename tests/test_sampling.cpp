@@ -226,7 +226,7 @@ TEST_CASE("light sampling: sampled directions follow the strategy's pdf (rectang
     const Ray ray{ref, glm::normalize(d)};
     if (!scene->intersect(ray, kInfinity, ~0u, h)) return 0.0;
     const Interaction it = make_interaction(*scene, ray, h);
-    return lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
+    return lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, Vec3(0, 1, 0), it.p, it.ng);
   };
   Pcg32 choice(9, 9);
   check_direction_sampler(
@@ -258,7 +258,7 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
     const Ray ray{ref, glm::normalize(d)};
     if (!scene->intersect(ray, kInfinity, ~0u, h)) return 0.0;
     const Interaction it = make_interaction(*scene, ray, h);
-    return lights_pdf_area(*scene, 0, ref, it.p, it.ng);
+    return lights_pdf_area(*scene, 0, ref, Vec3(0, 1, 0), it.p, it.ng);
   };
   check_direction_sampler(
       "inside sphere",
@@ -312,7 +312,7 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
     double p = lights_pdf_infinite(*scene, n, d);
     if (scene->intersect(ray, kInfinity, ~0u, h)) {
       const Interaction it = make_interaction(*scene, ray, h);
-      p += lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, it.p, it.ng);
+      p += lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, n, it.p, it.ng);
     }
     return p;
   };

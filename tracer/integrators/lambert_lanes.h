@@ -188,7 +188,12 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const auto& rng = rng_of(l);
     const Vec3 ref(px[l], py[l], pz[l]);
     if (!s.lights.empty()) {
-      const int li = choose_light(s, rng.get_1d(choice_dim));
+      float pmf = 0.f;
+      const int li = choose_light_at(s, ref, Vec3(nx[l], ny[l], nz[l]), rng.get_1d(choice_dim), pmf);
+      if (li < 0) {
+        active[l] = 0;  // no light reaches it: the scalar path
+        continue;
+      }
       const Light& light = s.lights[li];
       if (!parallelogram_by_area(P, light, ref)) {
         active[l] = 0;  // the scalar path
@@ -201,7 +206,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
       la_x[l] = la.x, la_y[l] = la.y, la_z[l] = la.z, lb_x[l] = lb.x, lb_y[l] = lb.y, lb_z[l] = lb.z;
       lc_x[l] = lc.x, lc_y[l] = lc.y, lc_z[l] = lc.z, ln_x[l] = ln.x, ln_y[l] = ln.y, ln_z[l] = ln.z;
       l_area[l] = light.area;
-      l_pmf[l] = s.light_pmf[li];
+      l_pmf[l] = pmf;
       le_r[l] = light.emission.x, le_g[l] = light.emission.y, le_b[l] = light.emission.z;
       two_sided[l] = light.two_sided ? 1.f : 0.f;
       light_prim[l] = lp;

@@ -146,7 +146,7 @@ template <class Sampler, uint32_t F>
     if (!o.light_sampling || p.count_emission) {
       p.L += p.beta * Le;
     } else if (o.mis && !is_black(Le)) {
-      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, it.p, it.ng));
+      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, p.prev_n, it.p, it.ng));
     }
   }
   if (p.features.out) [[unlikely]]

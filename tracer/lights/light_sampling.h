@@ -53,6 +53,23 @@ inline float spot_falloff(const Light& l, float cos_axis) {
   return static_cast<int>(std::min<size_t>(it - s.light_cdf.begin(), s.light_cdf.size() - 1));
 }
 
+// The light next-event estimation takes for a receiver at p with normal n (the side lit): by power alone
+// (choose_light), or through the scene's light tree where it has one (lights/light_tree.h). `pmf` receives the
+// probability of the choice; −1 when the tree can offer no light that reaches the receiver.
+[[gnu::always_inline]] inline int choose_light_at(const Scene& s, Vec3 p, Vec3 n, float u, float& pmf) {
+  if (s.light_tree.empty()) {
+    const int li = choose_light(s, u);
+    pmf = s.light_pmf[static_cast<size_t>(li)];
+    return li;
+  }
+  return s.light_tree.choose(p, n, u, s.light_pmf, pmf);
+}
+
+// The probability that choose_light_at gives light li for the receiver (p, n).
+inline float light_choice_pmf(const Scene& s, Vec3 p, Vec3 n, int li) {
+  return s.light_tree.contains(li) ? s.light_tree.pmf(p, n, li) : s.light_pmf[static_cast<size_t>(li)];
+}
+
 // Emitted radiance leaving an area light's surface point with front normal n towards direction w.
 inline Rgb area_light_emission(const Light& l, Vec3 n, Vec3 w) {
   const float c = glm::dot(n, w);
@@ -311,21 +328,25 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
   return std::isfinite(ls.pdf);
 }
 
-// The whole light-sampling strategy of next-event estimation: choose a light ∝ power with u_choice, then sample
-// it. ls.pdf includes the choice probability; `li` receives the light's index.
+// The whole light-sampling strategy of next-event estimation: choose a light with u_choice (choose_light_at: ∝
+// power, or by importance through the light tree), then sample it. ls.pdf includes the choice probability; `li`
+// receives the light's index.
 template <uint32_t F = kAllFeatures>
 inline bool sample_lights(const Scene& s, const LightReference& ref, float u_choice, Vec2 u, LightSample& ls, int& li) {
   if (s.lights.empty()) return false;
-  li = choose_light(s, u_choice);
+  float pmf = 0.f;
+  li = choose_light_at(s, ref.p, ref.n, u_choice, pmf);
+  if (li < 0) return false;
   if (!sample_li<F>(s, s.lights[li], ref, u, ls)) return false;
-  ls.pdf *= s.light_pmf[li];
+  ls.pdf *= pmf;
   return ls.pdf > 0.f;
 }
 
-// Density of that strategy for the point p_light (front normal n_light) of area light li, seen from `ref`.
+// Density of that strategy for the point p_light (front normal n_light) of area light li, seen from a receiver
+// at `ref` with normal ref_n (the side lit, as sample_lights was given it).
 template <uint32_t F = kAllFeatures>
-inline float lights_pdf_area(const Scene& s, int li, Vec3 ref, Vec3 p_light, Vec3 n_light) {
-  return s.light_pmf[li] * area_light_pdf<F>(s, s.lights[li], ref, p_light, n_light);
+inline float lights_pdf_area(const Scene& s, int li, Vec3 ref, Vec3 ref_n, Vec3 p_light, Vec3 n_light) {
+  return light_choice_pmf(s, ref, ref_n, li) * area_light_pdf<F>(s, s.lights[li], ref, p_light, n_light);
 }
 
 // Density of that strategy for an escaping direction w (the sum over the infinite lights, each weighted by its

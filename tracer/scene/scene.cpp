@@ -737,6 +737,48 @@ void compile_emission_focus(Scene& s) {
   s.emission_focus_radius = static_cast<float>(radius) * (1.f + 1e-5f);  // float rounding must not cut the box
 }
 
+// The light tree over the bounded lights (lights/light_tree.h), where there are enough of them; `power` as
+// compile_lights counts it, per light.
+void compile_light_tree(Scene& s, const std::vector<double>& power) {
+  s.light_tree = LightTree();
+  std::vector<LightBounds> bounds;
+  std::vector<uint32_t> members;
+  const PolygonSoA& P = s.polygons;
+  for (uint32_t li = 0; li < s.lights.size(); ++li) {
+    const Light& l = s.lights[li];
+    LightBounds b;
+    b.phi = static_cast<float>(power[li]);
+    if (l.polygon()) {
+      b.lo = b.hi = P.v[0][l.prim];
+      for (int k = 1; k < 4; ++k) {
+        b.lo = glm::min(b.lo, P.v[k][l.prim]);
+        b.hi = glm::max(b.hi, P.v[k][l.prim]);
+      }
+      b.w = P.normal[l.prim];
+      b.cos_theta_o = 1.f;
+      // A surface emits over a hemisphere about its normal (θe = π/2); a hair wider, so that rounding never
+      // gives a receiver grazing the light's plane importance 0.
+      b.cos_theta_e = -1e-3f;
+      b.two_sided = l.two_sided;
+    } else if (l.sphere()) {
+      const Vec3 c = s.spheres.center[l.prim - s.sphere_begin()];
+      const float r = s.spheres.radius[l.prim - s.sphere_begin()];
+      b.lo = c - Vec3(r);
+      b.hi = c + Vec3(r);
+      b.cos_theta_o = -1.f;  // normals in every direction
+    } else if (l.kind == LightKind::Point || l.kind == LightKind::Spot) {
+      b.lo = b.hi = l.position;  // a spot bounded as a point light: conservative
+      b.cos_theta_o = -1.f;
+    } else {
+      continue;  // the environment, the sun, directional lights: chosen by power beside the tree
+    }
+    if (!(b.phi > 0.f)) continue;
+    bounds.push_back(b);
+    members.push_back(li);
+  }
+  if (bounds.size() >= LightTree::kMinLights) s.light_tree = LightTree(bounds, members, s.light_pmf);
+}
+
 void compile_lights(Scene& s) {
   s.lights.clear();
   s.light_pmf.clear();
@@ -829,6 +871,7 @@ void compile_lights(Scene& s) {
     s.light_cdf.push_back(static_cast<float>(running / total));
   }
   if (!s.light_cdf.empty()) s.light_cdf.back() = 1.f;
+  compile_light_tree(s, power);
   compile_emission_focus(s);
 }
 

@@ -18,6 +18,7 @@
 #include "geometry/geometry.h"
 #include "scene/scene_desc.h"
 #include "geometry/primitives.h"
+#include "lights/light_tree.h"
 #include "lights/environment_map.h"
 #include "materials/material.h"
 
@@ -96,6 +97,9 @@ class Scene : public SceneGeometry {
   int32_t light_of(uint32_t prim) const { return prim < light_of_prim.size() ? light_of_prim[prim] : -1; }
   std::vector<float> light_cdf;        // cumulative power-proportional selection probabilities
   std::vector<float> light_pmf;
+  // Next-event estimation's choice among many bounded lights by their importance at the receiver
+  // (lights/light_tree.h); empty below LightTree::kMinLights of them, where power alone chooses.
+  LightTree light_tree;
   std::vector<uint32_t> infinite_lights;  // indices into `lights` of the environment and the sun
   std::vector<Light> punctual_lights;     // compiled from SceneDesc::punctual_lights; compile_lights adds them
   bool directional_lights = false;        // some light of `lights` is a Directional one (starts paths as the sun)
