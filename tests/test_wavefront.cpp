@@ -132,7 +132,9 @@ TEST_CASE("wavefront: the scalar loop's bits on users' scenes: glTF, thin lens, 
     d.punctual_lights = {sun};
     scenes.emplace_back("cut-outs in a BVH", d);
   }
-  for (auto& [name, desc] : scenes) {
+  for (auto& entry : scenes) {
+    const std::string name = entry.first;  // a plain variable: clang 14 cannot capture a structured binding
+    SceneDesc& desc = entry.second;
     desc.width = 24;
     desc.height = 16;
     const auto scene = compile_scene(desc);
