@@ -74,9 +74,8 @@ LightBounds light_bounds_union(const LightBounds& a, const LightBounds& b) {
   const DVec3 wa = glm::normalize(DVec3(a.w)), wb = glm::normalize(DVec3(b.w));
   const double theta_d = std::acos(std::clamp(glm::dot(wa, wb), -1.0, 1.0));
   u.w = a.w;
-  u.cos_theta_o = -1.f;
+  u.cos_theta_o = -1.f;  // the whole sphere, unless a narrower cone holds both
   if (std::min(theta_d + theta_b, pi) <= theta_a) {
-    u.w = a.w;
     u.cos_theta_o = a.cos_theta_o;
   } else if (std::min(theta_d + theta_a, pi) <= theta_b) {
     u.w = b.w;
@@ -162,14 +161,15 @@ uint32_t LightTree::build(std::vector<uint32_t>& order, size_t first, size_t las
   return index;
 }
 
-namespace {
-// The probability of the first child at a node whose children have importances c0 and c1 (−1: neither can reach
-// the receiver). In double, so that huge importances neither overflow nor lose the smaller one.
-float first_child_probability(float c0, float c1) {
+// The probability of inner node i's first child for the receiver (p, n), from the two children's importances
+// (−1: neither can reach it). In double, so that huge importances neither overflow nor lose the smaller one.
+// sample() and pmf() both descend through it, so they multiply the same floats.
+float LightTree::first_child_probability(uint32_t i, Vec3 p, Vec3 n) const {
+  const float c0 = light_importance(nodes_[i + 1].bounds, p, n);
+  const float c1 = light_importance(nodes_[nodes_[i].second].bounds, p, n);
   if (!(c0 > 0.f) && !(c1 > 0.f)) return -1.f;
   return static_cast<float>(double(c0) / (double(c0) + double(c1)));
 }
-}  // namespace
 
 int LightTree::choose(Vec3 p, Vec3 n, float u, const std::vector<float>& light_pmf, float& pmf) const {
   const size_t k = std::min<size_t>(
@@ -191,8 +191,7 @@ int LightTree::sample(Vec3 p, Vec3 n, float u, float& pmf) const {
   uint32_t i = 0;
   while (nodes_[i].light < 0) {
     const Node& node = nodes_[i];
-    const float p0 = first_child_probability(light_importance(nodes_[i + 1].bounds, p, n),
-                                             light_importance(nodes_[node.second].bounds, p, n));
+    const float p0 = first_child_probability(i, p, n);
     if (p0 < 0.f) return -1;
     if (u < p0) {
       u = std::min(u / p0, kOneMinusEpsilon);
@@ -217,8 +216,7 @@ float LightTree::pmf(Vec3 p, Vec3 n, int li) const {
   uint32_t i = 0;
   for (int k = 0; k < t.depth; ++k) {
     const Node& node = nodes_[i];
-    const float p0 = first_child_probability(light_importance(nodes_[i + 1].bounds, p, n),
-                                             light_importance(nodes_[node.second].bounds, p, n));
+    const float p0 = first_child_probability(i, p, n);
     if (p0 < 0.f) return 0.f;
     if ((t.bits >> k) & 1u) {
       prob *= 1.f - p0;

@@ -76,6 +76,7 @@ class LightTree {
     uint64_t bits = 0;  // bit k: the child taken at depth k (1: the second)
     int32_t depth = -1;  // −1: not a light of the tree
   };
+  float first_child_probability(uint32_t i, Vec3 p, Vec3 n) const;
   uint32_t build(std::vector<uint32_t>& order, size_t first, size_t last, const std::vector<LightBounds>& bounds,
                  const std::vector<uint32_t>& lights, uint64_t bits, int depth);
 
