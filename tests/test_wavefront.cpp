@@ -178,6 +178,56 @@ TEST_CASE("wavefront: the shading lanes agree with the scalar loop for lights se
   check_loops_agree(desc);
 }
 
+TEST_CASE("wavefront: the shading lanes sample every kind of light with the scalar loop's bits") {
+  // cornell's walls lit by each kind of light the lanes take from the scalar sample_li (its own lamp, sampled by
+  // area in the lanes, stays): a point light and a spot (punctual: no MIS weight), a glowing ball (a sphere
+  // light), a constant background (a light at infinity: an unbounded shadow ray), a directional light.
+  SceneDesc desc = load_scene("cornell");
+  desc.width = 40;
+  desc.height = 24;
+  PunctualLightDesc point;
+  point.kind = PunctualKind::Point;
+  point.position = DVec3(150.0, 400.0, 200.0);
+  point.intensity = Rgb(2e4f, 1.5e4f, 1e4f);
+  PunctualLightDesc spot = point;
+  spot.kind = PunctualKind::Spot;
+  spot.position = DVec3(450.0, 450.0, 400.0);
+  spot.direction = DVec3(-0.3, -1.0, 0.2);
+  spot.inner_cone = 0.3;
+  spot.outer_cone = 0.6;
+  PunctualLightDesc directional;
+  directional.kind = PunctualKind::Directional;
+  directional.direction = DVec3(0.2, -1.0, 0.5);  // in through the open front, onto the floor
+  directional.intensity = Rgb(0.5f);
+  MaterialDesc glow;
+  glow.name = "glowing ball";
+  glow.albedo = Rgb(0.f);
+  glow.emission = Rgb(4.f, 6.f, 8.f);
+  desc.materials.push_back(glow);
+  ShapeDesc ball;
+  ball.type = ShapeType::Sphere;
+  ball.center = DVec3(400.0, 80.0, 150.0);
+  ball.radius = 40.0;
+  ball.material = static_cast<int>(desc.materials.size()) - 1;
+  desc.shapes.push_back(ball);
+  const auto check = [&](const char* lights) {
+    const auto scene = compile_scene(desc);
+    REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+    for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
+      desc.render.estimator = est;
+      CAPTURE(std::string(lights));
+      CAPTURE(std::string(to_string(est)));
+      check_loops_agree(desc);
+    }
+  };
+  desc.punctual_lights = {point, spot};
+  check("lamp, point, spot, sphere");
+  desc.punctual_lights = {directional};
+  desc.environment.type = EnvironmentType::Constant;
+  desc.environment.radiance = Rgb(0.3f, 0.4f, 0.5f);
+  check("lamp, sphere, directional, background");
+}
+
 TEST_CASE("wavefront: among other materials and spheres, the lanes shade the Lambertian polygons with the scalar loop's bits") {
   // cornell with a rough metal wall, a plastic floor and a white ball: the kernel for general materials, whose
   // lanes take only the hits on Lambertian polygons (a lane shading the metal or the plastic as Lambertian, or a

@@ -1,7 +1,8 @@
 // shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette (russian_roulette.h), for a
 // packet's worth of paths at once, in the case that dominates the
-// Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation of a parallelogram light
-// sampled by area. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
+// Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation. A parallelogram light
+// sampled by area is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and
+// weighed in the lanes. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
 // step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The
 // formulas both loops share are written once over the number type (core/lanes.h) and instantiated here for
 // vfloat: the shading frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf
@@ -17,10 +18,9 @@
 // polygons with other materials and spheres, the lanes shade the hits on untextured Lambertian polygons and
 // evaluate the lobe as bsdf_eval<Any> does (wo and wi strictly on one side), and the caller uses them only in
 // scenes without vertex normals (whose frames are flat). A lane takes the scalar path instead (the caller runs
-// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material, or when the
-// chosen light is not such a parallelogram sampled by area (a sphere, an infinite light, a triangle, a rectangle
-// near enough for solid-angle sampling); the caller uses the lanes only below the bounce limit. The gathers, the
-// light choice and the 1D random numbers stay scalar.
+// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material, or when no
+// light can reach it; the caller uses the lanes only below the bounce limit. The gathers, the light choice, the
+// other lights' samples and the 1D random numbers stay scalar.
 #pragma once
 #include <cstdint>
 
@@ -51,7 +51,7 @@ PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
 // The lanes [0, k) of a packet: path ids[l] hit hits[l] (found[l]); rng_of(l) is lane l's sampler. Requires
 // o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
 // live paths of a batch share one depth).
-template <MaterialSet kM, class RngOf>
+template <MaterialSet kM, uint32_t F, class RngOf>
 void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
                          const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
                          RayCount& count) {
@@ -71,6 +71,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   alignas(64) float la_x[N], la_y[N], la_z[N], lb_x[N], lb_y[N], lb_z[N], lc_x[N], lc_y[N], lc_z[N];
   alignas(64) float ln_x[N], ln_y[N], ln_z[N], l_area[N], l_pmf[N], le_r[N], le_g[N], le_b[N];
   alignas(64) float quad[N], two_sided[N], light_ok[N];  // 0 or 1
+  // Any other light's sample, taken by the scalar sample_li: whether the lane has one (0 or 1), its direction,
+  // point, density (with the choice probability), and whether it is at infinity or punctual (0 or 1).
+  alignas(64) float general[N], g_wx[N], g_wy[N], g_wz[N], g_px[N], g_py[N], g_pz[N], g_pdf[N], g_inf[N], g_delta[N];
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
@@ -95,6 +98,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     l_area[l] = l_pmf[l] = 1.f;
     le_r[l] = le_g[l] = le_b[l] = 0.f;
     quad[l] = two_sided[l] = 0.f;
+    general[l] = g_inf[l] = g_delta[l] = 0.f;
+    g_wx[l] = g_wy[l] = g_px[l] = g_py[l] = g_pz[l] = 0.f;
+    g_wz[l] = g_pdf[l] = 1.f;
     light_prim[l] = kNoPrimitive;
   }
   int lanes_active = 0;
@@ -196,22 +202,36 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
       }
       const Light& light = s.lights[li];
       if (!parallelogram_by_area(P, light, ref)) {
-        active[l] = 0;  // the scalar path
-        continue;
+        // Any other light (spherical rectangles, triangles, spheres, punctual and infinite lights): sample_li's
+        // own sample, as sample_lights and sample_direct take it; the lanes weigh it like the parallelogram's.
+        general[l] = 1.f;
+        LightSample ls;
+        if (sample_li<F>(s, light, {ref, Vec3(nx[l], ny[l], nz[l]), hits[l].prim}, rng.get_2d(point_dim), ls)) {
+          ls.pdf *= pmf;
+          light_ok[l] = ls.pdf > 0.f && !is_black(ls.Le) ? 1.f : 0.f;
+          g_wx[l] = ls.wi.x, g_wy[l] = ls.wi.y, g_wz[l] = ls.wi.z;
+          g_px[l] = ls.p.x, g_py[l] = ls.p.y, g_pz[l] = ls.p.z;
+          g_pdf[l] = ls.pdf;
+          g_inf[l] = ls.dist == kInfinity ? 1.f : 0.f;
+          g_delta[l] = ls.delta ? 1.f : 0.f;
+          le_r[l] = ls.Le.x, le_g[l] = ls.Le.y, le_b[l] = ls.Le.z;
+        }
+        light_prim[l] = ls.prim;
+      } else {
+        const uint32_t lp = light.prim;
+        // sample_li: a one-sided light seen from behind gives no sample.
+        light_ok[l] = light.two_sided || glm::dot(P.normal[lp], ref - P.v[0][lp]) > 0.f ? 1.f : 0.f;
+        const Vec3 la = P.v[0][lp], lb = P.v[1][lp], lc = P.v[2][lp], ln = P.normal[lp];
+        la_x[l] = la.x, la_y[l] = la.y, la_z[l] = la.z, lb_x[l] = lb.x, lb_y[l] = lb.y, lb_z[l] = lb.z;
+        lc_x[l] = lc.x, lc_y[l] = lc.y, lc_z[l] = lc.z, ln_x[l] = ln.x, ln_y[l] = ln.y, ln_z[l] = ln.z;
+        l_area[l] = light.area;
+        l_pmf[l] = pmf;
+        le_r[l] = light.emission.x, le_g[l] = light.emission.y, le_b[l] = light.emission.z;
+        two_sided[l] = light.two_sided ? 1.f : 0.f;
+        light_prim[l] = lp;
+        const Vec2 u = rng.get_2d(point_dim);
+        ux[l] = u.x, uy[l] = u.y;
       }
-      const uint32_t lp = light.prim;
-      // sample_li: a one-sided light seen from behind gives no sample.
-      light_ok[l] = light.two_sided || glm::dot(P.normal[lp], ref - P.v[0][lp]) > 0.f ? 1.f : 0.f;
-      const Vec3 la = P.v[0][lp], lb = P.v[1][lp], lc = P.v[2][lp], ln = P.normal[lp];
-      la_x[l] = la.x, la_y[l] = la.y, la_z[l] = la.z, lb_x[l] = lb.x, lb_y[l] = lb.y, lb_z[l] = lb.z;
-      lc_x[l] = lc.x, lc_y[l] = lc.y, lc_z[l] = lc.z, ln_x[l] = ln.x, ln_y[l] = ln.y, ln_z[l] = ln.z;
-      l_area[l] = light.area;
-      l_pmf[l] = pmf;
-      le_r[l] = light.emission.x, le_g[l] = light.emission.y, le_b[l] = light.emission.z;
-      two_sided[l] = light.two_sided ? 1.f : 0.f;
-      light_prim[l] = lp;
-      const Vec2 u = rng.get_2d(point_dim);
-      ux[l] = u.x, uy[l] = u.y;
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     bux[l] = bu.x, buy[l] = bu.y;
@@ -230,22 +250,28 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     // sample_polygon_area of a parallelogram: a + u.x·(b − a) + u.y·(c − b).
     const vfloat Ux = ld(ux), Uy = ld(uy);
     const vfloat Lax = ld(la_x), Lay = ld(la_y), Laz = ld(la_z), Lbx = ld(lb_x), Lby = ld(lb_y), Lbz = ld(lb_z);
-    const vfloat lpx = (Lax + Ux * (Lbx - Lax)) + Uy * (ld(lc_x) - Lbx);
-    const vfloat lpy = (Lay + Ux * (Lby - Lay)) + Uy * (ld(lc_y) - Lby);
-    const vfloat lpz = (Laz + Ux * (Lbz - Laz)) + Uy * (ld(lc_z) - Lbz);
+    // Lanes with another light (G) take the scalar sample's point, direction and density instead.
+    const M G = ld(general) != 0.f;
+    const vfloat lpx = select(G, ld(g_px), (Lax + Ux * (Lbx - Lax)) + Uy * (ld(lc_x) - Lbx));
+    const vfloat lpy = select(G, ld(g_py), (Lay + Ux * (Lby - Lay)) + Uy * (ld(lc_y) - Lby));
+    const vfloat lpz = select(G, ld(g_pz), (Laz + Ux * (Lbz - Laz)) + Uy * (ld(lc_z) - Lbz));
     const vfloat ddx = lpx - P_.x, ddy = lpy - P_.y, ddz = lpz - P_.z;
     const vfloat dist2 = (ddx * ddx + ddy * ddy) + ddz * ddz;
     const vfloat dist = stdx::sqrt(dist2);
-    const vfloat wix = ddx / dist, wiy = ddy / dist, wiz = ddz / dist;
+    const vfloat wix = select(G, ld(g_wx), ddx / dist), wiy = select(G, ld(g_wy), ddy / dist),
+                 wiz = select(G, ld(g_wz), ddz / dist);
     const vfloat Lnx = ld(ln_x), Lny = ld(ln_y), Lnz = ld(ln_z);
     const vfloat cos_l = stdx::abs((Lnx * wix + Lny * wiy) + Lnz * wiz);
     const vfloat c_e = (Lnx * -wix + Lny * -wiy) + Lnz * -wiz;  // area_light_emission(n, −wi)
-    const M le_on = c_e > 0.f || (ld(two_sided) != 0.f && c_e < 0.f);
+    const M le_on = G || c_e > 0.f || (ld(two_sided) != 0.f && c_e < 0.f);
     vfloat pdf = dist2 / (cos_l * ld(l_area));
     M ok = ld(light_ok) != 0.f && dist2 > 0.f && cos_l != 0.f && stdx::isfinite(pdf);
     pdf *= ld(l_pmf);
     const vfloat Ler = ld(le_r), Leg = ld(le_g), Leb = ld(le_b);
     ok = ok && pdf > 0.f && le_on && !(Ler == 0.f && Leg == 0.f && Leb == 0.f);
+    // sample_lights and sample_direct's tests for another light were made with its sample (light_ok).
+    pdf = select(G, ld(g_pdf), pdf);
+    ok = (G && ld(light_ok) != 0.f) || (!G && ok);
     // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (only their cosines matter).
     const vfloat wil_z = (wix * NG.x + wiy * NG.y) + wiz * NG.z;
     // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (their cosines' product is positive); bsdf_eval<Any>
@@ -259,15 +285,19 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wix, wiy, wiz}, NG) < 0.f);
     const vfloat tlx = lpx - origin.x, tly = lpy - origin.y, tlz = lpz - origin.z;
     const vfloat sdist = stdx::sqrt((tlx * tlx + tly * tly) + tlz * tlz);
-    const vfloat t_max = sdist * kShadowRayShorten;
+    // shadow_segment: towards a light at infinity the ray is unbounded, along wi.
+    const M at_infinity = ld(g_inf) != 0.f;
+    const vfloat t_max = select(at_infinity, vfloat(kInfinity), sdist * kShadowRayShorten);
     // power_heuristic(ls.pdf, bsdf_pdf) with the Lambert pdf max(|cos θ|, 0)/π.
     const vfloat cos_abs = stdx::abs(wil_z);
     const vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
-    const vfloat w = o.mis ? power_heuristic(pdf, bpdf) : vfloat(1.f);
+    // A punctual light has no MIS partner.
+    const vfloat w = o.mis ? select(ld(g_delta) != 0.f, vfloat(1.f), power_heuristic(pdf, bpdf)) : vfloat(1.f);
     const vfloat scale = (cos_abs * w) / pdf;
     st(shadow_ok, select(ok && t_max > 0.f, vfloat(1.f), vfloat(0.f)));
     st(so_x, origin.x), st(so_y, origin.y), st(so_z, origin.z);
-    st(sd_x, tlx / sdist), st(sd_y, tly / sdist), st(sd_z, tlz / sdist);
+    st(sd_x, select(at_infinity, wix, tlx / sdist)), st(sd_y, select(at_infinity, wiy, tly / sdist));
+    st(sd_z, select(at_infinity, wiz, tlz / sdist));
     st(st_max, t_max);
     st(sc_r, ((Br * Fr) * select(le_on, Ler, vfloat(0.f))) * scale);
     st(sc_g, ((Bg * Fg) * select(le_on, Leg, vfloat(0.f))) * scale);

@@ -35,15 +35,12 @@ template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
 // Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
-// (lambert_lanes.h; at the bounces where lights are sampled): kernels with polygons, in scenes with a
-// parallelogram light (the lanes sample those alone, by area: elsewhere every lane would be handed back after its
-// gathers, which cost `sky` 7 % of its samples per second) and, where other materials may be about, no vertex
-// normals (the lanes' shading frames are flat).
+// (lambert_lanes.h; at the bounces where lights are sampled): kernels with polygons, in scenes where, if other
+// materials may be about, there are no vertex normals (the lanes' shading frames are flat). Every kind of light
+// is sampled there (parallelograms by area in the lanes, the others by the scalar sample_li).
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;
-  if ((features & kFeatureGeneralMaterials) != 0 && !scene.shading.empty()) return false;
-  return std::any_of(scene.lights.begin(), scene.lights.end(),
-                     [&](const Light& l) { return l.polygon() && scene.polygons.parallelogram[l.prim]; });
+  return (features & kFeatureGeneralMaterials) == 0 || scene.shading.empty();
 }
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on

@@ -82,7 +82,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
       };
       if constexpr (kLambertLanes)
         if (lanes)
-          shade_lambert_lanes<kM>(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
+          shade_lambert_lanes<kM, F>(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
                               bounce, lane_shading, count);
       for (int l = 0; l < k; ++l) {
         const uint16_t i = live[first + l];

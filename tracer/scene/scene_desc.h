@@ -31,8 +31,8 @@ enum class SamplerType { Independent, Sobol };
 // What lights the scene from infinitely far away (lights/environment.h).
 enum class EnvironmentType { Constant, Sky, Map };
 // How paths are traced (integrators/wavefront.h): one at a time, or a tile's paths together, bounce by bounce,
-// their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront where
-// the packet kernels serve the scene (polygons few enough for brute force).
+// their rays 16 at a time through the packet kernels. Same image either way; `auto` takes the wavefront (on every
+// scene: integrators/wavefront.h, runs_wavefront).
 enum class PathLoop { Auto, Scalar, Wavefront };
 // Whether compile_scene may place instanced meshes' triangles in the scene's own hierarchy (scene.h:
 // instances_as_polygons) or must keep every instance.
