@@ -95,52 +95,56 @@ TEST_CASE("light tree: a scene takes one from kMinLights bounded lights on, and 
   CHECK(scene->light_tree.share() == doctest::Approx(1.0 - scene->light_pmf[scene->infinite_lights[0]]).epsilon(1e-6));
 }
 
-TEST_CASE("light tree: at any receiver the choice probabilities sum to 1, and sampling follows them exactly") {
-  const auto scene = compile_scene(many_lamps(40));
-  const Scene& s = *scene;
-  REQUIRE_FALSE(s.light_tree.empty());
-  const int lights = static_cast<int>(s.lights.size());
-  Pcg32 rng(11, 3);
-  constexpr int kStrata = 1 << 14;
-  int receivers_with_lights = 0;
-  for (int r = 0; r < 60; ++r) {
-    // Receivers on and above the floor, facing up or any way (a point between the lamps, under them, behind them).
-    const Vec3 p(-6.f + 12.f * rng.next_float(), r % 3 == 0 ? 0.f : 4.f * rng.next_float(), -6.f + 12.f * rng.next_float());
-    const Vec3 n = r % 2 == 0 ? Vec3(0, 1, 0) : sample_uniform_sphere(Vec2(rng.next_float(), rng.next_float()));
-    CAPTURE(r);
-    double total = 0.0;
-    std::vector<float> pmf(static_cast<size_t>(lights));
-    for (int li = 0; li < lights; ++li) {
-      pmf[static_cast<size_t>(li)] = light_choice_pmf(s, p, n, li);
-      CHECK(pmf[static_cast<size_t>(li)] >= 0.f);
-      total += pmf[static_cast<size_t>(li)];
-    }
-    // All of it, unless the tree can offer nothing here (then the lights outside it alone).
-    if (std::abs(total - 1.0) > 1e-4) {
-      CHECK(total == doctest::Approx(1.0 - s.light_tree.share()).epsilon(1e-5));
-      continue;
-    }
-    ++receivers_with_lights;
-    // Stratified u: each light's u form one interval of its probability's length, so the counts are exact to
-    // one stratum at either end.
-    std::vector<int> count(static_cast<size_t>(lights), 0);
-    int failed = 0, differs = 0;
-    for (int k = 0; k < kStrata; ++k) {
-      float chosen_pmf = 0.f;
-      const int li = choose_light_at(s, p, n, (static_cast<float>(k) + 0.5f) / kStrata, chosen_pmf);
-      if (li < 0) {
-        ++failed;
+TEST_CASE("light tree: at any receiver the choice probabilities sum to 1, and sampling follows them exactly, in trees two and four levels deep") {
+  // 42 bounded lights make two levels of 8-wide nodes, 702 four.
+  for (int lamps : {40, 700}) {
+    CAPTURE(lamps);
+    const auto scene = compile_scene(many_lamps(lamps));
+    const Scene& s = *scene;
+    REQUIRE_FALSE(s.light_tree.empty());
+    const int lights = static_cast<int>(s.lights.size());
+    Pcg32 rng(11, 3);
+    constexpr int kStrata = 1 << 14;
+    int receivers_with_lights = 0;
+    for (int r = 0; r < 60; ++r) {
+      // Receivers on and above the floor, facing up or any way (a point between the lamps, under them, behind them).
+      const Vec3 p(-6.f + 12.f * rng.next_float(), r % 3 == 0 ? 0.f : 4.f * rng.next_float(), -6.f + 12.f * rng.next_float());
+      const Vec3 n = r % 2 == 0 ? Vec3(0, 1, 0) : sample_uniform_sphere(Vec2(rng.next_float(), rng.next_float()));
+      CAPTURE(r);
+      double total = 0.0;
+      std::vector<float> pmf(static_cast<size_t>(lights));
+      for (int li = 0; li < lights; ++li) {
+        pmf[static_cast<size_t>(li)] = light_choice_pmf(s, p, n, li);
+        CHECK(pmf[static_cast<size_t>(li)] >= 0.f);
+        total += pmf[static_cast<size_t>(li)];
+      }
+      // All of it, unless the tree can offer nothing here (then the lights outside it alone).
+      if (std::abs(total - 1.0) > 1e-4) {
+        CHECK(total == doctest::Approx(1.0 - s.light_tree.share()).epsilon(1e-5));
         continue;
       }
-      differs += chosen_pmf != pmf[static_cast<size_t>(li)];  // bit for bit: what MIS will recompute
-      ++count[static_cast<size_t>(li)];
+      ++receivers_with_lights;
+      // Stratified u: each light's u form one interval of its probability's length, so the counts are exact to
+      // one stratum at either end.
+      std::vector<int> count(static_cast<size_t>(lights), 0);
+      int failed = 0, differs = 0;
+      for (int k = 0; k < kStrata; ++k) {
+        float chosen_pmf = 0.f;
+        const int li = choose_light_at(s, p, n, (static_cast<float>(k) + 0.5f) / kStrata, chosen_pmf);
+        if (li < 0) {
+          ++failed;
+          continue;
+        }
+        differs += chosen_pmf != pmf[static_cast<size_t>(li)];  // bit for bit: what MIS will recompute
+        ++count[static_cast<size_t>(li)];
+      }
+      CHECK(failed == 0);
+      CHECK(differs == 0);
+      for (int li = 0; li < lights; ++li)
+        CHECK(std::abs(count[static_cast<size_t>(li)] - kStrata * static_cast<double>(pmf[static_cast<size_t>(li)])) <= 2.5);
     }
-    CHECK(failed == 0);
-    CHECK(differs == 0);
-    for (int li = 0; li < lights; ++li)
-      CHECK(std::abs(count[static_cast<size_t>(li)] - kStrata * static_cast<double>(pmf[static_cast<size_t>(li)])) <= 2.5);
+    CHECK(receivers_with_lights >= 50);
   }
-  CHECK(receivers_with_lights >= 50);
 }
 
 TEST_CASE("light tree: a lamp keeps a chance wherever it can light the receiver, and none behind its back") {

@@ -2,60 +2,89 @@
 
 #include <algorithm>
 #include <cmath>
+#include <experimental/simd>
 #include <limits>
 #include <numbers>
+
+#include "core/lanes.h"
 
 namespace pt {
 
 namespace {
 
-// cos(max(0, a − b)) and sin(max(0, a − b)) from the angles' cosines and sines (pbrt-v4 LightBounds::Importance).
-float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
-  return cos_a > cos_b ? 1.f : cos_a * cos_b + sin_a * sin_b;
-}
-float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
-  return cos_a > cos_b ? 0.f : sin_a * cos_b - cos_a * sin_b;
-}
-float sin_of(float c) { return std::sqrt(std::max(0.f, 1.f - c * c)); }
+namespace stdx = std::experimental;
+using FW = stdx::fixed_size_simd<float, kTreeWidth>;
+using MW = FW::mask_type;
 
-// The cosine of the half-angle of the cone of directions from p that the box subtends (through its bounding
-// sphere; −1 when p is inside that sphere). pbrt-v4 BoundSubtendedDirections.
-float cos_subtended(Vec3 lo, Vec3 hi, Vec3 p) {
-  const Vec3 centre = 0.5f * (lo + hi);
-  const float r2 = glm::dot(hi - centre, hi - centre);
-  const Vec3 d = p - centre;
-  const float d2 = glm::dot(d, d);
-  if (d2 < r2 || !(d2 > 0.f)) return -1.f;
-  return std::sqrt(std::max(0.f, 1.f - r2 / d2));
+[[gnu::always_inline]] inline FW load(const float* a) { return FW(a, stdx::element_aligned); }
+// std::max(0, x) and std::min(x, m) as the standard defines them ((a < b) ? b : a), lane by lane.
+[[gnu::always_inline]] inline FW max0(const FW& x) { return select(FW(0.f) < x, x, FW(0.f)); }
+// √max(0, 1 − c²): the sine of an angle from its cosine.
+[[gnu::always_inline]] inline FW sin_of(const FW& c) { return stdx::sqrt(max0(1.f - c * c)); }
+// cos(max(0, a − b)) and sin(max(0, a − b)) from the angles' cosines and sines (pbrt-v4 LightBounds::Importance).
+[[gnu::always_inline]] inline FW cos_sub_clamped(const FW& sin_a, const FW& cos_a, const FW& sin_b, const FW& cos_b) {
+  return select(cos_a > cos_b, FW(1.f), cos_a * cos_b + sin_a * sin_b);
+}
+[[gnu::always_inline]] inline FW sin_sub_clamped(const FW& sin_a, const FW& cos_a, const FW& sin_b, const FW& cos_b) {
+  return select(cos_a > cos_b, FW(0.f), sin_a * cos_b - cos_a * sin_b);
 }
 
 }  // namespace
 
-float light_importance(const LightBounds& b, Vec3 p, Vec3 n) {
-  if (!(b.phi > 0.f)) return 0.f;
+void ImportanceLanes::set(int lane, const LightBounds& b) {
   const Vec3 centre = 0.5f * (b.lo + b.hi);
-  const Vec3 to_p = p - centre;
-  const float dist2 = glm::dot(to_p, to_p);
-  // Clamped below by half the box's diagonal (pbrt-v4: a receiver close to a large node is not favoured without
-  // bound), and by a tiny floor for a point light at the receiver itself.
-  const float d2 = std::max({dist2, 0.5f * glm::length(b.hi - b.lo), 1e-20f});
-  const Vec3 wi = dist2 > 0.f ? to_p / std::sqrt(dist2) : b.w;
-  float cos_w = glm::dot(b.w, wi);
-  if (b.two_sided) cos_w = std::abs(cos_w);
-  const float sin_w = sin_of(cos_w);
-  const float cos_b = cos_subtended(b.lo, b.hi, p), sin_b = sin_of(cos_b);
-  const float sin_o = sin_of(b.cos_theta_o);
-  const float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, b.cos_theta_o);
-  const float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, b.cos_theta_o);
-  const float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-  if (!(cos_p > b.cos_theta_e)) return 0.f;
-  float importance = b.phi * cos_p / d2;
+  cx[lane] = centre.x, cy[lane] = centre.y, cz[lane] = centre.z;
+  // d² is clamped below by half the box's diagonal (pbrt-v4: a receiver close to a large node is not favoured
+  // without bound), and by a tiny floor for a point light at the receiver itself.
+  d2_floor[lane] = std::max(0.5f * glm::length(b.hi - b.lo), 1e-20f);
+  wx[lane] = b.w.x, wy[lane] = b.w.y, wz[lane] = b.w.z;
+  r2[lane] = glm::dot(b.hi - centre, b.hi - centre);
+  phi[lane] = b.phi;
+  cos_theta_o[lane] = b.cos_theta_o;
+  sin_theta_o[lane] = std::sqrt(std::max(0.f, 1.f - b.cos_theta_o * b.cos_theta_o));
+  cos_theta_e[lane] = b.cos_theta_e;
+  two_sided[lane] = b.two_sided ? 1.f : 0.f;
+}
+
+// pbrt-v4's LightBounds::Importance, four bounds at a time: phi · cos θ' / d² · cos θ'_i (light_tree.h).
+void ImportanceLanes::importance(Vec3 p, Vec3 n, float out[kTreeWidth]) const {
+  const FW tx = p.x - load(cx), ty = p.y - load(cy), tz = p.z - load(cz);
+  const FW dist2 = (tx * tx + ty * ty) + tz * tz;
+  const FW d2 = select(dist2 < load(d2_floor), load(d2_floor), dist2);
+  const MW away = dist2 > 0.f;
+  const FW len = stdx::sqrt(dist2);
+  const FW Wx = load(wx), Wy = load(wy), Wz = load(wz);
+  const FW wix = select(away, tx / len, Wx), wiy = select(away, ty / len, Wy), wiz = select(away, tz / len, Wz);
+  FW cos_w = (Wx * wix + Wy * wiy) + Wz * wiz;
+  cos_w = select(load(two_sided) != 0.f, stdx::abs(cos_w), cos_w);
+  const FW sin_w = sin_of(cos_w);
+  // The half-angle of the cone of directions from p that the box subtends, through its bounding sphere (−1 when
+  // p is inside it; pbrt-v4 BoundSubtendedDirections).
+  const FW R2 = load(r2);
+  const FW cos_b = select(dist2 < R2 || !away, FW(-1.f), stdx::sqrt(max0(1.f - R2 / dist2)));
+  const FW sin_b = sin_of(cos_b);
+  const FW cos_o = load(cos_theta_o), sin_o = load(sin_theta_o);
+  const FW cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+  const FW sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+  const FW cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+  const FW Phi = load(phi);
+  FW importance = (Phi * cos_p) / d2;
   if (n != Vec3(0.f)) {
-    const float cos_i = std::abs(glm::dot(wi, n));
+    const FW cos_i = stdx::abs((wix * n.x + wiy * n.y) + wiz * n.z);
     importance *= cos_sub_clamped(sin_of(cos_i), cos_i, sin_b, cos_b);
   }
-  if (!(importance > 0.f)) return 0.f;
-  return std::min(importance, std::numeric_limits<float>::max());
+  const MW reaches = Phi > 0.f && cos_p > load(cos_theta_e) && importance > 0.f;
+  const FW big(std::numeric_limits<float>::max());
+  importance = select(big < importance, big, importance);
+  select(reaches, importance, FW(0.f)).copy_to(out, stdx::element_aligned);
+}
+
+float light_importance(const LightBounds& b, Vec3 p, Vec3 n) {
+  ImportanceLanes one;
+  one.set(0, b);
+  float out[kTreeWidth];
+  one.importance(p, n, out);
+  return out[0];
 }
 
 LightBounds light_bounds_union(const LightBounds& a, const LightBounds& b) {
@@ -122,20 +151,28 @@ LightTree::LightTree(const std::vector<LightBounds>& bounds, const std::vector<u
   top_cdf_.back() = 1.f;
   std::vector<uint32_t> order(bounds.size());
   for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-  nodes_.reserve(2 * bounds.size());
-  build(order, 0, order.size(), bounds, lights, 0, 0);
+  std::vector<BinaryNode> binary;
+  binary.reserve(2 * bounds.size());
+  build(binary, order, 0, order.size(), bounds, lights);
+  nodes_.reserve(bounds.size());
+  if (binary[0].light >= 0) {  // one light: a root with one child
+    nodes_.emplace_back();
+    nodes_[0].bounds.set(0, binary[0].bounds);
+    nodes_[0].child[0] = -binary[0].light - 1;
+    trail_[static_cast<size_t>(binary[0].light)] = {0, 1};
+    return;
+  }
+  fold(binary, 0, 0, 0);
 }
 
-uint32_t LightTree::build(std::vector<uint32_t>& order, size_t first, size_t last,
-                          const std::vector<LightBounds>& bounds, const std::vector<uint32_t>& lights, uint64_t bits,
-                          int depth) {
-  const uint32_t index = static_cast<uint32_t>(nodes_.size());
-  nodes_.emplace_back();
+uint32_t LightTree::build(std::vector<BinaryNode>& nodes, std::vector<uint32_t>& order, size_t first, size_t last,
+                          const std::vector<LightBounds>& bounds, const std::vector<uint32_t>& lights) {
+  const uint32_t index = static_cast<uint32_t>(nodes.size());
+  nodes.emplace_back();
   if (last - first == 1) {
     const uint32_t i = order[first];
-    nodes_[index].bounds = bounds[i];
-    nodes_[index].light = static_cast<int32_t>(lights[i]);
-    trail_[lights[i]] = {bits, depth};
+    nodes[index].bounds = bounds[i];
+    nodes[index].light = static_cast<int32_t>(lights[i]);
     return index;
   }
   // Split at the median of the box centres along their widest axis.
@@ -154,21 +191,51 @@ uint32_t LightTree::build(std::vector<uint32_t>& order, size_t first, size_t las
                      const float cb = bounds[b].lo[axis] + bounds[b].hi[axis];
                      return ca < cb || (ca == cb && a < b);
                    });
-  build(order, first, mid, bounds, lights, bits, depth + 1);
-  const uint32_t second = build(order, mid, last, bounds, lights, bits | (uint64_t{1} << depth), depth + 1);
-  nodes_[index].second = second;
-  nodes_[index].bounds = light_bounds_union(nodes_[index + 1].bounds, nodes_[second].bounds);
+  build(nodes, order, first, mid, bounds, lights);
+  const uint32_t second = build(nodes, order, mid, last, bounds, lights);
+  nodes[index].second = second;
+  nodes[index].bounds = light_bounds_union(nodes[index + 1].bounds, nodes[second].bounds);
   return index;
 }
 
-// The probability of inner node i's first child for the receiver (p, n), from the two children's importances
-// (−1: neither can reach it). In double, so that huge importances neither overflow nor lose the smaller one.
-// sample() and pmf() both descend through it, so they multiply the same floats.
-float LightTree::first_child_probability(uint32_t i, Vec3 p, Vec3 n) const {
-  const float c0 = light_importance(nodes_[i + 1].bounds, p, n);
-  const float c1 = light_importance(nodes_[nodes_[i].second].bounds, p, n);
-  if (!(c0 > 0.f) && !(c1 > 0.f)) return -1.f;
-  return static_cast<float>(double(c0) / (double(c0) + double(c1)));
+uint32_t LightTree::fold(const std::vector<BinaryNode>& binary, uint32_t b, uint64_t lanes, int depth) {
+  // The children: the binary node's descendants kTreeWidth at most, inner ones opened shallowest first (so a
+  // balanced subtree gives its kTreeWidth nodes log2(kTreeWidth) levels down), leaves as they are.
+  uint32_t kids[kTreeWidth] = {b + 1, binary[b].second};
+  int count = 2;
+  for (int k = 0; k < count && count < kTreeWidth; ++k) {
+    if (binary[kids[k]].light >= 0) continue;
+    const uint32_t inner = kids[k];
+    for (int j = k; j + 1 < count; ++j) kids[j] = kids[j + 1];  // the inner node leaves, its children join last
+    kids[count - 1] = inner + 1;
+    kids[count++] = binary[inner].second;
+    --k;
+  }
+  const uint32_t index = static_cast<uint32_t>(nodes_.size());
+  nodes_.emplace_back();
+  for (int k = 0; k < count; ++k) {
+    const BinaryNode& kid = binary[kids[k]];
+    nodes_[index].bounds.set(k, kid.bounds);
+    const uint64_t path = lanes | (static_cast<uint64_t>(k) << (kLaneBits * depth));
+    if (kid.light >= 0) {
+      nodes_[index].child[k] = -kid.light - 1;
+      trail_[static_cast<size_t>(kid.light)] = {path, depth + 1};
+    } else {
+      nodes_[index].child[k] = static_cast<int32_t>(fold(binary, kids[k], path, depth + 1));
+    }
+  }
+  return index;
+}
+
+bool LightTree::child_probabilities(uint32_t i, Vec3 p, Vec3 n, float prob[kTreeWidth]) const {
+  float c[kTreeWidth];
+  nodes_[i].bounds.importance(p, n, c);
+  double sum = 0.0;
+  for (int k = 0; k < kTreeWidth; ++k) sum += double(c[k]);
+  if (!(sum > 0.0)) return false;
+  const double inv = 1.0 / sum;
+  for (int k = 0; k < kTreeWidth; ++k) prob[k] = static_cast<float>(double(c[k]) * inv);
+  return true;
 }
 
 int LightTree::choose(Vec3 p, Vec3 n, float u, const std::vector<float>& light_pmf, float& pmf) const {
@@ -189,24 +256,29 @@ int LightTree::sample(Vec3 p, Vec3 n, float u, float& pmf) const {
   if (nodes_.empty()) return -1;
   float prob = share_;
   uint32_t i = 0;
-  while (nodes_[i].light < 0) {
-    const Node& node = nodes_[i];
-    const float p0 = first_child_probability(i, p, n);
-    if (p0 < 0.f) return -1;
-    if (u < p0) {
-      u = std::min(u / p0, kOneMinusEpsilon);
-      prob *= p0;
-      i = i + 1;
-    } else {
-      u = std::min((u - p0) / (1.f - p0), kOneMinusEpsilon);
-      prob *= 1.f - p0;
-      i = node.second;
+  for (;;) {
+    float pk[kTreeWidth];
+    if (!child_probabilities(i, p, n, pk)) return -1;
+    // The child whose interval of the running sums holds u; rounding may leave u past the last sum: then the last
+    // child with a chance.
+    int k = -1;
+    float below = 0.f, start = 0.f;
+    for (int j = 0; j < kTreeWidth; ++j) {
+      if (!(pk[j] > 0.f)) continue;
+      k = j;
+      start = below;
+      below += pk[j];
+      if (u < below) break;
     }
+    u = std::clamp((u - start) / pk[k], 0.f, kOneMinusEpsilon);
+    prob *= pk[k];
+    const int32_t child = nodes_[i].child[k];
+    if (child < 0) {
+      pmf = prob;
+      return -child - 1;
+    }
+    i = static_cast<uint32_t>(child);
   }
-  // A tree of one light: its own importance decides whether it can reach the receiver.
-  if (i == 0 && !(light_importance(nodes_[0].bounds, p, n) > 0.f)) return -1;
-  pmf = prob;
-  return nodes_[i].light;
 }
 
 float LightTree::pmf(Vec3 p, Vec3 n, int li) const {
@@ -214,19 +286,14 @@ float LightTree::pmf(Vec3 p, Vec3 n, int li) const {
   const Trail& t = trail_[static_cast<size_t>(li)];
   float prob = share_;
   uint32_t i = 0;
-  for (int k = 0; k < t.depth; ++k) {
-    const Node& node = nodes_[i];
-    const float p0 = first_child_probability(i, p, n);
-    if (p0 < 0.f) return 0.f;
-    if ((t.bits >> k) & 1u) {
-      prob *= 1.f - p0;
-      i = node.second;
-    } else {
-      prob *= p0;
-      i = i + 1;
-    }
+  for (int d = 0; d < t.depth; ++d) {
+    float pk[kTreeWidth];
+    if (!child_probabilities(i, p, n, pk)) return 0.f;
+    const int k = static_cast<int>((t.lanes >> (kLaneBits * d)) & (kTreeWidth - 1));
+    if (!(pk[k] > 0.f)) return 0.f;
+    prob *= pk[k];
+    i = static_cast<uint32_t>(nodes_[i].child[k]);
   }
-  if (i == 0 && !(light_importance(nodes_[0].bounds, p, n) > 0.f)) return 0.f;
   return prob;
 }
 
