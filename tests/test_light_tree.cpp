@@ -21,7 +21,7 @@ using namespace pt::test;
 namespace {
 
 // A 12 × 12 floor under `lamps` small lamps at heights 1–3 (one-sided, facing down, except every fourth: two-sided,
-// tilted and facing up), a spherical lamp, a point light and a dim constant sky, seen from above at an angle. 48 × 40 pixels
+// tilted and facing up), a spherical lamp, a point light, two spots and a dim constant sky, seen from above at an angle. 48 × 40 pixels
 // (30 blocks of 8 × 8), independent samples (the block test's variances assume them).
 SceneDesc many_lamps(int lamps) {
   SceneDesc s;
@@ -67,7 +67,20 @@ SceneDesc many_lamps(int lamps) {
   point.kind = PunctualKind::Point;
   point.position = DVec3(-3, 2, 3);
   point.intensity = Rgb(4.f);
-  s.punctual_lights = {point};
+  // Two spots aimed down at the floor, one fading between its cones, one nearly hard-edged.
+  PunctualLightDesc soft;
+  soft.kind = PunctualKind::Spot;
+  soft.position = DVec3(-2, 4, 1);
+  soft.direction = DVec3(0.2, -1, 0.1);
+  soft.intensity = Rgb(6.f);
+  soft.inner_cone = 0.3;
+  soft.outer_cone = 0.6;
+  PunctualLightDesc hard = soft;
+  hard.position = DVec3(2, 3.5, 2);
+  hard.direction = DVec3(-0.1, -1, -0.3);
+  hard.inner_cone = 0.39;
+  hard.outer_cone = 0.4;
+  s.punctual_lights = {point, soft, hard};
   return s;
 }
 
@@ -84,9 +97,9 @@ Film render(const Scene& scene, RenderSettings settings, Estimator est, int spp,
 
 TEST_CASE("light tree: a scene takes one from kMinLights bounded lights on, and keeps power alone below") {
   CHECK(compile_scene(load_scene("cornell"))->light_tree.empty());
-  // 7 lamps + the ball + the point light = 9 bounded lights; 5 + 2 = 7 stay below the threshold.
-  CHECK_FALSE(compile_scene(many_lamps(7))->light_tree.empty());
-  CHECK(compile_scene(many_lamps(5))->light_tree.empty());
+  // 4 lamps + the ball, the point light and the two spots = 8 bounded lights; 3 + 4 = 7 stay below the threshold.
+  CHECK_FALSE(compile_scene(many_lamps(4))->light_tree.empty());
+  CHECK(compile_scene(many_lamps(3))->light_tree.empty());
   const auto scene = compile_scene(many_lamps(40));
   REQUIRE_FALSE(scene->light_tree.empty());
   REQUIRE(scene->infinite_lights.size() == 1);
@@ -96,7 +109,7 @@ TEST_CASE("light tree: a scene takes one from kMinLights bounded lights on, and 
 }
 
 TEST_CASE("light tree: at any receiver the choice probabilities sum to 1, and sampling follows them exactly, in trees two and four levels deep") {
-  // 42 bounded lights make two levels of 8-wide nodes, 702 four.
+  // 44 bounded lights make two levels of 8-wide nodes, 704 four.
   for (int lamps : {40, 700}) {
     CAPTURE(lamps);
     const auto scene = compile_scene(many_lamps(lamps));
@@ -180,6 +193,41 @@ TEST_CASE("light tree: a lamp keeps a chance wherever it can light the receiver,
   }
   CHECK(in_front >= 600);
   CHECK(behind >= 300);
+}
+
+TEST_CASE("light tree: a spot keeps a chance inside its outer cone and none well outside it") {
+  // The spot's bounds (pbrt-v4's SpotLight::Bounds) rule out receivers its falloff cannot reach (a spot bounded
+  // as a point light fails the second check) and keep every one it reaches.
+  const auto scene = compile_scene(many_lamps(40));
+  const Scene& s = *scene;
+  REQUIRE_FALSE(s.light_tree.empty());
+  Pcg32 rng(4, 1);
+  int spots = 0, inside = 0, outside = 0;
+  for (size_t li = 0; li < s.lights.size(); ++li) {
+    const Light& l = s.lights[li];
+    if (l.kind != LightKind::Spot) continue;
+    ++spots;
+    for (int k = 0; k < 4000; ++k) {
+      // Receivers on the floor facing up, and anywhere above it facing any way.
+      // (The compiled scene is camera-relative.)
+      const Vec3 p = Vec3(DVec3(-6.f + 12.f * rng.next_float(), k % 2 == 0 ? 0.f : 3.f * rng.next_float(),
+                                -6.f + 12.f * rng.next_float()) - s.world_origin);
+      const Vec3 n = k % 2 == 0 ? Vec3(0, 1, 0) : sample_uniform_sphere(Vec2(rng.next_float(), rng.next_float()));
+      const Vec3 to_p = glm::normalize(p - l.position);
+      const float cos_axis = glm::dot(to_p, l.direction);
+      if (glm::dot(n, -to_p) <= 0.01f) continue;  // the receiver's back to the spot: no light either way
+      if (spot_falloff(l, cos_axis) > 0.f) {
+        CHECK(light_choice_pmf(s, p, n, static_cast<int>(li)) > 0.f);
+        ++inside;
+      } else if (cos_axis < l.cos_outer - 0.02f) {
+        CHECK(light_choice_pmf(s, p, n, static_cast<int>(li)) == 0.f);
+        ++outside;
+      }
+    }
+  }
+  CHECK(spots == 2);
+  CHECK(inside >= 400);
+  CHECK(outside >= 3000);
 }
 
 TEST_CASE("light tree: images with it agree with power-proportional choice, under nee and mis") {

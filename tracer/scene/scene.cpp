@@ -8,6 +8,7 @@
 
 #include <glm/gtx/component_wise.hpp>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include <sstream>
@@ -766,9 +767,20 @@ void compile_light_tree(Scene& s, const std::vector<double>& power) {
       b.lo = c - Vec3(r);
       b.hi = c + Vec3(r);
       b.cos_theta_o = -1.f;  // normals in every direction
-    } else if (l.kind == LightKind::Point || l.kind == LightKind::Spot) {
-      b.lo = b.hi = l.position;  // a spot bounded as a point light: conservative
-      b.cos_theta_o = -1.f;
+    } else if (l.kind == LightKind::Point) {
+      b.lo = b.hi = l.position;
+      b.cos_theta_o = -1.f;  // every direction
+    } else if (l.kind == LightKind::Spot) {
+      // pbrt-v4's SpotLight::Bounds: full strength about the axis out to the inner cone (θo), falling to nothing
+      // at the outer one (θe = θ_outer − θ_inner), so a receiver outside the outer cone gets importance 0. θe is
+      // widened by 1e-3 rad: rounding must not rule out a receiver the falloff still reaches, and a nearly
+      // hard-edged spot must not get θe ≈ 0 (pbrt-v4's test cos θ' ≤ cos θe would then rule out its whole cone).
+      b.lo = b.hi = l.position;
+      b.w = l.direction;
+      const double inner = std::acos(std::clamp(double(l.cos_inner), -1.0, 1.0));
+      const double outer = std::acos(std::clamp(double(l.cos_outer), -1.0, 1.0));
+      b.cos_theta_o = static_cast<float>(std::cos(std::min(inner, outer)));
+      b.cos_theta_e = static_cast<float>(std::cos(std::max(outer - inner, 0.0) + 1e-3));
     } else {
       continue;  // the environment, the sun, directional lights: chosen by power beside the tree
     }
