@@ -17,7 +17,7 @@ using FW = stdx::fixed_size_simd<float, kTreeWidth>;
 using MW = FW::mask_type;
 
 [[gnu::always_inline]] inline FW load(const float* a) { return FW(a, stdx::element_aligned); }
-// std::max(0, x) and std::min(x, m) as the standard defines them ((a < b) ? b : a), lane by lane.
+// std::max(0, x) as the standard defines it ((a < b) ? b : a), lane by lane.
 [[gnu::always_inline]] inline FW max0(const FW& x) { return select(FW(0.f) < x, x, FW(0.f)); }
 // √max(0, 1 − c²): the sine of an angle from its cosine.
 [[gnu::always_inline]] inline FW sin_of(const FW& c) { return stdx::sqrt(max0(1.f - c * c)); }
@@ -46,7 +46,7 @@ void ImportanceLanes::set(int lane, const LightBounds& b) {
   two_sided[lane] = b.two_sided ? 1.f : 0.f;
 }
 
-// pbrt-v4's LightBounds::Importance, four bounds at a time: phi · cos θ' / d² · cos θ'_i (light_tree.h).
+// pbrt-v4's LightBounds::Importance, kTreeWidth bounds at a time: phi · cos θ' / d² · cos θ'_i (light_tree.h).
 void ImportanceLanes::importance(Vec3 p, Vec3 n, float out[kTreeWidth]) const {
   const FW tx = p.x - load(cx), ty = p.y - load(cy), tz = p.z - load(cz);
   const FW dist2 = (tx * tx + ty * ty) + tz * tz;
@@ -77,14 +77,6 @@ void ImportanceLanes::importance(Vec3 p, Vec3 n, float out[kTreeWidth]) const {
   const FW big(std::numeric_limits<float>::max());
   importance = select(big < importance, big, importance);
   select(reaches, importance, FW(0.f)).copy_to(out, stdx::element_aligned);
-}
-
-float light_importance(const LightBounds& b, Vec3 p, Vec3 n) {
-  ImportanceLanes one;
-  one.set(0, b);
-  float out[kTreeWidth];
-  one.importance(p, n, out);
-  return out[0];
 }
 
 LightBounds light_bounds_union(const LightBounds& a, const LightBounds& b) {

@@ -40,9 +40,6 @@ struct LightBounds {
   bool two_sided = false;   // emits on both sides of each normal
 };
 
-// The importance of `b` for a receiver at p with normal n (n = 0 for a point without a surface).
-float light_importance(const LightBounds& b, Vec3 p, Vec3 n);
-
 // Up to kTreeWidth light bounds side by side (structure of arrays, one SIMD lane each), with what the importance
 // derives from the bounds alone computed once: a tree node's children, whose importances are evaluated together
 // (the importance is most of the time a many-light scene spends choosing). Unused lanes have phi 0.
@@ -58,7 +55,8 @@ struct alignas(64) ImportanceLanes {
   float cos_theta_o[kTreeWidth]{}, sin_theta_o[kTreeWidth]{}, cos_theta_e[kTreeWidth]{};
   float two_sided[kTreeWidth]{};  // 0 or 1
   void set(int lane, const LightBounds& b);
-  // light_importance of each lane's bounds, into out[0 .. kTreeWidth).
+  // The importance of each lane's bounds (the formula at the top) for a receiver at p with normal n (n = 0 for a point without a
+  // surface), into out[0 .. kTreeWidth).
   void importance(Vec3 p, Vec3 n, float out[kTreeWidth]) const;
 };
 
