@@ -55,8 +55,8 @@ struct alignas(64) ImportanceLanes {
   float cos_theta_o[kTreeWidth]{}, sin_theta_o[kTreeWidth]{}, cos_theta_e[kTreeWidth]{};
   float two_sided[kTreeWidth]{};  // 0 or 1
   void set(int lane, const LightBounds& b);
-  // The importance of each lane's bounds (the formula at the top) for a receiver at p with normal n (n = 0 for a point without a
-  // surface), into out[0 .. kTreeWidth).
+  // The importance of each lane's bounds (the formula at the top) for a receiver at p with normal n (n = 0 for
+  // a point without a surface), into out[0 .. kTreeWidth).
   void importance(Vec3 p, Vec3 n, float out[kTreeWidth]) const;
 };
 
