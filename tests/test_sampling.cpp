@@ -234,7 +234,7 @@ TEST_CASE("light sampling: sampled directions follow the strategy's pdf (rectang
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
         int li;
-        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, choice.next_float(), u, ls, li)) return false;
+        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, choice.next_float(), u, ls, li, false)) return false;
         d = ls.wi;
         return true;
       },
@@ -265,7 +265,7 @@ TEST_CASE("light sampling: inside an emitting sphere, area sampling matches its 
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
         int li;
-        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, 0.5f, u, ls, li)) return false;
+        if (!sample_lights(*scene, {ref, Vec3(0, 1, 0)}, 0.5f, u, ls, li, false)) return false;
         d = ls.wi;
         return true;
       },
@@ -309,7 +309,7 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
     d = glm::normalize(d);
     Hit h;
     const Ray ray{ref, d};
-    double p = lights_pdf_infinite(*scene, n, d);
+    double p = lights_pdf_infinite(*scene, n, d, false);
     if (scene->intersect(ray, kInfinity, ~0u, h)) {
       const Interaction it = make_interaction(*scene, ray, h);
       p += lights_pdf_area(*scene, scene->light_of_prim[h.prim], ref, n, it.p, it.ng);
@@ -322,7 +322,7 @@ TEST_CASE("light sampling: the background as a light, mixed with an area light")
       [&](Vec2 u, Vec3& d) {
         LightSample ls;
         int li;
-        if (!sample_lights(*scene, {ref, n}, choice.next_float(), u, ls, li)) return false;
+        if (!sample_lights(*scene, {ref, n}, choice.next_float(), u, ls, li, false)) return false;
         d = ls.wi;
         return true;
       },

@@ -489,7 +489,7 @@ Rgb connect_light_sample(const Scene& s, const Options& o, const Sampler& rng, c
   } else {
     // An area light's point, or a punctual light's Dirac (pdf 1, Le the irradiance's factor: light_sampling.h).
     LightSample ls;
-    if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng, pt.it.prim}, u, ls) || is_black(ls.Le)) return Rgb(0.f);
+    if (!sample_li<F>(s, l, {pt.it.p, pt.it.ng, pt.it.prim}, u, ls, false) || is_black(ls.Le)) return Rgb(0.f);
     wi = ls.wi;
     sampled.delta_light = l.delta();
     if (l.kind == LightKind::Directional) {

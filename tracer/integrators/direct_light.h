@@ -49,16 +49,17 @@ struct DirectLightSample {
 };
 
 // Samples one light for the receiver `it` (shading frame `frame`, `n` the normal of the side lit, `wo_local` the
-// outgoing direction in that frame) with u_choice (which light) and u (where on it). False when there is nothing
+// outgoing direction in that frame) with u_choice (which light) and u (where on it); `mis`: the caller weighs it
+// against BSDF sampling by MIS, so lights may use an incomplete density (light_sampling.h). False when there is nothing
 // to trace: no light, no usable sample, no emission towards the receiver, or a BSDF that is zero there. The
 // BSDF's f and its sampling density of wi come from one pass (bsdf_value); MIS weighs the sample with the
 // density, the other estimators leave it (asking for f alone there, with the lobes still inlined into
 // bsdf_value, made the path loop's code larger and `materials` under mis 2 % slower).
 template <MaterialSet kM, uint32_t F>
 [[gnu::always_inline]] inline bool sample_direct(const Scene& s, const Interaction& it, Vec3 n, const Frame& frame,
-                                                 const Material& m, Vec3 wo_local, float u_choice, Vec2 u,
+                                                 const Material& m, Vec3 wo_local, float u_choice, Vec2 u, bool mis,
                                                  DirectLightSample& d) {
-  if (!sample_lights<F>(s, {it.p, n, it.prim}, u_choice, u, d.ls, d.light) || is_black(d.ls.Le)) return false;
+  if (!sample_lights<F>(s, {it.p, n, it.prim}, u_choice, u, d.ls, d.light, mis) || is_black(d.ls.Le)) return false;
   d.wi_local = frame.to_local(d.ls.wi);
   const BsdfValue v = bsdf_value<kM>(m, wo_local, d.wi_local);
   d.f = v.f;

@@ -206,7 +206,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
         // own sample, as sample_lights and sample_direct take it; the lanes weigh it like the parallelogram's.
         general[l] = 1.f;
         LightSample ls;
-        if (sample_li<F>(s, light, {ref, Vec3(nx[l], ny[l], nz[l]), hits[l].prim}, rng.get_2d(point_dim), ls)) {
+        if (sample_li<F>(s, light, {ref, Vec3(nx[l], ny[l], nz[l]), hits[l].prim}, rng.get_2d(point_dim), ls, o.mis)) {
           ls.pdf *= pmf;
           light_ok[l] = ls.pdf > 0.f && !is_black(ls.Le) ? 1.f : 0.f;
           g_wx[l] = ls.wi.x, g_wy[l] = ls.wi.y, g_wz[l] = ls.wi.z;

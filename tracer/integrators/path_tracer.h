@@ -50,7 +50,7 @@ inline Rgb escaped_radiance(const Scene& s, Vec3 w, Vec3 prev_n, float bsdf_pdf)
     const Light& l = s.lights[li];
     if constexpr (kWeighted) {
       float pdf = 0.f;
-      const Rgb Le = infinite_light_Le(s, l, prev_n, w, pdf);
+      const Rgb Le = infinite_light_Le(s, l, prev_n, w, pdf, true);  // under MIS: the incomplete density
       if (is_black(Le)) continue;
       L += Le * power_heuristic(bsdf_pdf, s.light_pmf[li] * pdf);
     } else {
@@ -166,7 +166,7 @@ template <class Sampler, uint32_t F>
     const float u_light = rng.get_1d(o.dims.light_choice(depth));
     const Vec2 u_point = rng.get_2d(o.dims.light_point(depth));
     DirectLightSample d;
-    if (sample_direct<kM, F>(s, it, n, frame, m, wo_local, u_light, u_point, d)) {
+    if (sample_direct<kM, F>(s, it, n, frame, m, wo_local, u_light, u_point, o.mis, d)) {
       ++count.rays;
       if (d.shadow.t_max > 0.f) {
         const float w = o.mis && !d.ls.delta ? power_heuristic(d.ls.pdf, d.bsdf_pdf) : 1.f;

@@ -61,6 +61,28 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
     for (int i = 0; i < W; ++i)
       texel_[static_cast<size_t>(j) * W + i] =
           Vec4(scale_ * image_.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
+
+  // The compensated density (header): luminance less the mean luminance over the sphere (Σ over rows of the
+  // row's solid angle 2π·width_j is 4π), clamped at 0, times the same row factor.
+  const double mean = power / (4.0 * std::numbers::pi);
+  double full_mass = 0.0, compensated_mass = 0.0;
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      const double lum = std::max(0.f, luminance(image_.at(i, j)));
+      const double above = std::max(0.0, lum - mean);
+      full_mass += lum * width[static_cast<size_t>(j)];
+      compensated_mass += above * width[static_cast<size_t>(j)];
+      weights[static_cast<size_t>(j) * W + i] = static_cast<float>(above * width[static_cast<size_t>(j)] * 0.5 * H);
+    }
+  if (compensated_mass > 1e-3 * full_mass) {
+    compensated_ = Distribution2D(weights, W, H);
+    texel_compensated_.resize(texel_.size());
+    for (int j = 0; j < H; ++j)
+      for (int i = 0; i < W; ++i) {
+        const size_t t = static_cast<size_t>(j) * W + i;
+        texel_compensated_[t] = Vec4(Rgb(texel_[t]), compensated_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
+      }
+  }
 }
 
 void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
@@ -69,25 +91,26 @@ void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
   j = Distribution1D::cell_of(uv.y, image_.height);
 }
 
-const Vec4& EnvironmentMap::texel(Vec3 dir) const {
+const Vec4& EnvironmentMap::texel(Vec3 dir, const std::vector<Vec4>& records) const {
   int i, j;
   texel_of(world_to_map(dir), i, j);
-  return texel_[static_cast<size_t>(j) * static_cast<size_t>(image_.width) + static_cast<size_t>(i)];
+  return records[static_cast<size_t>(j) * static_cast<size_t>(image_.width) + static_cast<size_t>(i)];
 }
 
-Rgb EnvironmentMap::eval(Vec3 dir) const { return Rgb(texel(dir)); }
+Rgb EnvironmentMap::eval(Vec3 dir) const { return Rgb(texel(dir, texel_)); }
 
-float EnvironmentMap::pdf(Vec3 dir) const { return texel(dir).w; }
+float EnvironmentMap::pdf(Vec3 dir, bool compensated) const { return texel(dir, records(compensated)).w; }
 
-Rgb EnvironmentMap::eval(Vec3 dir, float& pdf_out) const {
-  const Vec4& t = texel(dir);
+Rgb EnvironmentMap::eval(Vec3 dir, float& pdf_out, bool compensated) const {
+  const Vec4& t = texel(dir, records(compensated));
   pdf_out = t.w;
   return Rgb(t);
 }
 
-bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
+bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool compensated) const {
   int i = 0, j = 0;
-  const Vec2 uv = distribution_.sample_continuous(u, nullptr, &i, &j);
+  compensated = compensated && compensates();
+  const Vec2 uv = (compensated ? compensated_ : distribution_).sample_continuous(u, nullptr, &i, &j);
   // Position within the row, remapped linearly to cos θ so the direction is uniform in the texel's solid angle.
   const float H = static_cast<float>(image_.height);
   const float frac = std::clamp(uv.y * H - static_cast<float>(j), 0.f, 1.f);
@@ -98,7 +121,7 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le) const {
   dir = map_to_world(Vec3(-sin_theta * std::sin(phi), cos_theta, sin_theta * std::cos(phi)));
   // Le and pdf through the same lookup as eval()/pdf(), so that they agree exactly (MIS needs the same density
   // from both sides); only a direction rounded across a texel edge sees the neighbour's values.
-  Le = eval(dir, pdf_out);
+  Le = eval(dir, pdf_out, compensated);
   return pdf_out > 0.f && std::isfinite(pdf_out);
 }
 

@@ -24,6 +24,15 @@
 // which is the usual pdf_uv / (2π² sin θ) with sin θ replaced by its exact row average H(cos θ_j − cos θ_{j+1})/π.
 // For a constant map this is exactly the uniform sphere density 1/(4π) (up to float rounding).
 // Black texels are never sampled; an all-black map samples uniformly (pdf 1/(4π)) and returns Le = 0.
+//
+// A second, compensated density for multiple importance sampling (Karlík, Šik, Vévoda, Skřivan and Křivánek,
+// "MIS Compensation: Optimizing Sampling Techniques in Multiple Importance Sampling", SIGGRAPH Asia 2019;
+// pbrt-v4's ImageInfiniteLight with allowIncompletePDF): ∝ max(0, luminance − L̄) × sin θ, L̄ the map's mean
+// luminance over the sphere. Where the map is dimmer than its mean the light strategy takes no samples and
+// BSDF sampling, whose MIS weight is then 1, covers it alone; the light samples go where the map stands out.
+// Only a caller that combines the light with BSDF sampling by MIS may ask for it (`compensated`): alone it misses
+// the dim directions. A map within a thousandth of constant (its compensated mass below 1e-3 of its mass) keeps
+// the full density for both, since there is nothing to compensate.
 #pragma once
 #include <vector>
 
@@ -41,12 +50,15 @@ struct EnvironmentMap {
   // Radiance arriving from world direction `dir` (unit; the radiance travels along −dir).
   Rgb eval(Vec3 dir) const;
   // Importance-samples a world direction from u ∈ [0,1)². On success dir is unit, pdf > 0 is per unit solid
-  // angle and equals pdf(dir), Le equals eval(dir). False (nothing usable) only in rare float edge cases.
-  bool sample(Vec2 u, Vec3& dir, float& pdf, Rgb& Le) const;
+  // angle and equals pdf(dir, compensated), Le equals eval(dir). False (nothing usable) only in rare float edge
+  // cases. `compensated`: from the compensated density (above; for MIS only).
+  bool sample(Vec2 u, Vec3& dir, float& pdf, Rgb& Le, bool compensated = false) const;
   // Solid-angle density with which sample() produces world direction `dir`.
-  float pdf(Vec3 dir) const;
-  // eval(dir), with pdf(dir) in `pdf`: one texel lookup (its atan2 and acos) for both.
-  Rgb eval(Vec3 dir, float& pdf) const;
+  float pdf(Vec3 dir, bool compensated = false) const;
+  // eval(dir), with pdf(dir, compensated) in `pdf`: one texel lookup (its atan2 and acos) for both.
+  Rgb eval(Vec3 dir, float& pdf, bool compensated = false) const;
+  // Whether the compensated density differs from the full one (false for a nearly constant map).
+  bool compensates() const { return !texel_compensated_.empty(); }
   // ∫ luminance(eval(ω)) dω over the sphere (radiance units × sr), scale included: exact for the nearest-texel
   // lookup. For choosing among lights by power.
   double power_weight() const { return power_; }
@@ -75,8 +87,11 @@ struct EnvironmentMap {
  private:
   // Texel (column, row) hit by map-space direction d.
   void texel_of(Vec3 d, int& i, int& j) const;
-  // texel_'s record for world direction dir.
-  const Vec4& texel(Vec3 dir) const;
+  // The record of `records` (texel_ or texel_compensated_) for world direction dir.
+  const Vec4& texel(Vec3 dir, const std::vector<Vec4>& records) const;
+  const std::vector<Vec4>& records(bool compensated) const {
+    return compensated && compensates() ? texel_compensated_ : texel_;
+  }
 
   Image image_;
   float scale_ = 1.f, rotation_deg_ = 0.f, cos_rot_ = 1.f, sin_rot_ = 0.f;
@@ -88,6 +103,10 @@ struct EnvironmentMap {
   // computed once: a lookup reads one 16-byte record instead of the image, the row's distribution and the
   // Jacobian (four cache lines).
   std::vector<Vec4> texel_;
+  // The compensated density and its records (the same radiance, its density in w): empty when compensates() is
+  // false. A caller uses one set, so a lookup still reads one record.
+  Distribution2D compensated_;
+  std::vector<Vec4> texel_compensated_;
   double power_ = 0.0;
 };
 

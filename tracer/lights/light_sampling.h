@@ -11,7 +11,10 @@
 // - Sphere: uniform in the subtended cone from outside (pbrt-v4 §6.2.4), by area from inside.
 // - Environment, constant: cosine-weighted about the receiver's normal (the ideal density for a diffuse
 //   receiver: in a white furnace every light sample returns exactly 1). Map (file or tabulated sky):
-//   ∝ luminance × sin θ over the lat-long image (lights/environment_map.h).
+//   ∝ luminance × sin θ over the lat-long image (lights/environment_map.h); under MIS with BSDF sampling
+//   (allow_incomplete_pdf, pbrt-v4's allowIncompletePDF) ∝ the luminance above the map's mean, so that the
+//   light's samples go where it stands out and BSDF sampling alone covers the rest (MIS compensation).
+//   Every function taking allow_incomplete_pdf must be given the same value by both sides of one MIS sum.
 // - Sun: uniform in its cone.
 // - Point, Spot, Directional (punctual): their one direction, with pdf 1 and LightSample::delta set (no BSDF
 //   sample can hit them, so they take no MIS weight).
@@ -155,24 +158,25 @@ inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 w) {
   return s.environment.uses_map ? s.environment.map->eval(w) : s.environment.radiance;
 }
 
-// infinite_light_Le(s, l, w), with infinite_light_pdf(s, l, n, w) in `pdf` where the radiance is not black
-// (an environment map looks its texel up once for both).
-inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 n, Vec3 w, float& pdf) {
+// infinite_light_Le(s, l, w), with infinite_light_pdf(s, l, n, w, allow_incomplete_pdf) in `pdf` where the
+// radiance is not black (an environment map looks its texel up once for both).
+inline Rgb infinite_light_Le(const Scene& s, const Light& l, Vec3 n, Vec3 w, float& pdf, bool allow_incomplete_pdf) {
   if (l.kind == LightKind::Sun) {
     const bool inside = in_sun_disk(l, w);
     pdf = inside ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
     return inside ? l.emission : Rgb(0.f);
   }
-  if (s.environment.uses_map) return s.environment.map->eval(w, pdf);
+  if (s.environment.uses_map) return s.environment.map->eval(w, pdf, allow_incomplete_pdf);
   pdf = cosine_hemisphere_pdf(glm::dot(n, w));
   return s.environment.radiance;
 }
 
 // Density with which sample_li() of the infinite light `l` produces direction w at a receiver with normal n.
-inline float infinite_light_pdf(const Scene& s, const Light& l, Vec3 n, Vec3 w) {
+inline float infinite_light_pdf(const Scene& s, const Light& l, Vec3 n, Vec3 w, bool allow_incomplete_pdf) {
   if (l.kind == LightKind::Sun)
     return in_sun_disk(l, w) ? uniform_cone_pdf(l.one_minus_cos_max) : 0.f;
-  return s.environment.uses_map ? s.environment.map->pdf(w) : cosine_hemisphere_pdf(glm::dot(n, w));
+  return s.environment.uses_map ? s.environment.map->pdf(w, allow_incomplete_pdf)
+                                : cosine_hemisphere_pdf(glm::dot(n, w));
 }
 
 // Density with which sample_li() of area light li produces the point p_light (front normal n_light) seen from
@@ -200,8 +204,10 @@ inline float area_light_pdf(const Scene& s, const Light& l, Vec3 ref, Vec3 p_lig
 
 // Samples light `l` as seen from `ref`. Returns false when no usable sample was produced.
 // F: the kernel's geometry (KernelFeature): light kinds on primitives outside it are left out of the code.
+// allow_incomplete_pdf: the caller weighs the sample by MIS against BSDF sampling (see the top of this file).
 template <uint32_t F = kAllFeatures>
-inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref, Vec2 u, LightSample& ls) {
+inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref, Vec2 u, LightSample& ls,
+                      bool allow_incomplete_pdf) {
   ls.prim = l.prim;
   Vec3 n(0.f);
   // A planar light cannot light its own surface (every direction to it is tangent). Rounding puts a receiver on
@@ -246,7 +252,7 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
       ls.dist = kInfinity;
       ls.p = Vec3(0.f);
       if (s.environment.uses_map) {
-        if (!s.environment.map->sample(u, ls.wi, ls.pdf, ls.Le)) return false;
+        if (!s.environment.map->sample(u, ls.wi, ls.pdf, ls.Le, allow_incomplete_pdf)) return false;
         return ls.pdf > 0.f && std::isfinite(ls.pdf);
       }
       const Vec3 local = sample_cosine_hemisphere(u);
@@ -332,12 +338,13 @@ inline bool sample_li(const Scene& s, const Light& l, const LightReference& ref,
 // power, or by importance through the light tree), then sample it. ls.pdf includes the choice probability; `li`
 // receives the light's index.
 template <uint32_t F = kAllFeatures>
-inline bool sample_lights(const Scene& s, const LightReference& ref, float u_choice, Vec2 u, LightSample& ls, int& li) {
+inline bool sample_lights(const Scene& s, const LightReference& ref, float u_choice, Vec2 u, LightSample& ls, int& li,
+                          bool allow_incomplete_pdf) {
   if (s.lights.empty()) return false;
   float pmf = 0.f;
   li = choose_light_at(s, ref.p, ref.n, u_choice, pmf);
   if (li < 0) return false;
-  if (!sample_li<F>(s, s.lights[li], ref, u, ls)) return false;
+  if (!sample_li<F>(s, s.lights[li], ref, u, ls, allow_incomplete_pdf)) return false;
   ls.pdf *= pmf;
   return ls.pdf > 0.f;
 }
@@ -351,9 +358,10 @@ inline float lights_pdf_area(const Scene& s, int li, Vec3 ref, Vec3 ref_n, Vec3 
 
 // Density of that strategy for an escaping direction w (the sum over the infinite lights, each weighted by its
 // choice probability), at a receiver with normal n.
-inline float lights_pdf_infinite(const Scene& s, Vec3 n, Vec3 w) {
+inline float lights_pdf_infinite(const Scene& s, Vec3 n, Vec3 w, bool allow_incomplete_pdf) {
   float p = 0.f;
-  for (const uint32_t li : s.infinite_lights) p += s.light_pmf[li] * infinite_light_pdf(s, s.lights[li], n, w);
+  for (const uint32_t li : s.infinite_lights)
+    p += s.light_pmf[li] * infinite_light_pdf(s, s.lights[li], n, w, allow_incomplete_pdf);
   return p;
 }
 
