@@ -7,16 +7,16 @@
 
 namespace pt {
 
-EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
-    : image_(std::move(image)), scale_(scale), rotation_deg_(rotation_deg) {
-  const int W = image_.width, H = image_.height;
-  if (W <= 0 || H <= 0 || image_.rgb.size() != 3ull * W * H)
+EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_deg)
+    : width_(image.width), height_(image.height), scale_(scale), rotation_deg_(rotation_deg) {
+  const int W = image.width, H = image.height;
+  if (W <= 0 || H <= 0 || image.rgb.size() != 3ull * W * H)
     throw std::invalid_argument("environment map: empty or inconsistent image");
   if (!std::isfinite(scale) || scale < 0.f)
     throw std::invalid_argument("environment map: scale must be finite and >= 0 (got " + std::to_string(scale) + ")");
   if (!std::isfinite(rotation_deg))
     throw std::invalid_argument("environment map: rotation must be finite");
-  for (float v : image_.rgb)
+  for (float v : image.rgb)
     if (!std::isfinite(v) || v < 0.f)
       throw std::invalid_argument("environment map: texels must be finite and >= 0");
 
@@ -48,7 +48,7 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   for (int j = 0; j < H; ++j) {
     double row_sum = 0.0;
     for (int i = 0; i < W; ++i) {
-      const double lum = std::max(0.f, luminance(image_.at(i, j)));
+      const double lum = std::max(0.f, luminance(image.at(i, j)));
       row_sum += lum;
       weights[static_cast<size_t>(j) * W + i] = static_cast<float>(lum * width[static_cast<size_t>(j)] * 0.5 * H);
     }
@@ -60,7 +60,7 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i)
       texel_[static_cast<size_t>(j) * W + i] =
-          Vec4(scale_ * image_.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
+          Vec4(scale_ * image.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
 
   // The compensated density (header): luminance less the mean luminance over the sphere (Σ over rows of the
   // row's solid angle 2π·width_j is 4π), clamped at 0, times the same row factor.
@@ -68,7 +68,7 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
   double full_mass = 0.0, compensated_mass = 0.0;
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i) {
-      const double lum = std::max(0.f, luminance(image_.at(i, j)));
+      const double lum = std::max(0.f, luminance(image.at(i, j)));
       const double above = std::max(0.0, lum - mean);
       full_mass += lum * width[static_cast<size_t>(j)];
       compensated_mass += above * width[static_cast<size_t>(j)];
@@ -87,14 +87,14 @@ EnvironmentMap::EnvironmentMap(Image image, float scale, float rotation_deg)
 
 void EnvironmentMap::texel_of(Vec3 d, int& i, int& j) const {
   const Vec2 uv = uv_from_direction(d);
-  i = Distribution1D::cell_of(uv.x, image_.width);
-  j = Distribution1D::cell_of(uv.y, image_.height);
+  i = Distribution1D::cell_of(uv.x, width_);
+  j = Distribution1D::cell_of(uv.y, height_);
 }
 
 const Vec4& EnvironmentMap::texel(Vec3 dir, const std::vector<Vec4>& records) const {
   int i, j;
   texel_of(world_to_map(dir), i, j);
-  return records[static_cast<size_t>(j) * static_cast<size_t>(image_.width) + static_cast<size_t>(i)];
+  return records[static_cast<size_t>(j) * static_cast<size_t>(width_) + static_cast<size_t>(i)];
 }
 
 Rgb EnvironmentMap::eval(Vec3 dir) const { return Rgb(texel(dir, texel_)); }
@@ -112,7 +112,7 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool com
   compensated = compensated && compensates();
   const Vec2 uv = (compensated ? compensated_ : distribution_).sample_continuous(u, nullptr, &i, &j);
   // Position within the row, remapped linearly to cos θ so the direction is uniform in the texel's solid angle.
-  const float H = static_cast<float>(image_.height);
+  const float H = static_cast<float>(height_);
   const float frac = std::clamp(uv.y * H - static_cast<float>(j), 0.f, 1.f);
   const float cos_theta = std::clamp(row_cos_[static_cast<size_t>(j)] - frac * row_cos_width_[static_cast<size_t>(j)],
                                      -1.f, 1.f);
