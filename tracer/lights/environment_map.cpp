@@ -64,17 +64,16 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
 
   // The compensated density (header): luminance less the mean luminance over the sphere (Σ over rows of the
   // row's solid angle 2π·width_j is 4π), clamped at 0, times the same row factor.
+  // Both masses in power's units (Σ luminance × texel solid angle, unscaled).
   const double mean = power / (4.0 * std::numbers::pi);
-  double full_mass = 0.0, compensated_mass = 0.0;
+  double compensated_mass = 0.0;
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i) {
-      const double lum = std::max(0.f, luminance(image.at(i, j)));
-      const double above = std::max(0.0, lum - mean);
-      full_mass += lum * width[static_cast<size_t>(j)];
-      compensated_mass += above * width[static_cast<size_t>(j)];
+      const double above = std::max(0.0, std::max(0.f, luminance(image.at(i, j))) - mean);
+      compensated_mass += above * width[static_cast<size_t>(j)] * (2.0 * std::numbers::pi / W);
       weights[static_cast<size_t>(j) * W + i] = static_cast<float>(above * width[static_cast<size_t>(j)] * 0.5 * H);
     }
-  if (compensated_mass > 1e-3 * full_mass) {
+  if (compensated_mass > 1e-3 * power) {
     compensated_ = Distribution2D(weights, W, H);
     texel_compensated_.resize(texel_.size());
     for (int j = 0; j < H; ++j)
