@@ -22,6 +22,7 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
 
   const double alpha = static_cast<double>(rotation_deg) * std::numbers::pi / 180.0;
   cos_rot_ = static_cast<float>(std::cos(alpha));
+  column_margin_ = static_cast<float>(kEdgeMargin * W / (2.0 * std::numbers::pi));
   sin_rot_ = static_cast<float>(std::sin(alpha));
 
   // Row bounds. cos θ_j − cos θ_{j+1} = 2 sin((θ_j + θ_{j+1})/2) sin(Δθ/2): no cancellation near the poles.
@@ -110,6 +111,8 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool com
   int i = 0, j = 0;
   compensated = compensated && compensates();
   const Vec2 uv = (compensated ? compensated_ : distribution_).sample_continuous(u, nullptr, &i, &j);
+  // The sampled texel's record, read before the direction is computed so that its cache miss overlaps that work.
+  const Vec4 record = records(compensated)[static_cast<size_t>(j) * static_cast<size_t>(width_) + static_cast<size_t>(i)];
   // Position within the row, remapped linearly to cos θ so the direction is uniform in the texel's solid angle.
   const float H = static_cast<float>(height_);
   const float frac = std::clamp(uv.y * H - static_cast<float>(j), 0.f, 1.f);
@@ -118,9 +121,20 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool com
   const float sin_theta = safe_sqrt((1.f - cos_theta) * (1.f + cos_theta));
   const float phi = 2.f * kPi * uv.x;
   dir = map_to_world(Vec3(-sin_theta * std::sin(phi), cos_theta, sin_theta * std::cos(phi)));
-  // Le and pdf through the same lookup as eval()/pdf(), so that they agree exactly (MIS needs the same density
-  // from both sides); only a direction rounded across a texel edge sees the neighbour's values.
-  Le = eval(dir, pdf_out, compensated);
+  // Le and pdf must be what eval() and pdf() give for dir (MIS needs the same density from both sides). A
+  // direction at least kEdgeMargin from its texel's edges maps back to that texel (header), so its record is the
+  // one read above; one nearer an edge, which rounding could carry across it, takes the lookup itself and may see
+  // the neighbour's values.
+  const float column = uv.x * static_cast<float>(width_) - static_cast<float>(i);
+  const bool inside = row_cos_[static_cast<size_t>(j)] - cos_theta >= kEdgeMargin &&
+                      cos_theta - row_cos_[static_cast<size_t>(j) + 1] >= kEdgeMargin && column >= column_margin_ &&
+                      1.f - column >= column_margin_;
+  if (inside) {
+    pdf_out = record.w;
+    Le = Rgb(record);
+  } else {
+    Le = eval(dir, pdf_out, compensated);
+  }
   return pdf_out > 0.f && std::isfinite(pdf_out);
 }
 
