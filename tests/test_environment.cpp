@@ -1,10 +1,10 @@
 // Environment lighting: piecewise-constant distributions, the lat-long environment map (convention, sampling
 // density, χ² of its sampler), the Preetham sky and sun, and HDR image reading.
 //
-// Statistics: every random stream has a fixed seed, so each run is the same run. The five χ² tests in this file
+// Statistics: every random stream has a fixed seed, so each run is the same run. The seven χ² tests in this file
 // (1D distribution, 2D distribution, environment map 64×32 unrotated and rotated, 12×6 rotated — the coarse map
-// makes the within-texel distribution visible) use significance 0.01 with a Bonferroni correction: each must
-// have p > 0.01/5, so a correct implementation fails the file with probability < 1 % over seeds. Monte Carlo integral checks use ±5 standard errors (false alarm < 1e-6 each).
+// makes the within-texel distribution visible —, the compensated density, and a smooth 64×32 map on 4×4 cells)
+// use significance 0.01 with a Bonferroni correction: each must have p > 0.01/7, so a correct implementation fails the file with probability < 1 % over seeds. Monte Carlo integral checks use ±5 standard errors (false alarm < 1e-6 each).
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <set>
 #include <string>
 #include <tuple>
 #include <unistd.h>
@@ -32,7 +33,7 @@ using pt::test::chi2_test;
 
 namespace {
 
-constexpr double kChi2Alpha = 0.01 / 5.0;  // Bonferroni over the five χ² tests in this file
+constexpr double kChi2Alpha = 0.01 / 7.0;  // Bonferroni over the seven χ² tests in this file
 constexpr double kPiD = std::numbers::pi;
 
 // Purely relative comparison (doctest's Approx alone adds an absolute slack of epsilon).
@@ -67,6 +68,19 @@ Image test_map(int W = 64, int H = 32) {
       if (H >= 32 && (j == 20 || j == 21)) c = Rgb(0.f);
       float* p = &img.rgb[3 * (static_cast<size_t>(j) * W + i)];
       p[0] = c.x, p[1] = c.y, p[2] = c.z;
+    }
+  return img;
+}
+
+// A smooth map (no spot, no black rows): an azimuthal and polar gradient, as a tabulated sky is smooth.
+Image smooth_map(int W, int H) {
+  Image img{W, H, std::vector<float>(3 * static_cast<size_t>(W) * H)};
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      const float u = (i + 0.5f) / W, v = (j + 0.5f) / H;
+      const float g = 1.f + 0.3f * std::cos(2.f * kPi * u) + 0.4f * v;
+      float* p = &img.rgb[3 * (static_cast<size_t>(j) * W + i)];
+      p[0] = g, p[1] = 0.8f * g, p[2] = 0.6f + 0.2f * v;
     }
   return img;
 }
@@ -409,12 +423,17 @@ TEST_CASE("environment: sample() returns eval() and pdf(), and estimates the map
 // sample() reads the sampled texel's record without looking its direction up again where the direction is far
 // enough from the texel's edges (environment_map.h): that must give eval()'s and pdf()'s very bits, on maps whose
 // texels are as narrow as the format allows in either direction (rounding then crosses edges most often), rotated
-// or not, for the full and the compensated density. Taking the record for every sample (no margin) fails it.
+// or not, for the full and the compensated density, on cells of 1, 2×2 and 4×4 texels. Taking the record for every
+// sample (no margin) fails it.
 TEST_CASE("environment: sample() agrees with eval() and pdf() bit for bit on maps with the narrowest texels") {
-  for (const auto& [w, h, rot] : {std::tuple{16384, 8, 37.f}, std::tuple{8, 16384, -20.f}, std::tuple{512, 256, 0.f},
-                                  std::tuple{2048, 1024, 123.f}}) {
-    const EnvironmentMap env(test_map(w, h), 1.f, rot);
+  std::set<int> blocks;
+  for (const auto& [w, h, rot, smooth] :
+       {std::tuple{16384, 8, 37.f, false}, std::tuple{8, 16384, -20.f, false}, std::tuple{512, 256, 0.f, false},
+        std::tuple{2048, 1024, 123.f, false}, std::tuple{8, 16384, 65.f, true}, std::tuple{16384, 8, 0.f, true},
+        std::tuple{512, 256, -80.f, true}}) {
+    const EnvironmentMap env(smooth ? smooth_map(w, h) : test_map(w, h), 1.f, rot);
     REQUIRE(env.compensates());
+    blocks.insert(env.block());
     for (const bool compensated : {false, true}) {
       Pcg32 rng(77, static_cast<uint64_t>(w) * 2 + (compensated ? 1 : 0));
       int sampled = 0, mismatched = 0;
@@ -430,11 +449,74 @@ TEST_CASE("environment: sample() agrees with eval() and pdf() bit for bit on map
       }
       CAPTURE(w);
       CAPTURE(h);
+      CAPTURE(smooth);
       CAPTURE(compensated);
       CHECK(sampled >= 99990);
       CHECK(mismatched == 0);
     }
   }
+  CHECK(blocks == std::set<int>{1, 2, 4});  // every size of cell was tried
+}
+
+// Sampling cells (environment_map.h): the tabulated sky and smooth maps take 4×4 texels, or 2×2 where a side is
+// not a multiple of 4; a map with a small bright spot (a photographed sun) or of odd sides keeps texels. On 4×4
+// cells sample() draws the density pdf() states (χ², one of the file's seven), estimates the map's integral without
+// bias, and still nearly in proportion to the luminance.
+TEST_CASE("environment: sampling cells of 4x4 texels where the map is smooth, texels where it is not") {
+  CHECK(EnvironmentMap(make_sky_image(glm::normalize(Vec3(0.3f, 0.5f, -0.4f)), 3.f, 512, 256)).block() == 4);
+  CHECK(EnvironmentMap(smooth_map(64, 32)).block() == 4);
+  CHECK(EnvironmentMap(smooth_map(66, 34)).block() == 2);
+  CHECK(EnvironmentMap(smooth_map(63, 33)).block() == 1);
+  CHECK(EnvironmentMap(test_map(64, 32)).block() == 1);
+  CHECK(EnvironmentMap(Image{8, 4, std::vector<float>(96, 0.f)}).block() == 1);  // black: the uniform fallback
+  // One texel b times brighter (row 16, column 40) in a constant 64×32 map. The second moments of 4×4 and 2×2 cells
+  // for the map's own integral, relative to the texels' (computed apart, in Python, from the same weights with the
+  // rows' solid angles): b = 1.01: 1 + 7·10⁻⁸ and 1 + 6·10⁻⁸; b = 6: 1.0135 and 1.0063; b = 20: 1.115 and 1.035.
+  for (const auto& [bright, block] : {std::pair{1.01f, 4}, std::pair{6.f, 2}, std::pair{20.f, 1}}) {
+    Image img{64, 32, std::vector<float>(3 * 64 * 32, 1.f)};
+    for (int c = 0; c < 3; ++c) img.rgb[3 * (16 * 64 + 40) + c] = bright;
+    CAPTURE(bright);
+    CHECK(EnvironmentMap(img).block() == block);
+  }
+
+  const EnvironmentMap env(smooth_map(64, 32), 1.f, 29.f);
+  REQUIRE(env.block() == 4);
+  double integral = 0;
+  const auto r = env_chi2(env, 1000000, 4321, &integral);
+  MESSAGE("EnvironmentMap 64x32 on 4x4 cells: chi2 " << r.statistic << " dof " << r.dof << " p " << r.p_value);
+  CHECK(integral == rel(1.0, 1e-5));
+  CHECK(r.unexpected == 0);
+  CHECK(r.p_value > kChi2Alpha);
+  // The map's integral (Σ texel × texel solid angle) from 200k samples: within 5 standard errors.
+  const Image img = smooth_map(64, 32);
+  DVec3 exact(0.0);
+  for (int j = 0; j < 32; ++j)
+    for (int i = 0; i < 64; ++i)
+      exact += DVec3(img.at(i, j)) * (std::cos(kPiD * j / 32) - std::cos(kPiD * (j + 1) / 32)) * (2 * kPiD / 64);
+  Pcg32 rng(5, 9);
+  DVec3 sum(0.0), sum2(0.0);
+  double lum_sum = 0, lum_sum2 = 0;
+  const int N = 200000;
+  for (int s = 0; s < N; ++s) {
+    Vec3 d;
+    float pdf;
+    Rgb Le;
+    REQUIRE(env.sample(next2(rng), d, pdf, Le));
+    const DVec3 f = DVec3(Le) / static_cast<double>(pdf);
+    sum += f, sum2 += f * f;
+    const double l = luminance(Le) / static_cast<double>(pdf);
+    lum_sum += l, lum_sum2 += l * l;
+  }
+  for (int c = 0; c < 3; ++c) {
+    const double mean = sum[c] / N, se = std::sqrt(std::max(0.0, sum2[c] / N - mean * mean) / N);
+    CAPTURE(c);
+    CHECK(std::abs(mean - exact[c]) < 5 * se);
+  }
+  // luminance(Le)/pdf varies only within a cell (by at most 13 %): its spread is a few
+  // per cent, where uniform sampling's is the map's own, 18 %.
+  const double lmean = lum_sum / N, lstd = std::sqrt(std::max(0.0, lum_sum2 / N - lmean * lmean));
+  MESSAGE("luminance(Le)/pdf on 4x4 cells: relative spread " << lstd / lmean);
+  CHECK(lstd < 0.05 * lmean);
 }
 
 TEST_CASE("environment: chi-square of EnvironmentMap::sample against pdf (unrotated and rotated)") {

@@ -7,6 +7,50 @@
 
 namespace pt {
 
+namespace {
+
+// The weights summed over k×k blocks (in double, then rounded once: for k = 1 the weights themselves).
+std::vector<float> block_sums(const std::vector<float>& w, int W, int H, int k) {
+  const int BW = W / k;
+  std::vector<double> acc(static_cast<size_t>(BW) * static_cast<size_t>(H / k), 0.0);
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i)
+      acc[static_cast<size_t>(j / k) * BW + static_cast<size_t>(i / k)] += w[static_cast<size_t>(j) * W + i];
+  return std::vector<float>(acc.begin(), acc.end());
+}
+
+}  // namespace
+
+// The largest block k ∈ {4, 2} that divides both sides and whose density, constant on each block, samples the
+// map's own luminance with a second moment within kBlockTolerance of the texels' (whose estimate of the map's
+// integral has no variance: second moment I²). With m_t a texel's mass (luminance × solid angle, the weight) and
+// Ω_t its solid angle (∝ its row's width), a block B of mass M_B and solid angle Ω_B has density M_B/(I·Ω_B), so
+// the estimator m_t/Ω_t over that density has second moment Σ_B (I·Ω_B/M_B) Σ_{t∈B} m_t²/Ω_t.
+int EnvironmentMap::sampling_block(const std::vector<float>& weights, int W, int H) {
+  double total = 0.0;
+  for (float w : weights) total += w;
+  if (!(total > 0.0)) return 1;
+  for (const int k : {4, 2}) {
+    if (W % k != 0 || H % k != 0) continue;
+    const int BW = W / k;
+    std::vector<double> mass(static_cast<size_t>(BW) * (H / k), 0.0), omega(mass.size(), 0.0), m2(mass.size(), 0.0);
+    for (int j = 0; j < H; ++j) {
+      // A row's texel solid angle ∝ its width ∝ sin θ at its centre (the weights' own factor, up to a constant).
+      const double o = std::sin((j + 0.5) * std::numbers::pi / H);
+      for (int i = 0; i < W; ++i) {
+        const size_t b = static_cast<size_t>(j / k) * BW + static_cast<size_t>(i / k);
+        const double m = weights[static_cast<size_t>(j) * W + i];
+        mass[b] += m, omega[b] += o, m2[b] += m * m / o;
+      }
+    }
+    double second = 0.0;
+    for (size_t b = 0; b < mass.size(); ++b)
+      if (mass[b] > 0.0) second += total * omega[b] / mass[b] * m2[b];
+    if (second <= (1.0 + kBlockTolerance) * total * total) return k;
+  }
+  return 1;
+}
+
 EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_deg)
     : width_(image.width), height_(image.height), scale_(scale), rotation_deg_(rotation_deg) {
   const int W = image.width, H = image.height;
@@ -28,19 +72,11 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
   // Row bounds. cos θ_j − cos θ_{j+1} = 2 sin((θ_j + θ_{j+1})/2) sin(Δθ/2): no cancellation near the poles.
   const double dtheta = std::numbers::pi / H;
   row_cos_.resize(static_cast<size_t>(H) + 1);
-  row_cos_width_.resize(static_cast<size_t>(H));
-  // 1/(2π · H · (cos θ_j − cos θ_{j+1})): a row's pdf_uv → pdf per sr, folded into texel_ below.
-  std::vector<float> row_inv_jacobian(static_cast<size_t>(H));
   std::vector<double> width(static_cast<size_t>(H));
   for (int j = 0; j <= H; ++j) row_cos_[static_cast<size_t>(j)] = static_cast<float>(std::cos(j * dtheta));
   row_cos_.front() = 1.f;
   row_cos_.back() = -1.f;
-  for (int j = 0; j < H; ++j) {
-    const double w = 2.0 * std::sin((j + 0.5) * dtheta) * std::sin(0.5 * dtheta);
-    width[static_cast<size_t>(j)] = w;
-    row_cos_width_[static_cast<size_t>(j)] = static_cast<float>(w);
-    row_inv_jacobian[static_cast<size_t>(j)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * H * w));
-  }
+  for (int j = 0; j < H; ++j) width[static_cast<size_t>(j)] = 2.0 * std::sin((j + 0.5) * dtheta) * std::sin(0.5 * dtheta);
 
   // Sampling weights: luminance × the row's exact solid-angle factor (scaled by H/2 to keep them near the
   // luminance; the scale cancels in the normalised density). Power: Σ luminance × texel solid angle.
@@ -56,15 +92,27 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
     power += row_sum * width[static_cast<size_t>(j)] * (2.0 * std::numbers::pi / W);
   }
   power_ = power * scale;
-  distribution_ = Distribution2D(weights, W, H);
+
+  // The sampling cells: blocks of k×k texels (header), each block row J spanning cos θ_{kJ} … cos θ_{k(J+1)}; a
+  // cell's density per unit solid angle is its density on the unit square over 2π · (H/k) · (that span).
+  block_ = sampling_block(weights, W, H);
+  const int k = block_, BH = H / k;
+  block_cos_width_.resize(static_cast<size_t>(BH));
+  std::vector<float> block_inv_jacobian(static_cast<size_t>(BH));
+  for (int J = 0; J < BH; ++J) {
+    const double w = 2.0 * std::sin((static_cast<double>(k) * J + 0.5 * k) * dtheta) * std::sin(0.5 * k * dtheta);
+    block_cos_width_[static_cast<size_t>(J)] = static_cast<float>(w);
+    block_inv_jacobian[static_cast<size_t>(J)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * BH * w));
+  }
+  distribution_ = Distribution2D(block_sums(weights, W, H, k), W / k, BH);
   texel_.resize(static_cast<size_t>(W) * H);
   for (int j = 0; j < H; ++j)
     for (int i = 0; i < W; ++i)
       texel_[static_cast<size_t>(j) * W + i] =
-          Vec4(scale_ * image.at(i, j), distribution_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
+          Vec4(scale_ * image.at(i, j), distribution_.cell_pdf(i / k, j / k) * block_inv_jacobian[static_cast<size_t>(j / k)]);
 
   // The compensated density (header): luminance less the mean luminance over the sphere (Σ over rows of the
-  // row's solid angle 2π·width_j is 4π), clamped at 0, times the same row factor.
+  // row's solid angle 2π·width_j is 4π), clamped at 0, times the same row factor, on the same cells.
   // Both masses in power's units (Σ luminance × texel solid angle, unscaled).
   const double mean = power / (4.0 * std::numbers::pi);
   double compensated_mass = 0.0;
@@ -75,12 +123,13 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
       weights[static_cast<size_t>(j) * W + i] = static_cast<float>(above * width[static_cast<size_t>(j)] * 0.5 * H);
     }
   if (compensated_mass > 1e-3 * power) {
-    compensated_ = Distribution2D(weights, W, H);
+    compensated_ = Distribution2D(block_sums(weights, W, H, k), W / k, BH);
     texel_compensated_.resize(texel_.size());
     for (int j = 0; j < H; ++j)
       for (int i = 0; i < W; ++i) {
         const size_t t = static_cast<size_t>(j) * W + i;
-        texel_compensated_[t] = Vec4(Rgb(texel_[t]), compensated_.cell_pdf(i, j) * row_inv_jacobian[static_cast<size_t>(j)]);
+        texel_compensated_[t] =
+            Vec4(Rgb(texel_[t]), compensated_.cell_pdf(i / k, j / k) * block_inv_jacobian[static_cast<size_t>(j / k)]);
       }
   }
 }
@@ -108,16 +157,21 @@ Rgb EnvironmentMap::eval(Vec3 dir, float& pdf_out, bool compensated) const {
 }
 
 bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool compensated) const {
-  int i = 0, j = 0;
+  int bi = 0, bj = 0;
   compensated = compensated && compensates();
-  const Vec2 uv = (compensated ? compensated_ : distribution_).sample_continuous(u, nullptr, &i, &j);
-  // The sampled texel's record, read before the direction is computed so that its cache miss overlaps that work.
+  const Vec2 uv = (compensated ? compensated_ : distribution_).sample_continuous(u, nullptr, &bi, &bj);
+  // Position within the block row, remapped linearly to cos θ so the direction is uniform in the cell's solid
+  // angle; then the texel row it falls in (the last whose upper bound is ≥ cos θ) and the texel column.
+  const int k = block_;
+  const float frac = std::clamp(uv.y * static_cast<float>(height_ / k) - static_cast<float>(bj), 0.f, 1.f);
+  const float cos_theta = std::clamp(
+      row_cos_[static_cast<size_t>(k * bj)] - frac * block_cos_width_[static_cast<size_t>(bj)], -1.f, 1.f);
+  int j = k * bj;
+  while (j + 1 < k * (bj + 1) && row_cos_[static_cast<size_t>(j) + 1] >= cos_theta) ++j;
+  const float fx = uv.x * static_cast<float>(width_);
+  const int i = std::clamp(static_cast<int>(fx), k * bi, k * bi + k - 1);
+  // The texel's record, read before the direction is computed so that its cache miss overlaps that work.
   const Vec4 record = records(compensated)[static_cast<size_t>(j) * static_cast<size_t>(width_) + static_cast<size_t>(i)];
-  // Position within the row, remapped linearly to cos θ so the direction is uniform in the texel's solid angle.
-  const float H = static_cast<float>(height_);
-  const float frac = std::clamp(uv.y * H - static_cast<float>(j), 0.f, 1.f);
-  const float cos_theta = std::clamp(row_cos_[static_cast<size_t>(j)] - frac * row_cos_width_[static_cast<size_t>(j)],
-                                     -1.f, 1.f);
   const float sin_theta = safe_sqrt((1.f - cos_theta) * (1.f + cos_theta));
   const float phi = 2.f * kPi * uv.x;
   dir = map_to_world(Vec3(-sin_theta * std::sin(phi), cos_theta, sin_theta * std::cos(phi)));
@@ -125,7 +179,7 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool com
   // direction at least kEdgeMargin from its texel's edges maps back to that texel (header), so its record is the
   // one read above; one nearer an edge, which rounding could carry across it, takes the lookup itself and may see
   // the neighbour's values.
-  const float column = uv.x * static_cast<float>(width_) - static_cast<float>(i);
+  const float column = fx - static_cast<float>(i);
   const bool inside = row_cos_[static_cast<size_t>(j)] - cos_theta >= kEdgeMargin &&
                       cos_theta - row_cos_[static_cast<size_t>(j) + 1] >= kEdgeMargin && column >= column_margin_ &&
                       1.f - column >= column_margin_;

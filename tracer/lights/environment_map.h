@@ -17,12 +17,19 @@
 //   terms, a world direction of azimuth column u_w shows the map's column u_w + α/360.
 //
 // Lookup: nearest texel (no filtering), so eval() is piecewise constant exactly like the sampling density.
-// Sampling: a texel is chosen with probability ∝ luminance(texel) × (solid angle of its row's texels), then a
-// direction uniformly within the texel's solid angle (φ uniform, cos θ uniform between the row's bounds). The
-// density per unit solid angle is therefore constant on each texel:
-//     pdf(ω) = pdf_uv / (2π · H · (cos θ_j − cos θ_{j+1}))   for ω in row j,
-// which is the usual pdf_uv / (2π² sin θ) with sin θ replaced by its exact row average H(cos θ_j − cos θ_{j+1})/π.
-// For a constant map this is exactly the uniform sphere density 1/(4π) (up to float rounding).
+// Sampling: a cell of k×k texels (k = block(): 1, 2 or 4, below) is chosen with probability ∝ its luminance ×
+// solid angle (Σ over its texels), then a direction uniformly within the cell's solid angle (φ uniform, cos θ
+// uniform between the cell's row bounds). The density per unit solid angle is therefore constant on each cell:
+//     pdf(ω) = pdf_uv / (2π · (H/k) · (cos θ_{kJ} − cos θ_{k(J+1)}))   for ω in block row J,
+// which is the usual pdf_uv / (2π² sin θ) with sin θ replaced by its exact average over the block row. For a
+// constant map this is exactly the uniform sphere density 1/(4π) (up to float rounding).
+// Cells larger than a texel: a smooth map (the tabulated sky: 512×256) gains nothing from a density that follows
+// each texel, and its per-texel tables (the rows' cumulative distributions and guides, 1.5 MB for the sky, twice
+// with compensation) miss the cache on every sample; 4×4 cells take 1/16 of that. The cell is chosen per map: the
+// largest k ∈ {4, 2} that divides both sides and whose density samples the map's own luminance with a second
+// moment within kBlockTolerance (1 %) of the texels' density's (which estimates the map's integral with no
+// variance at all), else texels (k = 1): any sharp feature, a photographed sun or lamp, keeps the texels. Measured:
+// docs/performance.md, session 41.
 // sample() returns the sampled texel's record without looking the direction up again where the direction is at
 // least kEdgeMargin (2⁻¹⁵ rad, and 2⁻¹⁵ in cos θ) from the texel's edges; only nearer an edge does it take eval()'s
 // lookup (atan2, acos), which rounding may carry into the neighbour. Why the margin suffices: the row is decided by
@@ -31,7 +38,8 @@
 // by under 2·10⁻⁶ rad (each a few ulps relative to sin θ, or of an angle ≤ 2π): 15× below 2⁻¹⁵ ≈ 3·10⁻⁵. On a
 // 512×256 map it skips the lookup for 99 % of the samples (tests: sample() agrees with eval() and pdf() bit for
 // bit on maps up to 16384 rows).
-// Black texels are never sampled; an all-black map samples uniformly (pdf 1/(4π)) and returns Le = 0.
+// Black texels are never sampled where the cells are texels; an all-black map samples uniformly (pdf 1/(4π)) and
+// returns Le = 0.
 //
 // A second, compensated density for multiple importance sampling (Karlík, Šik, Vévoda, Skřivan and Křivánek,
 // "MIS Compensation: Optimizing Sampling Techniques in Multiple Importance Sampling", SIGGRAPH Asia 2019;
@@ -65,6 +73,10 @@ struct EnvironmentMap {
   float pdf(Vec3 dir, bool compensated = false) const;
   // eval(dir), with pdf(dir, compensated) in `pdf`: one texel lookup (its atan2 and acos) for both.
   Rgb eval(Vec3 dir, float& pdf, bool compensated = false) const;
+  // The sampling cells' side in texels (1, 2 or 4; header).
+  int block() const { return block_; }
+  // The block size the constructor chooses for these texel weights (luminance × row solid-angle factor), W×H.
+  static int sampling_block(const std::vector<float>& weights, int W, int H);
   // Whether the compensated density differs from the full one (false for a nearly constant map).
   bool compensates() const { return !texel_compensated_.empty(); }
   // ∫ luminance(eval(ω)) dω over the sphere (radiance units × sr), scale included: exact for the nearest-texel
@@ -106,16 +118,18 @@ struct EnvironmentMap {
   float scale_ = 1.f, rotation_deg_ = 0.f, cos_rot_ = 1.f, sin_rot_ = 0.f;
   float column_margin_ = 0.f;  // kEdgeMargin in columns: kEdgeMargin·W/2π
   std::vector<float> row_cos_;            // cos θ_j at the row boundaries, H + 1 entries (1 … −1)
-  std::vector<float> row_cos_width_;      // cos θ_j − cos θ_{j+1} (from a cancellation-free product)
-  Distribution2D distribution_;
-  // Per texel, row-major: the scaled radiance (scale × texel) and the solid-angle density (the distribution's cell
-  // density × the row's Jacobian 1/(2π · H · (cos θ_j − cos θ_{j+1}))), the products eval() and pdf() return,
+  int block_ = 1;                         // the sampling cells' side in texels
+  std::vector<float> block_cos_width_;    // cos θ_{kJ} − cos θ_{k(J+1)} (from a cancellation-free product)
+  Distribution2D distribution_;           // over the cells
+  static constexpr double kBlockTolerance = 0.01;
+  // Per texel, row-major: the scaled radiance (scale × texel) and the solid-angle density (its cell's density ×
+  // the block row's Jacobian 1/(2π · (H/k) · (cos θ_{kJ} − cos θ_{k(J+1)}))), the products eval() and pdf() return,
   // computed once: a lookup reads one 16-byte record instead of the image, the row's distribution and the
   // Jacobian (four cache lines).
   std::vector<Vec4> texel_;
   // The compensated density and its records (the same radiance, its density in w): empty when compensates() is
-  // false. A caller uses one set, so a lookup still reads one record. Per texel the map holds 56 bytes (two
-  // 16-byte record sets, two distributions of 12), against 40 with the image and one set before (session 40).
+  // false. A caller uses one set, so a lookup still reads one record. Per texel the map holds 32 bytes of
+  // records, and the two distributions 24 bytes per cell: 56 bytes a texel with texel cells, 33.5 with 4×4 cells.
   Distribution2D compensated_;
   std::vector<Vec4> texel_compensated_;
   double power_ = 0.0;
