@@ -447,9 +447,11 @@ TEST_CASE("environment: sample() agrees with eval() and pdf() bit for bit on map
         const Rgb eval_Le = env.eval(d, eval_pdf, compensated);
         if (!(Le == eval_Le) || !(pdf == eval_pdf) || !(pdf == env.pdf(d, compensated))) ++mismatched;
       }
-      CAPTURE(w);
-      CAPTURE(h);
-      CAPTURE(smooth);
+      const int width = w, height = h;  // doctest's CAPTURE cannot name a structured binding (clang 14)
+      const bool is_smooth = smooth;
+      CAPTURE(width);
+      CAPTURE(height);
+      CAPTURE(is_smooth);
       CAPTURE(compensated);
       CHECK(sampled >= 99990);
       CHECK(mismatched == 0);
@@ -475,7 +477,8 @@ TEST_CASE("environment: sampling cells of 4x4 texels where the map is smooth, te
   for (const auto& [bright, block] : {std::pair{1.01f, 4}, std::pair{6.f, 2}, std::pair{20.f, 1}}) {
     Image img{64, 32, std::vector<float>(3 * 64 * 32, 1.f)};
     for (int c = 0; c < 3; ++c) img.rgb[3 * (16 * 64 + 40) + c] = bright;
-    CAPTURE(bright);
+    const float brightness = bright;  // CAPTURE cannot name a structured binding (clang 14)
+    CAPTURE(brightness);
     CHECK(EnvironmentMap(img).block() == block);
   }
 

@@ -66,8 +66,8 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
 
   const double alpha = static_cast<double>(rotation_deg) * std::numbers::pi / 180.0;
   cos_rot_ = static_cast<float>(std::cos(alpha));
-  column_margin_ = static_cast<float>(kEdgeMargin * W / (2.0 * std::numbers::pi));
   sin_rot_ = static_cast<float>(std::sin(alpha));
+  column_margin_ = static_cast<float>(kEdgeMargin * W / (2.0 * std::numbers::pi));
 
   // Row bounds. cos θ_j − cos θ_{j+1} = 2 sin((θ_j + θ_{j+1})/2) sin(Δθ/2): no cancellation near the poles.
   const double dtheta = std::numbers::pi / H;
