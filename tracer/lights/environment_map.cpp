@@ -1,5 +1,6 @@
 #include "lights/environment_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -32,20 +33,26 @@ int EnvironmentMap::sampling_block(const std::vector<float>& weights, int W, int
   if (!(total > 0.0)) return 1;
   for (const int k : {4, 2}) {
     if (W % k != 0 || H % k != 0) continue;
+    // One block row at a time (memory for one row of cells, whatever the map's size).
     const int BW = W / k;
-    std::vector<double> mass(static_cast<size_t>(BW) * (H / k), 0.0), omega(mass.size(), 0.0), m2(mass.size(), 0.0);
-    for (int j = 0; j < H; ++j) {
-      // A row's texel solid angle ∝ its width ∝ sin θ at its centre (the weights' own factor, up to a constant).
-      const double o = std::sin((j + 0.5) * std::numbers::pi / H);
-      for (int i = 0; i < W; ++i) {
-        const size_t b = static_cast<size_t>(j / k) * BW + static_cast<size_t>(i / k);
-        const double m = weights[static_cast<size_t>(j) * W + i];
-        mass[b] += m, omega[b] += o, m2[b] += m * m / o;
-      }
-    }
+    std::vector<double> mass(static_cast<size_t>(BW)), omega(mass.size()), m2(mass.size());
     double second = 0.0;
-    for (size_t b = 0; b < mass.size(); ++b)
-      if (mass[b] > 0.0) second += total * omega[b] / mass[b] * m2[b];
+    for (int J = 0; J < H / k; ++J) {
+      std::fill(mass.begin(), mass.end(), 0.0);
+      std::fill(omega.begin(), omega.end(), 0.0);
+      std::fill(m2.begin(), m2.end(), 0.0);
+      for (int j = k * J; j < k * (J + 1); ++j) {
+        // A row's texel solid angle ∝ its width ∝ sin θ at its centre (the weights' own factor, up to a constant).
+        const double o = std::sin((j + 0.5) * std::numbers::pi / H);
+        for (int i = 0; i < W; ++i) {
+          const size_t b = static_cast<size_t>(i / k);
+          const double m = weights[static_cast<size_t>(j) * W + i];
+          mass[b] += m, omega[b] += o, m2[b] += m * m / o;
+        }
+      }
+      for (size_t b = 0; b < mass.size(); ++b)
+        if (mass[b] > 0.0) second += total * omega[b] / mass[b] * m2[b];
+    }
     if (second <= (1.0 + kBlockTolerance) * total * total) return k;
   }
   return 1;
