@@ -10,6 +10,12 @@ namespace pt {
 
 namespace {
 
+// cos θ_a − cos θ_b for the rows a = first … b = first + rows of a map with row height dtheta, as
+// 2 sin((θ_a + θ_b)/2) sin((θ_b − θ_a)/2): no cancellation near the poles.
+double rows_cos_width(int first, int rows, double dtheta) {
+  return 2.0 * std::sin((first + 0.5 * rows) * dtheta) * std::sin(0.5 * rows * dtheta);
+}
+
 // The weights summed over k×k blocks (in double, then rounded once: for k = 1 the weights themselves).
 std::vector<float> block_sums(const std::vector<float>& w, int W, int H, int k) {
   const int BW = W / k;
@@ -25,9 +31,10 @@ std::vector<float> block_sums(const std::vector<float>& w, int W, int H, int k) 
 // The largest block k ∈ {4, 2} that divides both sides and whose density, constant on each block, samples the
 // map's own luminance with a second moment within kBlockTolerance of the texels' (whose estimate of the map's
 // integral has no variance: second moment I²). With m_t a texel's mass (luminance × solid angle, the weight) and
-// Ω_t its solid angle (∝ its row's width), a block B of mass M_B and solid angle Ω_B has density M_B/(I·Ω_B), so
+// Ω_t its solid angle (∝ its row's width `row_width`), a block B of mass M_B and solid angle Ω_B has density M_B/(I·Ω_B), so
 // the estimator m_t/Ω_t over that density has second moment Σ_B (I·Ω_B/M_B) Σ_{t∈B} m_t²/Ω_t.
-int EnvironmentMap::sampling_block(const std::vector<float>& weights, int W, int H) {
+int EnvironmentMap::sampling_block(const std::vector<float>& weights, const std::vector<double>& row_width, int W) {
+  const int H = static_cast<int>(row_width.size());
   double total = 0.0;
   for (float w : weights) total += w;
   if (!(total > 0.0)) return 1;
@@ -42,8 +49,7 @@ int EnvironmentMap::sampling_block(const std::vector<float>& weights, int W, int
       std::fill(omega.begin(), omega.end(), 0.0);
       std::fill(m2.begin(), m2.end(), 0.0);
       for (int j = k * J; j < k * (J + 1); ++j) {
-        // A row's texel solid angle ∝ its width ∝ sin θ at its centre (the weights' own factor, up to a constant).
-        const double o = std::sin((j + 0.5) * std::numbers::pi / H);
+        const double o = row_width[static_cast<size_t>(j)];
         for (int i = 0; i < W; ++i) {
           const size_t b = static_cast<size_t>(i / k);
           const double m = weights[static_cast<size_t>(j) * W + i];
@@ -76,14 +82,14 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
   sin_rot_ = static_cast<float>(std::sin(alpha));
   column_margin_ = static_cast<float>(kEdgeMargin * W / (2.0 * std::numbers::pi));
 
-  // Row bounds. cos θ_j − cos θ_{j+1} = 2 sin((θ_j + θ_{j+1})/2) sin(Δθ/2): no cancellation near the poles.
+  // Row bounds, and each row's cos θ_j − cos θ_{j+1} (∝ its texels' solid angle).
   const double dtheta = std::numbers::pi / H;
   row_cos_.resize(static_cast<size_t>(H) + 1);
   std::vector<double> width(static_cast<size_t>(H));
   for (int j = 0; j <= H; ++j) row_cos_[static_cast<size_t>(j)] = static_cast<float>(std::cos(j * dtheta));
   row_cos_.front() = 1.f;
   row_cos_.back() = -1.f;
-  for (int j = 0; j < H; ++j) width[static_cast<size_t>(j)] = 2.0 * std::sin((j + 0.5) * dtheta) * std::sin(0.5 * dtheta);
+  for (int j = 0; j < H; ++j) width[static_cast<size_t>(j)] = rows_cos_width(j, 1, dtheta);
 
   // Sampling weights: luminance × the row's exact solid-angle factor (scaled by H/2 to keep them near the
   // luminance; the scale cancels in the normalised density). Power: Σ luminance × texel solid angle.
@@ -102,12 +108,13 @@ EnvironmentMap::EnvironmentMap(const Image& image, float scale, float rotation_d
 
   // The sampling cells: blocks of k×k texels (header), each block row J spanning cos θ_{kJ} … cos θ_{k(J+1)}; a
   // cell's density per unit solid angle is its density on the unit square over 2π · (H/k) · (that span).
-  block_ = sampling_block(weights, W, H);
+  block_ = sampling_block(weights, width, W);
   const int k = block_, BH = H / k;
+  block_rows_ = static_cast<float>(BH);
   block_cos_width_.resize(static_cast<size_t>(BH));
   std::vector<float> block_inv_jacobian(static_cast<size_t>(BH));
   for (int J = 0; J < BH; ++J) {
-    const double w = 2.0 * std::sin((static_cast<double>(k) * J + 0.5 * k) * dtheta) * std::sin(0.5 * k * dtheta);
+    const double w = rows_cos_width(k * J, k, dtheta);
     block_cos_width_[static_cast<size_t>(J)] = static_cast<float>(w);
     block_inv_jacobian[static_cast<size_t>(J)] = static_cast<float>(1.0 / (2.0 * std::numbers::pi * BH * w));
   }
@@ -170,7 +177,7 @@ bool EnvironmentMap::sample(Vec2 u, Vec3& dir, float& pdf_out, Rgb& Le, bool com
   // Position within the block row, remapped linearly to cos θ so the direction is uniform in the cell's solid
   // angle; then the texel row it falls in (the last whose upper bound is ≥ cos θ) and the texel column.
   const int k = block_;
-  const float frac = std::clamp(uv.y * static_cast<float>(height_ / k) - static_cast<float>(bj), 0.f, 1.f);
+  const float frac = std::clamp(uv.y * block_rows_ - static_cast<float>(bj), 0.f, 1.f);
   const float cos_theta = std::clamp(
       row_cos_[static_cast<size_t>(k * bj)] - frac * block_cos_width_[static_cast<size_t>(bj)], -1.f, 1.f);
   int j = k * bj;

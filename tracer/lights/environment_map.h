@@ -75,8 +75,6 @@ struct EnvironmentMap {
   Rgb eval(Vec3 dir, float& pdf, bool compensated = false) const;
   // The sampling cells' side in texels (1, 2 or 4; header).
   int block() const { return block_; }
-  // The block size the constructor chooses for these texel weights (luminance × row solid-angle factor), W×H.
-  static int sampling_block(const std::vector<float>& weights, int W, int H);
   // Whether the compensated density differs from the full one (false for a nearly constant map).
   bool compensates() const { return !texel_compensated_.empty(); }
   // ∫ luminance(eval(ω)) dω over the sphere (radiance units × sr), scale included: exact for the nearest-texel
@@ -108,6 +106,9 @@ struct EnvironmentMap {
   void texel_of(Vec3 d, int& i, int& j) const;
   // The record of `records` (texel_ or texel_compensated_) for world direction dir.
   const Vec4& texel(Vec3 dir, const std::vector<Vec4>& records) const;
+  // The block size for texel weights (luminance × row width) of a map W wide with rows of widths row_width
+  // (cos θ_j − cos θ_{j+1}): the header's rule.
+  static int sampling_block(const std::vector<float>& weights, const std::vector<double>& row_width, int W);
   const std::vector<Vec4>& records(bool compensated) const {
     return compensated && compensates() ? texel_compensated_ : texel_;
   }
@@ -119,6 +120,7 @@ struct EnvironmentMap {
   float column_margin_ = 0.f;  // kEdgeMargin in columns: kEdgeMargin·W/2π
   std::vector<float> row_cos_;            // cos θ_j at the row boundaries, H + 1 entries (1 … −1)
   int block_ = 1;                         // the sampling cells' side in texels
+  float block_rows_ = 0.f;                // H / block_, the cells' rows
   std::vector<float> block_cos_width_;    // cos θ_{kJ} − cos θ_{k(J+1)} (from a cancellation-free product)
   Distribution2D distribution_;           // over the cells
   static constexpr double kBlockTolerance = 0.01;
