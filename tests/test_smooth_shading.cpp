@@ -18,6 +18,7 @@
 #include "film/film.h"
 #include "geometry/interaction.h"
 #include "geometry/scene_queries.h"
+#include "integrators/wavefront.h"
 #include "render/renderer.h"
 #include "scene/estimator_choice.h"
 #include "scene/scene.h"
@@ -261,8 +262,8 @@ TEST_CASE("smooth shading: the scalar and wavefront loops render the same bits")
 namespace {
 
 // The lit smooth sphere of lit_sphere_scene over a large diffuse floor at y = −1, for paths of two bounces.
-SceneDesc sphere_on_floor(int kind) {
-  SceneDesc s = lit_sphere_scene(kind, 12);
+SceneDesc sphere_on_floor(int kind, int rings = 12) {
+  SceneDesc s = lit_sphere_scene(kind, rings);
   s.width = s.height = 32;
   s.camera.position = DVec3(0, 1.5, 4);
   s.camera.fov_deg = 45;
@@ -279,6 +280,47 @@ SceneDesc sphere_on_floor(int kind) {
 }
 
 }  // namespace
+
+// The SIMD shading lanes (integrators/lambert_lanes.h) shade the Lambertian hits on a smooth mesh with
+// vertex_shading's normal and terminator offset, and hand back to shade_vertex the hits whose normal
+// shading_normal would bend: the wavefront loop must still give the scalar loop's bits. A coarse smooth sphere
+// (six rings: large lifts, bent normals along its silhouette) on a flat floor (flat faces among smooth ones), seen
+// from outside under its light and from inside under a point light (the back faces), three bounces, nee and mis,
+// Sobol and independent points, with the feature buffers, whose normal the lanes write at a first hit.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits, outside and inside, features included") {
+  SceneDesc outside = sphere_on_floor(2, 6);
+  outside.render.max_bounces = 3;
+  SceneDesc inside = outside;
+  inside.camera.position = DVec3(0.2, -0.3, 0.5);
+  inside.camera.look_at = DVec3(-0.5, 0.4, -1.0);
+  inside.camera.fov_deg = 70;
+  PunctualLightDesc bulb;
+  bulb.kind = PunctualKind::Point;
+  bulb.position = DVec3(-0.2, 0.4, -0.1);
+  bulb.intensity = Rgb(0.8f, 0.7f, 0.5f);
+  inside.punctual_lights = {bulb};
+  for (const bool in : {false, true}) {
+    SceneDesc d = in ? inside : outside;
+    const auto scene = compile_scene(d);
+    REQUIRE_FALSE(scene->shading.empty());
+    REQUIRE(shading_lanes_apply(scene->kernel_features()));
+    for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
+      for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
+        d.render.sampler = sampler;
+        d.render.estimator = est;
+        CAPTURE(in);
+        CAPTURE(std::string(to_string(sampler)));
+        CAPTURE(std::string(to_string(est)));
+        d.render.path_loop = PathLoop::Scalar;
+        const Film scalar = test::render_film(d, 4, 2, true);
+        d.render.path_loop = PathLoop::Wavefront;
+        const Film wavefront = test::render_film(d, 4, 2, true);
+        CHECK(scalar.mean_image() == wavefront.mean_image());
+        CHECK(scalar.normal_image() == wavefront.normal_image());
+        CHECK(scalar.albedo_image() == wavefront.albedo_image());
+      }
+  }
+}
 
 namespace {
 

@@ -212,7 +212,7 @@ TEST_CASE("wavefront: the shading lanes sample every kind of light with the scal
   desc.shapes.push_back(ball);
   const auto check = [&](const char* lights) {
     const auto scene = compile_scene(desc);
-    REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+    REQUIRE(shading_lanes_apply(scene->kernel_features()));
     for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
       desc.render.estimator = est;
       CAPTURE(std::string(lights));

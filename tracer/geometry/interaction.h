@@ -35,6 +35,36 @@ struct Interaction {
   bool lifted = false;  // lift is not zero
 };
 
+// vertex_shading's two formulas over T = float or vfloat (core/lanes.h), for one hit or for the SIMD shading lanes
+// (integrators/lambert_lanes.h), which must round alike:
+// - the interpolated normal Σ bₖ·nₖ normalised and turned to ng's side (`side`, ±1, is returned), or ng where
+//   that sum is (nearly) zero;
+// - the terminator offset −Σ bₖ·min(0, (p − vₖ)·nₖ)·nₖ, with the normals turned by `side`.
+template <class T>
+[[gnu::always_inline]] inline lanes::Vec3T<T> interpolated_normal(const lanes::Vec3T<T> (&n)[3], const T (&b)[3],
+                                                                  const lanes::Vec3T<T>& ng, T& side) {
+  const lanes::Vec3T<T> sum{(b[0] * n[0].x + b[1] * n[1].x) + b[2] * n[2].x,
+                            (b[0] * n[0].y + b[1] * n[1].y) + b[2] * n[2].y,
+                            (b[0] * n[0].z + b[1] * n[1].z) + b[2] * n[2].z};
+  const T len2 = lanes::dot(sum, sum);
+  side = select(lanes::dot(sum, ng) < 0.f, T(-1.f), T(1.f));
+  const T scale = side / lanes::sqrt(len2);
+  const lanes::Mask<T> ok = len2 > 1e-12f;
+  return {select(ok, sum.x * scale, ng.x), select(ok, sum.y * scale, ng.y), select(ok, sum.z * scale, ng.z)};
+}
+template <class T>
+[[gnu::always_inline]] inline lanes::Vec3T<T> terminator_lift(const lanes::Vec3T<T> (&n)[3],
+                                                              const lanes::Vec3T<T> (&v)[3], const T (&b)[3],
+                                                              const lanes::Vec3T<T>& p, const T& side) {
+  lanes::Vec3T<T> lift{T(0.f), T(0.f), T(0.f)};
+  for (int k = 0; k < 3; ++k) {
+    const lanes::Vec3T<T> nk{side * n[k].x, side * n[k].y, side * n[k].z};
+    const T c = b[k] * lanes::std_min(T(0.f), lanes::dot({p.x - v[k].x, p.y - v[k].y, p.z - v[k].z}, nk));
+    lift = {lift.x - c * nk.x, lift.y - c * nk.y, lift.z - c * nk.z};
+  }
+  return lift;
+}
+
 // The shading normal, texture coordinates and terminator offset of a hit at barycentrics (b0, b1, b2) of a
 // triangle with (camera-relative) vertices v, per-vertex normals n and uv, and barycentric gradients `dual`:
 // - ns interpolates the vertex normals (Phong), turned to ng's side, so that the winding of the triangle keeps
@@ -54,10 +84,11 @@ inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 
   // (scene.cpp): it stays exactly flat, ns = ng and no lift. Interpolated and normalised, that normal came out an
   // ulp off ng, and bdpt took such a wall for a smooth surface (smooth_vertex), with its bent frames and adjoint.
   const bool flat = n[0] == it.ng && n[1] == it.ng && n[2] == it.ng;
-  const Vec3 sum = b0 * n[0] + b1 * n[1] + b2 * n[2];
-  const float len2 = glm::dot(sum, sum);
-  const float side = glm::dot(sum, it.ng) < 0.f ? -1.f : 1.f;
-  if (len2 > 1e-12f && !flat) it.ns = sum * (side / std::sqrt(len2));
+  const lanes::Vec3T<float> nl[3] = {lanes::of(n[0]), lanes::of(n[1]), lanes::of(n[2])};
+  const float b[3] = {b0, b1, b2};
+  float side;
+  const Vec3 ns = lanes::to_vec3(interpolated_normal(nl, b, lanes::of(it.ng), side));
+  if (!flat) it.ns = ns;
   if (tangent) {
     const std::array<Vec4, 3>& t = *tangent;
     const Vec4 mix = b0 * t[0] + b1 * t[1] + b2 * t[2];
@@ -69,12 +100,8 @@ inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 
   it.du_dp = e1.x * dual[0] + e2.x * dual[1];
   it.dv_dp = e1.y * dual[0] + e2.y * dual[1];
   if (flat) return;
-  const float b[3] = {b0, b1, b2};
-  Vec3 lift(0.f);
-  for (int k = 0; k < 3; ++k) {
-    const Vec3 nk = side * n[k];
-    lift -= (b[k] * std::min(0.f, glm::dot(it.p - v[k], nk))) * nk;
-  }
+  const lanes::Vec3T<float> vl[3] = {lanes::of(v[0]), lanes::of(v[1]), lanes::of(v[2])};
+  const Vec3 lift = lanes::to_vec3(terminator_lift(nl, vl, b, lanes::of(it.p), side));
   if (glm::dot(lift, it.ng) > 0.f) {
     it.lift = lift;
     it.lifted = true;
@@ -229,13 +256,31 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
 // (2(ns·wo)ns − wo)·ng = wx·sin 2θ + wz·cos 2θ = ρ·cos(2θ − ψ), ρ = |(wx, wz)|, ψ = atan2(wx, wz), so the
 // smallest turn is θ = (ψ + acos(t/ρ))/2; then wo·ns > 0 as well, so shading and geometry agree on which side wo
 // is. Returned on ng's side, as it.ns is.
+// reflection_clears is its first step over T = float or vfloat (the SIMD shading lanes take the lanes where it
+// holds, where it.ns needs no bend): ns and ng turned to wo's side, wz = wo·ng there, the elevation t, and
+// whether the reflection stays at t or above.
+template <class T>
+struct ReflectionCheck {
+  T side, wz, t;
+  lanes::Mask<T> clears;
+};
+template <class T>
+[[gnu::always_inline]] inline ReflectionCheck<T> reflection_clears(const lanes::Vec3T<T>& ns, const lanes::Vec3T<T>& ng,
+                                                                   const lanes::Vec3T<T>& wo) {
+  ReflectionCheck<T> c;
+  c.side = select(lanes::dot(wo, ng) < 0.f, T(-1.f), T(1.f));
+  const lanes::Vec3T<T> g{c.side * ng.x, c.side * ng.y, c.side * ng.z}, s{c.side * ns.x, c.side * ns.y, c.side * ns.z};
+  c.wz = lanes::dot(wo, g);
+  c.t = lanes::std_min(0.9f * c.wz, T(0.01f));
+  const T k = 2.f * lanes::dot(s, wo);
+  c.clears = lanes::dot({k * s.x - wo.x, k * s.y - wo.y, k * s.z - wo.z}, g) >= c.t;
+  return c;
+}
 inline Vec3 shading_normal(const Interaction& it, Vec3 wo) {
-  const float side = glm::dot(wo, it.ng) < 0.f ? -1.f : 1.f;
+  const ReflectionCheck<float> c = reflection_clears(lanes::of(it.ns), lanes::of(it.ng), lanes::of(wo));
+  if (c.clears) return it.ns;
+  const float side = c.side, wz = c.wz, t = c.t;
   const Vec3 ng = side * it.ng, ns = side * it.ns;  // both on wo's side
-  const float wz = glm::dot(wo, ng);
-  const float t = std::min(0.9f * wz, 0.01f);
-  const Vec3 r = (2.f * glm::dot(ns, wo)) * ns - wo;
-  if (glm::dot(r, ng) >= t) return it.ns;
   const Vec3 across = ns - glm::dot(ns, ng) * ng;
   const float len = glm::length(across);
   if (!(len > 1e-7f)) return it.ng;

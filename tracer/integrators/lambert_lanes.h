@@ -15,13 +15,17 @@
 // docs/performance.md.)
 //
 // kM is the kernel's material set (materials/bsdf.h): under MaterialSet::Any, in scenes that mix Lambertian
-// polygons with other materials and spheres, the lanes shade the hits on untextured Lambertian polygons and
-// evaluate the lobe as bsdf_eval<Any> does (wo and wi strictly on one side), and the caller uses them only in
-// scenes without vertex normals (whose frames are flat). A lane takes the scalar path instead (the caller runs
-// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material, or when no
-// light can reach it; the caller uses the lanes only below the bounce limit. The gathers, the light choice, the
-// other lights' samples and the 1D random numbers stay scalar.
+// polygons with other materials and spheres, or whose meshes have vertex normals, the lanes shade the hits on
+// untextured Lambertian polygons and evaluate the lobe as bsdf_eval<Any> does (wo and wi strictly on one side).
+// On a smooth-shaded mesh they shade as shade_vertex does: the frame about the interpolated normal, rays leaving
+// from the terminator offset's lifted point (vertex_shading's formulas, written once over the number type in
+// geometry/interaction.h). A lane takes the scalar path instead (the caller runs shade_vertex for it) when its
+// hit is on a sphere or an instance, or emits, or has another material, or when no light can reach it, or where
+// shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below
+// the bounce limit. The gathers, the light choice, the other lights' samples and the 1D random numbers stay
+// scalar.
 #pragma once
+#include <array>
 #include <cstdint>
 
 #include "core/simd_sqrt_warnings.h"
@@ -74,9 +78,14 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   // Any other light's sample, taken by the scalar sample_li: whether the lane has one (0 or 1), its direction,
   // point, density (with the choice probability), and whether it is at infinity or punctual (0 or 1).
   alignas(64) float general[N], g_wx[N], g_wy[N], g_wz[N], g_px[N], g_py[N], g_pz[N], g_pdf[N], g_inf[N], g_delta[N];
+  // Smooth shading (vertex_shading, interaction.h): the hit polygon's three vertex normals, where the scene has any.
+  alignas(64) float vn[3][3][N];  // [vertex][axis][lane]
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
+  // The general-material kernels of a scene with vertex normals shade with them (make_interaction<F>); the
+  // Lambert kernels never see such a scene (Scene::kernel_features).
+  const bool smooth_scene = kM == MaterialSet::Any && !s.shading.empty();
   for (int l = 0; l < N; ++l) {
     active[l] = 0;
     light_ok[l] = 0.f;
@@ -102,6 +111,8 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     g_wx[l] = g_wy[l] = g_px[l] = g_py[l] = g_pz[l] = 0.f;
     g_wz[l] = g_pdf[l] = 1.f;
     light_prim[l] = kNoPrimitive;
+    if (smooth_scene)
+      for (int v = 0; v < 3; ++v) vn[v][0][l] = vn[v][1][l] = 0.f, vn[v][2][l] = 1.f;
   }
   int lanes_active = 0;
   for (int l = 0; l < k; ++l) {
@@ -130,6 +141,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     m1x[l] = margin[1].x, m1y[l] = margin[1].y, m1z[l] = margin[1].z;
     const Vec3 ng = P.normal[prim];
     ngx[l] = ng.x, ngy[l] = ng.y, ngz[l] = ng.z;
+    if (smooth_scene) {
+      const std::array<Vec3, 3>& vns = s.shading.normal[prim];
+      for (int v = 0; v < 3; ++v) vn[v][0][l] = vns[v].x, vn[v][1][l] = vns[v].y, vn[v][2][l] = vns[v].z;
+    }
     quad[l] = P.triangle[prim] ? 0.f : 1.f;
     alb_r[l] = m.albedo.x, alb_g[l] = m.albedo.y, alb_b[l] = m.albedo.z;
     beta_r[l] = p.beta.x, beta_g[l] = p.beta.y, beta_b[l] = p.beta.z;
@@ -139,8 +154,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   }
   if (lanes_active == 0) return;  // nothing for the lanes: every path takes shade_vertex
 
-  // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point.
+  // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point; on a
+  // smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted).
   alignas(64) float px[N], py[N], pz[N], ex[N], ey[N], ez[N];
+  alignas(64) float nsx[N], nsy[N], nsz[N], lfx[N], lfy[N], lfz[N], lifted[N];
   {
     const vfloat T = ld(t), Ax = ld(ax), Ay = ld(ay), Az = ld(az);
     const vfloat qx = (ld(ox) + T * ld(dx)) - Ax, qy = (ld(oy) + T * ld(dy)) - Ay, qz = (ld(oz) + T * ld(dz)) - Az;
@@ -162,26 +179,59 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
       const vfloat inv = 1.f / ((c0 + c1) + c2);
       b0 = select(clamp, c0 * inv, b0), b1 = select(clamp, c1 * inv, b1), b2 = select(clamp, c2 * inv, b2);
     }
-    st(px, (b0 * Ax + b1 * Bx) + b2 * Cx);
-    st(py, (b0 * Ay + b1 * By) + b2 * Cy);
-    st(pz, (b0 * Az + b1 * Bz) + b2 * Cz);
+    const Vec3T<vfloat> p{(b0 * Ax + b1 * Bx) + b2 * Cx, (b0 * Ay + b1 * By) + b2 * Cy, (b0 * Az + b1 * Bz) + b2 * Cz};
+    st(px, p.x), st(py, p.y), st(pz, p.z);
     constexpr float g7 = gamma_bound(7);
     st(ex, g7 * ((stdx::abs(b0 * Ax) + stdx::abs(b1 * Bx)) + stdx::abs(b2 * Cx)));
     st(ey, g7 * ((stdx::abs(b0 * Ay) + stdx::abs(b1 * By)) + stdx::abs(b2 * Cy)));
     st(ez, g7 * ((stdx::abs(b0 * Az) + stdx::abs(b1 * Bz)) + stdx::abs(b2 * Cz)));
+    if (smooth_scene) {
+      // vertex_shading: a face whose three normals are ng (one without vertex normals) stays exactly flat.
+      const Vec3T<vfloat> ng{ld(ngx), ld(ngy), ld(ngz)};
+      const Vec3T<vfloat> v[3] = {{Ax, Ay, Az}, {Bx, By, Bz}, {Cx, Cy, Cz}};
+      const vfloat b[3] = {b0, b1, b2};
+      Vec3T<vfloat> n[3];
+      M flat = M(true);
+      for (int k = 0; k < 3; ++k) {
+        n[k] = {ld(vn[k][0]), ld(vn[k][1]), ld(vn[k][2])};
+        flat = flat && n[k].x == ng.x && n[k].y == ng.y && n[k].z == ng.z;
+      }
+      vfloat side;
+      const Vec3T<vfloat> ns = interpolated_normal(n, b, ng, side);
+      st(nsx, select(flat, ng.x, ns.x)), st(nsy, select(flat, ng.y, ns.y)), st(nsz, select(flat, ng.z, ns.z));
+      const Vec3T<vfloat> lift = terminator_lift(n, v, b, p, side);
+      const M up = !flat && lanes::dot(lift, ng) > 0.f;
+      st(lfx, lift.x), st(lfy, lift.y), st(lfz, lift.z);
+      st(lifted, select(up, vfloat(1.f), vfloat(0.f)));
+    }
   }
 
-  // ---- The shading frame (Frame::from_normal), wo's z in it, the lit side's normal.
+  // ---- The shading frame (Frame::from_normal) about the front geometric normal, or on a smooth-shaded hit the
+  // shading normal (shade_vertex: smooth where it.ns != it.ng); wo's z in it; the lit side's geometric normal.
+  // A smooth hit whose normal shading_normal would bend (the mirror reflection of wo dips under the surface: a
+  // grazing view) takes the scalar path.
   alignas(64) float sx[N], sy[N], sz[N], tx[N], ty[N], tz[N], wlz[N], nx[N], ny[N], nz[N];
+  alignas(64) float fnx[N], fny[N], fnz[N], smooth[N];
   {
     const vfloat Nx = ld(ngx), Ny = ld(ngy), Nz = ld(ngz);
+    const Vec3T<vfloat> wo{-ld(dx), -ld(dy), -ld(dz)};
+    Vec3T<vfloat> fn{Nx, Ny, Nz};
+    if (smooth_scene) {
+      const Vec3T<vfloat> ns{ld(nsx), ld(nsy), ld(nsz)};
+      const M bent = ns.x != Nx || ns.y != Ny || ns.z != Nz;
+      const M clears = reflection_clears(ns, {Nx, Ny, Nz}, wo).clears;
+      for (int l = 0; l < N; ++l)
+        if (bent[l] && !clears[l]) active[l] = 0;  // shading_normal's bend: the scalar path
+      fn = {select(bent, ns.x, Nx), select(bent, ns.y, Ny), select(bent, ns.z, Nz)};
+      st(smooth, select(bent, vfloat(1.f), vfloat(0.f)));
+    }
+    st(fnx, fn.x), st(fny, fn.y), st(fnz, fn.z);
     vfloat s[3], t[3];
-    frame_tangents(lanes::sign_of(Nz), Nx, Ny, Nz, s, t);
+    frame_tangents(lanes::sign_of(fn.z), fn.x, fn.y, fn.z, s, t);
     st(sx, s[0]), st(sy, s[1]), st(sz, s[2]);
     st(tx, t[0]), st(ty, t[1]), st(tz, t[2]);
-    const vfloat wz = (-ld(dx) * Nx + -ld(dy) * Ny) + -ld(dz) * Nz;
-    st(wlz, wz);
-    const M front = wz >= 0.f;
+    st(wlz, lanes::dot(wo, fn));
+    const M front = lanes::dot(wo, {Nx, Ny, Nz}) >= 0.f;
     st(nx, select(front, Nx, -Nx)), st(ny, select(front, Ny, -Ny)), st(nz, select(front, Nz, -Nz));
   }
 
@@ -241,6 +291,13 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   // ---- The light sample (sample_li by area, sample_lights' choice probability), the BSDF there, the shadow ray
   // and its contribution.
   const Vec3T<vfloat> P_{ld(px), ld(py), ld(pz)}, E_{ld(ex), ld(ey), ld(ez)}, NG{ld(ngx), ld(ngy), ld(ngz)};
+  const Vec3T<vfloat> FN{ld(fnx), ld(fny), ld(fnz)};  // the shading frame's z
+  // offset_ray_origin(it, back): a lifted hit leaves its front from p + lift (vertex_shading).
+  const auto spawn_point = [&](const M& back) -> Vec3T<vfloat> {
+    if (!smooth_scene) return P_;
+    const M up = ld(lifted) != 0.f && !back;
+    return {select(up, P_.x + ld(lfx), P_.x), select(up, P_.y + ld(lfy), P_.y), select(up, P_.z + ld(lfz), P_.z)};
+  };
   const vfloat Wz = ld(wlz);
   const vfloat Fr = lambert_f(ld(alb_r)), Fg = lambert_f(ld(alb_g)), Fb = lambert_f(ld(alb_b));
   const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
@@ -272,8 +329,8 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     // sample_lights and sample_direct's tests for another light were made with its sample (light_ok).
     pdf = select(G, ld(g_pdf), pdf);
     ok = (G && ld(light_ok) != 0.f) || (!G && ok);
-    // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (only their cosines matter).
-    const vfloat wil_z = (wix * NG.x + wiy * NG.y) + wiz * NG.z;
+    // wi's z in the shading frame.
+    const vfloat wil_z = (wix * FN.x + wiy * FN.y) + wiz * FN.z;
     // bsdf_eval<Lambert>: ρ/π where wo and wi are on one side (their cosines' product is positive); bsdf_eval<Any>
     // mirrors both to the front first (then both are strictly positive), which differs where the product
     // underflows.
@@ -282,7 +339,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
     ok = ok && same_side && !(Fr == 0.f && Fg == 0.f && Fb == 0.f);
     st(traced, select(ok, vfloat(1.f), vfloat(0.f)));
-    const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wix, wiy, wiz}, NG) < 0.f);
+    // shadow_segment leaves on the side of the shading frame wi is on (sample_direct).
+    const M back = wil_z < 0.f;
+    const Vec3T<vfloat> origin = lanes::offset_point(spawn_point(back), E_, NG, back);
     const vfloat tlx = lpx - origin.x, tly = lpy - origin.y, tlz = lpz - origin.z;
     const vfloat sdist = stdx::sqrt((tlx * tlx + tly * tly) + tlz * tlz);
     // shadow_segment: towards a light at infinity the ray is unbounded, along wi.
@@ -321,9 +380,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const vfloat k_scale = stdx::abs(wz) / pdf;
     vfloat nbr = Br * (Fr * k_scale), nbg = Bg * (Fg * k_scale), nbb = Bb * (Fb * k_scale);
     // frame.to_world: s·x + t·y + n·z.
-    const vfloat wwx = (ld(sx) * dxs + ld(tx) * dys) + NG.x * wz;
-    const vfloat wwy = (ld(sy) * dxs + ld(ty) * dys) + NG.y * wz;
-    const vfloat wwz = (ld(sz) * dxs + ld(tz) * dys) + NG.z * wz;
+    const vfloat wwx = (ld(sx) * dxs + ld(tx) * dys) + FN.x * wz;
+    const vfloat wwy = (ld(sy) * dxs + ld(ty) * dys) + FN.y * wz;
+    const vfloat wwz = (ld(sz) * dxs + ld(tz) * dys) + FN.z * wz;
     if (roulette) {
       const vfloat q = roulette_survival(std_max(nbr, std_max(nbg, nbb)) * ld(eta));
       ok = ok && ld(u_rr) < q;
@@ -334,7 +393,13 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     st(goes_on, select(ok, vfloat(1.f), vfloat(0.f)));
     st(nb_r, nbr), st(nb_g, nbg), st(nb_b, nbb);
     st(b_pdf, pdf);
-    const Vec3T<vfloat> origin = lanes::offset_point(P_, E_, NG, lanes::dot({wwx, wwy, wwz}, NG) < 0.f);
+    // The side it leaves on: wi's in the world on a flat hit, the shading frame's on a smooth one (shade_vertex).
+    M back = lanes::dot({wwx, wwy, wwz}, NG) < 0.f;
+    if (smooth_scene) {
+      const M bent = ld(smooth) != 0.f;
+      back = (bent && wz < 0.f) || (!bent && back);
+    }
+    const Vec3T<vfloat> origin = lanes::offset_point(spawn_point(back), E_, NG, back);
     st(no_x, origin.x), st(no_y, origin.y), st(no_z, origin.z);
     st(nd_x, wwx), st(nd_y, wwy), st(nd_z, wwz);
   }
@@ -344,11 +409,12 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     if (!active[l]) continue;
     out.handled[l] = true;
     PathState& p = paths[ids[l]];
+    p.cone_width += p.cone_spread * hits[l].t;  // the ray cone a texture further down the path is filtered over
     if (p.features.out) [[unlikely]] {  // the first hit of a film with feature buffers: shade_vertex's own call
       Interaction it;
       it.p = Vec3(px[l], py[l], pz[l]);
       it.ng = Vec3(ngx[l], ngy[l], ngz[l]);
-      it.ns = it.ng;
+      it.ns = smooth_scene ? Vec3(nsx[l], nsy[l], nsz[l]) : it.ng;
       p.features.at_vertex<kM>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
                                                  s.materials[material[l]], false, p.L);
     }

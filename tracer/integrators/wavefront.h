@@ -34,14 +34,10 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
-// (lambert_lanes.h; at the bounces where lights are sampled): kernels with polygons, in scenes where, if other
-// materials may be about, there are no vertex normals (the lanes' shading frames are flat). Every kind of light
-// is sampled there (parallelograms by area in the lanes, the others by the scalar sample_li).
-inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
-  if ((features & kFeaturePolygons) == 0) return false;
-  return (features & kFeatureGeneralMaterials) == 0 || scene.shading.empty();
-}
+// Whether the batch kernel compiled for `features` shades hits on Lambertian polygons in SIMD lanes
+// (lambert_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded.
+// Every kind of light is sampled there (parallelograms by area in the lanes, the others by the scalar sample_li).
+inline bool shading_lanes_apply(uint32_t features) { return (features & kFeaturePolygons) != 0; }
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on
 // every scene: it measured level with the scalar loop or faster on each one tried, brute-force polygons, polygons
