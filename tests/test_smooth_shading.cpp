@@ -303,7 +303,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits, o
     SceneDesc d = in ? inside : outside;
     const auto scene = compile_scene(d);
     REQUIRE_FALSE(scene->shading.empty());
-    REQUIRE(shading_lanes_apply(scene->kernel_features()));
+    REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
     for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
       for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
         d.render.sampler = sampler;

@@ -143,6 +143,12 @@ TEST_CASE("wavefront: the scalar loop's bits on users' scenes: glTF, thin lens, 
       REQUIRE_FALSE(scene->polygon_bvh.empty());
     }
     if (name.rfind("2CylinderEngine", 0) == 0) REQUIRE_FALSE(scene->instances.empty());
+    // The shading lanes run where some material is one they shade (an untextured Lambertian one: the box's walls,
+    // the floor under the cut-outs, the studio's ground under the OBJ ball), not on the glb's gold and crystal or
+    // the engine's glTF materials alone.
+    const bool lambertian = name.rfind("2CylinderEngine", 0) != 0 && name != "torus-and-gem.glb";
+    INFO(name);
+    CHECK(shading_lanes_apply(*scene, scene->kernel_features()) == lambertian);
     for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
       desc.render.estimator = est;
       INFO(name << " " << std::string(to_string(est)));
@@ -212,7 +218,7 @@ TEST_CASE("wavefront: the shading lanes sample every kind of light with the scal
   desc.shapes.push_back(ball);
   const auto check = [&](const char* lights) {
     const auto scene = compile_scene(desc);
-    REQUIRE(shading_lanes_apply(scene->kernel_features()));
+    REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
     for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
       desc.render.estimator = est;
       CAPTURE(std::string(lights));

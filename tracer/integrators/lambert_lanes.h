@@ -31,6 +31,7 @@
 #include "core/simd_sqrt_warnings.h"
 #include "geometry/simd_polygons.h"
 #include "integrators/path_tracer.h"
+#include "integrators/wavefront.h"
 
 namespace pt {
 namespace integrator_detail {
@@ -123,7 +124,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     if constexpr (kM == MaterialSet::Any)
-      if (!is_lambertian(m) || has_textures(m)) continue;
+      if (!lambert_lane_material(m)) continue;
     const PathState& p = paths[ids[l]];
     ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
     dx[l] = p.ray.d.x, dy[l] = p.ray.d.y, dz[l] = p.ray.d.z;

@@ -15,6 +15,7 @@
 #include <atomic>
 
 #include "integrators/integrator.h"
+#include "materials/bsdf.h"
 
 namespace pt {
 
@@ -34,10 +35,18 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// Whether the batch kernel compiled for `features` shades hits on Lambertian polygons in SIMD lanes
-// (lambert_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded.
-// Every kind of light is sampled there (parallelograms by area in the lanes, the others by the scalar sample_li).
-inline bool shading_lanes_apply(uint32_t features) { return (features & kFeaturePolygons) != 0; }
+// Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
+// (lambert_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
+// where some material is one the lanes take (a scene of glTF materials alone would only pay for their gathers).
+// Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there
+// (parallelograms by area in the lanes, the others by the scalar sample_li).
+inline bool lambert_lane_material(const Material& m) {  // what the lanes shade: untextured, not emitting
+  return is_lambertian(m) && !has_textures(m) && is_black(m.emission);
+}
+inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
+  return (features & kFeaturePolygons) != 0 &&
+         std::any_of(scene.materials.begin(), scene.materials.end(), lambert_lane_material);
+}
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on
 // every scene: it measured level with the scalar loop or faster on each one tried, brute-force polygons, polygons

@@ -36,7 +36,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   constexpr bool kLambertLanes = (F & kFeaturePolygons) != 0;
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   LaneShading lane_shading;
-  const bool lanes_apply = kLambertLanes && shading_lanes_apply(F);
+  const bool lanes_apply = kLambertLanes && shading_lanes_apply(s, F);
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;

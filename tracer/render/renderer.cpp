@@ -229,7 +229,7 @@ std::string Renderer::describe_path(const Scene& scene, const RenderSettings& se
            ((f & kFeatureGeneralMaterials) ? " with any material" : " with Lambert materials");
   }
   const bool light_sampling = s.estimator == Estimator::Nee || s.estimator == Estimator::Mis;
-  if (wavefront && light_sampling && shading_lanes_apply(f)) out += ", SIMD shading lanes";
+  if (wavefront && light_sampling && shading_lanes_apply(scene, f)) out += ", SIMD shading lanes";
   return out;
 }
 
