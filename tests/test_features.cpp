@@ -189,7 +189,7 @@ TEST_CASE("features: through glass, the emission layer never exceeds the image (
 
 TEST_CASE("features: gathering them leaves the image bit for bit, and both path loops gather the same") {
   // The room with a glass ball (general materials), and cornell, whose Lambertian polygons the wavefront loop
-  // shades on SIMD lanes once a path's features are recorded (integrators/lambert_lanes.h).
+  // shades on SIMD lanes once a path's features are recorded (integrators/shading_lanes.h).
   SceneDesc cornell = load_scene("cornell");
   cornell.width = 40;
   cornell.height = 24;

@@ -281,7 +281,7 @@ SceneDesc sphere_on_floor(int kind, int rings = 12) {
 
 }  // namespace
 
-// The SIMD shading lanes (integrators/lambert_lanes.h) shade the Lambertian hits on a smooth mesh with
+// The SIMD shading lanes (integrators/shading_lanes.h) shade the Lambertian hits on a smooth mesh with
 // vertex_shading's normal and terminator offset, and hand back to shade_vertex the hits whose normal
 // shading_normal would bend: the wavefront loop must still give the scalar loop's bits. A coarse smooth sphere
 // (six rings: large lifts, bent normals along its silhouette) on a flat floor (flat faces among smooth ones), seen
@@ -320,6 +320,48 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits, o
         CHECK(scalar.albedo_image() == wavefront.albedo_image());
       }
   }
+}
+
+// The lanes shade rough glTF metallic–roughness materials too (gltf_value, written once over the number type):
+// the same scene with the sphere and the floor in such materials, metallic and not, rough and nearly smooth, and a
+// smooth one (its Dirac lobe goes to shade_vertex) on one of them in turn, flat and smooth-shaded.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on glTF metallic-roughness materials") {
+  struct Lobe {
+    float metallic, roughness;
+  };
+  const Lobe sphere_lobes[] = {{0.f, 1.f}, {0.3f, 0.5f}, {1.f, 0.2f}, {0.f, 0.f}};
+  const Lobe floor_lobes[] = {{1.f, 0.6f}, {0.f, 0.04f}, {0.5f, 0.9f}, {0.2f, 0.35f}};
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 4; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 3;
+      MaterialDesc& ball = d.materials[0];
+      MaterialDesc& floor = d.materials.back();
+      for (MaterialDesc* m : {&ball, &floor}) m->type = MaterialType::MetallicRoughness;
+      ball.albedo = Rgb(0.9f, 0.6f, 0.3f);
+      ball.metallic = sphere_lobes[c].metallic;
+      ball.roughness = sphere_lobes[c].roughness;
+      floor.metallic = floor_lobes[c].metallic;
+      floor.roughness = floor_lobes[c].roughness;
+      const auto scene = compile_scene(d);
+      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+      for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
+        for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
+          d.render.sampler = sampler;
+          d.render.estimator = est;
+          CAPTURE(kind);
+          CAPTURE(c);
+          CAPTURE(std::string(to_string(sampler)));
+          CAPTURE(std::string(to_string(est)));
+          d.render.path_loop = PathLoop::Scalar;
+          const Film scalar = test::render_film(d, 4, 2, true);
+          d.render.path_loop = PathLoop::Wavefront;
+          const Film wavefront = test::render_film(d, 4, 2, true);
+          CHECK(scalar.mean_image() == wavefront.mean_image());
+          CHECK(scalar.albedo_image() == wavefront.albedo_image());
+        }
+    }
 }
 
 namespace {

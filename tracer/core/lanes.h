@@ -61,6 +61,11 @@ template <class T>
 [[gnu::always_inline]] inline T std_min(const T& a, const T& b) {
   return select(b < a, b, a);
 }
+// std::clamp(v, lo, hi) as the standard defines it: (v < lo) ? lo : (hi < v) ? hi : v.
+template <class T>
+[[gnu::always_inline]] inline T std_clamp(const T& v, const T& lo, const T& hi) {
+  return select(v < lo, lo, select(hi < v, hi, v));
+}
 [[gnu::always_inline]] inline float abs(float x) { return std::abs(x); }
 [[gnu::always_inline]] inline vfloat abs(const vfloat& x) { return stdx::abs(x); }
 [[gnu::always_inline]] inline float sqrt(float x) { return std::sqrt(x); }

@@ -36,7 +36,7 @@ struct Interaction {
 };
 
 // vertex_shading's two formulas over T = float or vfloat (core/lanes.h), for one hit or for the SIMD shading lanes
-// (integrators/lambert_lanes.h), which must round alike:
+// (integrators/shading_lanes.h), which must round alike:
 // - the interpolated normal Σ bₖ·nₖ normalised and turned to ng's side (`side`, ±1, is returned), or ng where
 //   that sum is (nearly) zero;
 // - the terminator offset −Σ bₖ·min(0, (p − vₖ)·nₖ)·nₖ, with the normals turned by `side`.

@@ -4,7 +4,7 @@
 // sample_direct at every vertex with a non-specular lobe (path_tracer.h: shade_vertex); bdpt's strategy s = 1
 // (bdpt_kernels.h: connect_light_sample) samples the light itself, since it picks infinite lights' directions
 // by their emission distribution to match its MIS densities, and shares the shadow ray (shadow_segment). The
-// SIMD Lambert lanes (lambert_lanes.h) are this function written over lanes for Lambertian receivers (they
+// SIMD shading lanes (shading_lanes.h) are this function written over lanes for their receivers (they
 // sample parallelogram lights themselves and take sample_li's sample of any other), with the same operations in
 // the same order (the wavefront renders the scalar loop's bits). Each caller weights the sample its own way (MIS
 // against BSDF sampling, or bdpt's weights).

@@ -2,7 +2,7 @@
 // radiance, beta is the path throughput (product of f·|cos|/pdf so far, divided by Russian-roulette survival
 // probabilities). The loop sees materials only through the BSDF interface (materials/bsdf.h: flags, eval, pdf,
 // sample) and lights only through the light interface (lights/light_sampling.h); it never names a material or
-// light type. Nor do the SIMD Lambert lanes (lambert_lanes.h) and bdpt (bdpt_kernels.h, bdpt_manifold.h): they
+// light type. Nor do the SIMD shading lanes (shading_lanes.h) and bdpt (bdpt_kernels.h, bdpt_manifold.h): they
 // ask a light what it is (Light::polygon, sphere; parallelogram_by_area) rather than test LightKind.
 //
 // Estimators (docs/estimators.md), chosen at run time:

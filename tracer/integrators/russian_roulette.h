@@ -1,5 +1,5 @@
-// Russian roulette, the one rule of the scalar path loop (path_tracer.h), the SIMD Lambert lanes
-// (lambert_lanes.h, with the same function over SIMD lanes) and both subpaths of bdpt (bdpt_kernels.h).
+// Russian roulette, the one rule of the scalar path loop (path_tracer.h), the SIMD shading lanes
+// (shading_lanes.h, with the same function over SIMD lanes) and both subpaths of bdpt (bdpt_kernels.h).
 //
 // From scattering event rr_depth on, a path survives with probability q and is then re-weighted by 1/q, which
 // keeps the estimate unbiased (pbrt-v4 PathIntegrator::Li). q follows the path's worth (its throughput's

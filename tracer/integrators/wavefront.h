@@ -9,7 +9,8 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian polygons are shaded in SIMD lanes (lambert_lanes.h), and each stage's loop runs one kind of work.
+// Lambertian and glTF polygons are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of
+// work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -35,17 +36,25 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// Whether the batch kernel compiled for `features` shades this scene's hits on Lambertian polygons in SIMD lanes
-// (lambert_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
-// where some material is one the lanes take (a scene of glTF materials alone would only pay for their gathers).
+// Whether the batch kernel compiled for `features` shades this scene's hits on polygons in SIMD lanes
+// (shading_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
+// where some material is one the lanes take (a scene of others alone would only pay for their gathers).
 // Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
 inline bool lambert_lane_material(const Material& m) {  // what the lanes shade: untextured, not emitting
   return is_lambertian(m) && !has_textures(m) && is_black(m.emission);
 }
+// glTF's metallic–roughness lobe, rough (a smooth one's Dirac lobe takes shade_vertex), untextured, not emitting;
+// only in the kernels for any material.
+inline bool gltf_lane_material(const Material& m) {
+  return m.type == MaterialType::MetallicRoughness && !effectively_smooth(m.alpha) && !has_textures(m) &&
+         is_black(m.emission);
+}
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
-  return (features & kFeaturePolygons) != 0 &&
-         std::any_of(scene.materials.begin(), scene.materials.end(), lambert_lane_material);
+  if ((features & kFeaturePolygons) == 0) return false;
+  const bool any = (features & kFeatureGeneralMaterials) != 0;
+  return std::any_of(scene.materials.begin(), scene.materials.end(),
+                     [&](const Material& m) { return lambert_lane_material(m) || (any && gltf_lane_material(m)); });
 }
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on

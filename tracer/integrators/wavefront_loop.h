@@ -2,7 +2,7 @@
 // instantiate it per feature set, beside the scalar kernels whose vertex code it shares.
 #pragma once
 #include "integrators/path_tracer.h"
-#include "integrators/lambert_lanes.h"
+#include "integrators/shading_lanes.h"
 #include "integrators/wavefront.h"
 #include "sampling/sobol_batch.h"
 
@@ -31,7 +31,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   constexpr bool kBatchPoints = std::is_same_v<Sampler, SobolSampler>;
   using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
   Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1], bsdf_points[kBatchPoints ? kWavefrontBatch : 1];
-  // Lambertian polygons shade in lanes in every kernel with polygons (lambert_lanes.h), where
+  // Polygons of the lanes' materials shade in lanes in every kernel with polygons (shading_lanes.h), where
   // shading_lanes_apply (wavefront.h) says so.
   constexpr bool kLambertLanes = (F & kFeaturePolygons) != 0;
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
@@ -40,8 +40,8 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;
-    // Lambertian polygons lit by next-event estimation are shaded kLanes at a time (lambert_lanes.h); every
-    // other vertex, and every lane that code hands back, by shade_vertex.
+    // Polygons of the lanes' materials lit by next-event estimation are shaded kLanes at a time
+    // (shading_lanes.h); every other vertex, and every lane that code hands back, by shade_vertex.
     const bool lanes = lanes_apply && o.light_sampling && static_cast<int>(bounce) < o.max_bounces;
     uint32_t light_dim = SamplerWithPoints<Sampler>::kNone, bsdf_dim = SamplerWithPoints<Sampler>::kNone;
     if constexpr (kBatchPoints) {
@@ -82,7 +82,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
       };
       if constexpr (kLambertLanes)
         if (lanes)
-          shade_lambert_lanes<kM, F>(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
+          shade_lanes<kM, F>(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
                               bounce, lane_shading, count);
       for (int l = 0; l < k; ++l) {
         const uint16_t i = live[first + l];
@@ -143,7 +143,7 @@ constexpr std::array<BatchKernel<Sampler>, kAllFeatures + 1> make_batch_kernels(
     std::array<BatchKernel<Sampler>, kAllFeatures + 1> all{};
     all.fill(&trace_batch<Sampler, kAllFeatures>);
     // Except the kernel for Lambertian polygons: its shading lanes evaluate the Lambert-only lobe
-    // (lambert_lanes.h), which the sanitizers must see too (the generic kernel runs them with MaterialSet::Any).
+    // (shading_lanes.h), which the sanitizers must see too (the generic kernel runs them with MaterialSet::Any).
     all[kFeaturePolygons] = &trace_batch<Sampler, kFeaturePolygons>;
     return all;
   } else {

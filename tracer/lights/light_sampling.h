@@ -133,7 +133,7 @@ inline bool use_spherical_rect(const Light& l, Vec3 ref) {
 // its stratification); other polygons pick a half in proportion to its area (reusing u.x; a triangle is all
 // half 0), then a point in that triangle.
 // True when sample_li samples `l` from `ref` uniformly by area over a parallelogram: the case the SIMD Lambert
-// lanes (integrators/lambert_lanes.h) compute themselves; every other light goes the scalar way.
+// lanes (integrators/shading_lanes.h) compute themselves; every other light goes the scalar way.
 inline bool parallelogram_by_area(const PolygonSoA& P, const Light& l, Vec3 ref) {
   return l.polygon() && P.parallelogram[l.prim] && !(l.kind == LightKind::Rectangle && use_spherical_rect(l, ref));
 }

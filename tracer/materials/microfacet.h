@@ -19,6 +19,7 @@
 // roughness < ~0.0316. At α = 1e-3, D peaks at 1/(πα²) ≈ 3.2e5, well inside float range.
 #pragma once
 #include "core/math.h"
+#include "core/simd_sqrt_warnings.h"
 #include "materials/fresnel.h"
 
 namespace pt {
@@ -26,6 +27,7 @@ namespace pt {
 inline constexpr float kSmoothAlpha = 1e-3f;
 inline bool effectively_smooth(float alpha) { return alpha < kSmoothAlpha; }
 
+PT_SIMD_SQRT_WARNINGS_OFF  // the templates below run on SIMD lanes too (every lane computed)
 // GGX normal distribution D(wm) for a microfacet normal with components (x, y, z); 0 below the surface.
 // D = 1/(π α² cos⁴θm (1 + tan²θm/α²)²) = 1/(π α² (sin²θm/α² + cos²θm)²): sin² from x² + y² keeps precision
 // near the pole where 1 − z² would cancel.
@@ -86,6 +88,8 @@ T ggx_g2_over_cos2(T ox, T oy, T oz, T ix, T iy, T iz, T alpha) {
   const T ro = ggx_smith_r(co, ox * ox + oy * oy, alpha), ri = ggx_smith_r(ci, ix * ix + iy * iy, alpha);
   return T(2) / (ci * ro + co * ri);
 }
+
+PT_SIMD_SQRT_WARNINGS_ON
 
 // Vector conveniences for the scalar lobes.
 inline float ggx_d(Vec3 wm, float alpha) { return ggx_d(wm.x, wm.y, wm.z, alpha); }

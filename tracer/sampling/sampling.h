@@ -28,7 +28,7 @@ inline float uniform_sphere_pdf() { return kInv4Pi; }
 // cos x and sin x for |x| ≤ π/4: the single-precision minimax polynomials of Cephes (S. L. Moshier, sinf.c and
 // cosf.c, their range |x| ≤ π/4), within 2 ulp of the true values there (tested). Where the angle is known to
 // lie in that range this skips libm's range reduction and call: sincosf was 5 % of a `cornell` pass. Templated
-// over the float type: the shading lanes (integrators/lambert_lanes.h) run the same operations on SIMD lanes.
+// over the float type: the shading lanes (integrators/shading_lanes.h) run the same operations on SIMD lanes.
 template <class T>
 [[gnu::always_inline]] inline void quarter_turn_cos_sin(const T& x, T& c, T& s) {
   const T z = x * x;

@@ -1,29 +1,30 @@
-// shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette (russian_roulette.h), for a
-// packet's worth of paths at once, in the case that dominates the
-// Cornell-box scenes: a Lambertian, non-emitting polygon, lit by next-event estimation. A parallelogram light
-// sampled by area is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and
-// weighed in the lanes. The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every
-// step runs on std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The
-// formulas both loops share are written once over the number type (core/lanes.h) and instantiated here for
-// vfloat: the shading frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf
-// (lambert_f, cosine_hemisphere), the power heuristic, the spawned ray's origin (lanes::offset_point) and the
-// roulette's survival. The rest performs exactly the float operations of the scalar functions, in the same
-// order (glm's vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps
-// multiplies and adds apart; std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar
-// loop's (tested by the wavefront tests, which compare images byte for byte). (Plain loops over the arrays were
+// The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
+// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of
+// a material written over the number type: the Lambert lobe, and (in the kernels for any material) glTF's rough
+// metallic–roughness lobe (materials/metallic_roughness.h: gltf_value, gltf_specular_prob), lit by next-event
+// estimation. A parallelogram light sampled by area is sampled in the lanes; any other light's sample (sample_li)
+// is taken one lane at a time and weighed in the lanes. The scene data of the kLanes paths is gathered into arrays
+// (structure of arrays), then every step runs on std::experimental::native_simd<float> lanes (one vector per
+// quantity: kLanes = its width). The formulas both loops share are written once over the number type
+// (core/lanes.h) and instantiated here for vfloat: the shading frame (frame_tangents), the Lambert lobe and its
+// cosine-weighted sample and pdf (lambert_f, cosine_hemisphere), the glTF lobe's f and pdf, the power heuristic,
+// vertex_shading's normal and terminator offset, the spawned ray's origin (lanes::offset_point) and the roulette's
+// survival. The rest performs exactly the float operations of the scalar functions, in the same order (glm's
+// vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps multiplies and
+// adds apart; std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar loop's (tested by
+// the wavefront and smooth-shading tests, which compare images byte for byte). (Plain loops over the arrays were
 // tried first: GCC 12 vectorised none of them and the code ran 40 % slower than the scalar path;
 // docs/performance.md.)
 //
-// kM is the kernel's material set (materials/bsdf.h): under MaterialSet::Any, in scenes that mix Lambertian
-// polygons with other materials and spheres, or whose meshes have vertex normals, the lanes shade the hits on
-// untextured Lambertian polygons and evaluate the lobe as bsdf_eval<Any> does (wo and wi strictly on one side).
-// On a smooth-shaded mesh they shade as shade_vertex does: the frame about the interpolated normal, rays leaving
-// from the terminator offset's lifted point (vertex_shading's formulas, written once over the number type in
-// geometry/interaction.h). A lane takes the scalar path instead (the caller runs shade_vertex for it) when its
-// hit is on a sphere or an instance, or emits, or has another material, or when no light can reach it, or where
-// shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below
-// the bounce limit. The gathers, the light choice, the other lights' samples and the 1D random numbers stay
-// scalar.
+// kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
+// bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
+// they take is wavefront.h's (lambert_lane_material, gltf_lane_material). On a smooth-shaded mesh they shade as
+// shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted point. A lane takes the
+// scalar path instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits,
+// or has another material (a textured one, a smooth glTF one), or when no light can reach it, or where
+// shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below the
+// bounce limit. What stays one lane at a time: the gathers, the light choice, the other lights' samples, the 1D
+// random numbers, the glTF layer's albedo (a table lookup) and its visible-normal sample (sin and cos).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -57,7 +58,7 @@ PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
 // o.light_sampling (so no uniform estimator) and p.depth < o.max_bounces for every path (the caller checks; all
 // live paths of a batch share one depth).
 template <MaterialSet kM, uint32_t F, class RngOf>
-void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
+void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, const uint16_t* ids, int k,
                          const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
                          RayCount& count) {
   using namespace lane_detail;
@@ -81,6 +82,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   alignas(64) float general[N], g_wx[N], g_wy[N], g_wz[N], g_px[N], g_py[N], g_pz[N], g_pdf[N], g_inf[N], g_delta[N];
   // Smooth shading (vertex_shading, interaction.h): the hit polygon's three vertex normals, where the scene has any.
   alignas(64) float vn[3][3][N];  // [vertex][axis][lane]
+  // glTF's metallic–roughness lobe (materials/metallic_roughness.h: GltfLobe), on the lanes whose material is one
+  // (glossy = 1), and the lobe-choice number of their BSDF sample.
+  alignas(64) float glossy[N], g_f0r[N], g_f0g[N], g_f0b[N], g_dr[N], g_dg[N], g_db[N], g_dlum[N], g_oma[N];
+  alignas(64) float g_alpha[N], u_lobe[N];
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
@@ -114,8 +119,10 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     light_prim[l] = kNoPrimitive;
     if (smooth_scene)
       for (int v = 0; v < 3; ++v) vn[v][0][l] = vn[v][1][l] = 0.f, vn[v][2][l] = 1.f;
+    glossy[l] = 0.f;
   }
   int lanes_active = 0;
+  bool any_glossy = false;
   for (int l = 0; l < k; ++l) {
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
@@ -123,8 +130,18 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     material[l] = P.material[prim];
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
-    if constexpr (kM == MaterialSet::Any)
-      if (!lambert_lane_material(m)) continue;
+    if constexpr (kM == MaterialSet::Any) {
+      if (gltf_lane_material(m)) {
+        const GltfLobe<float> g = gltf_lobe(m, gltf_f0(m));
+        glossy[l] = 1.f;
+        g_f0r[l] = g.f0.x, g_f0g[l] = g.f0.y, g_f0b[l] = g.f0.z;
+        g_dr[l] = g.diffuse.x, g_dg[l] = g.diffuse.y, g_db[l] = g.diffuse.z;
+        g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha;
+        any_glossy = true;
+      } else if (!lambert_lane_material(m)) {
+        continue;
+      }
+    }
     const PathState& p = paths[ids[l]];
     ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
     dx[l] = p.ray.d.x, dy[l] = p.ray.d.y, dz[l] = p.ray.d.z;
@@ -154,6 +171,13 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     ++lanes_active;
   }
   if (lanes_active == 0) return;  // nothing for the lanes: every path takes shade_vertex
+  if (any_glossy)  // the other lanes' harmless lobe
+    for (int l = 0; l < N; ++l)
+      if (glossy[l] == 0.f) {
+        g_f0r[l] = g_f0g[l] = g_f0b[l] = 0.04f;
+        g_dr[l] = g_dg[l] = g_db[l] = g_dlum[l] = 0.f;
+        g_oma[l] = g_alpha[l] = 1.f;
+      }
 
   // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point; on a
   // smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted).
@@ -240,6 +264,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   // the scalar path.
   const uint32_t choice_dim = o.dims.light_choice(depth), point_dim = o.dims.light_point(depth);
   const uint32_t dir_dim = o.dims.bsdf_direction(depth), rr_dim = o.dims.roulette(depth);
+  const uint32_t lobe_dim = o.dims.bsdf_lobe(depth);
   for (int l = 0; l < k; ++l) {
     if (!active[l]) continue;
     const auto& rng = rng_of(l);
@@ -286,6 +311,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     bux[l] = bu.x, buy[l] = bu.y;
+    if (glossy[l] != 0.f) u_lobe[l] = rng.get_1d(lobe_dim);
     if (roulette) u_rr[l] = rng.get_1d(rr_dim);
   }
 
@@ -301,6 +327,21 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
   };
   const vfloat Wz = ld(wlz);
   const vfloat Fr = lambert_f(ld(alb_r)), Fg = lambert_f(ld(alb_g)), Fb = lambert_f(ld(alb_b));
+  // The glTF lanes: their lobe, wo in the shading frame mirrored to the front (bsdf_value<Any> and bsdf_sample<Any>
+  // mirror wo and wi when wo is below), and the layer's albedo E_d there (a table lookup, one lane at a time).
+  const M Gl = ld(glossy) != 0.f;
+  GltfLobe<vfloat> lobe{};
+  Vec3T<vfloat> WO{};
+  alignas(64) float e_o[N];
+  if (kM == MaterialSet::Any && any_glossy) {
+    lobe = {{ld(g_f0r), ld(g_f0g), ld(g_f0b)}, {ld(g_dr), ld(g_dg), ld(g_db)}, ld(g_dlum), ld(g_oma), ld(g_alpha)};
+    const Vec3T<vfloat> wo{-ld(dx), -ld(dy), -ld(dz)};
+    WO = {lanes::dot(wo, {ld(sx), ld(sy), ld(sz)}), lanes::dot(wo, {ld(tx), ld(ty), ld(tz)}), select(Wz < 0.f, -Wz, Wz)};
+    alignas(64) float wo_z[N];
+    st(wo_z, WO.z);
+    for (int l = 0; l < N; ++l)
+      e_o[l] = glossy[l] != 0.f ? gltf_layer_albedo(s.materials[material[l]], wo_z[l]) : 0.f;
+  }
   const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
   alignas(64) float traced[N], shadow_ok[N];
   alignas(64) float so_x[N], so_y[N], so_z[N], sd_x[N], sd_y[N], sd_z[N], st_max[N], sc_r[N], sc_g[N], sc_b[N];
@@ -338,7 +379,27 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     M same_side;
     if constexpr (kM == MaterialSet::Lambert) same_side = Wz * wil_z > 0.f;
     else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
-    ok = ok && same_side && !(Fr == 0.f && Fg == 0.f && Fb == 0.f);
+    // The BSDF towards wi: ρ/π, or the glTF lobe's f and pdf (gltf_value, as bsdf_value<Any> evaluates it).
+    const vfloat cos_abs = stdx::abs(wil_z);
+    vfloat nf_r = Fr, nf_g = Fg, nf_b = Fb;
+    vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
+    if (kM == MaterialSet::Any && any_glossy) {
+      const Vec3T<vfloat> wi_l{(wix * ld(sx) + wiy * ld(sy)) + wiz * ld(sz), (wix * ld(tx) + wiy * ld(ty)) + wiz * ld(tz),
+                               select(Wz < 0.f, -wil_z, wil_z)};
+      alignas(64) float wi_z[N], e_i[N];
+      st(wi_z, wi_l.z);
+      for (int l = 0; l < N; ++l)
+        e_i[l] = glossy[l] != 0.f ? gltf_layer_albedo(s.materials[material[l]], wi_z[l]) : 0.f;
+      Vec3T<vfloat> f;
+      vfloat gpdf;
+      gltf_value<true, true>(lobe, ld(e_o), ld(e_i), WO, wi_l, f, gpdf);
+      const vfloat zero(0.f);
+      nf_r = select(Gl, select(same_side, f.x, zero), Fr);
+      nf_g = select(Gl, select(same_side, f.y, zero), Fg);
+      nf_b = select(Gl, select(same_side, f.z, zero), Fb);
+      bpdf = select(Gl, select(same_side, gpdf, zero), bpdf);
+    }
+    ok = ok && same_side && !(nf_r == 0.f && nf_g == 0.f && nf_b == 0.f);
     st(traced, select(ok, vfloat(1.f), vfloat(0.f)));
     // shadow_segment leaves on the side of the shading frame wi is on (sample_direct).
     const M back = wil_z < 0.f;
@@ -348,10 +409,7 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     // shadow_segment: towards a light at infinity the ray is unbounded, along wi.
     const M at_infinity = ld(g_inf) != 0.f;
     const vfloat t_max = select(at_infinity, vfloat(kInfinity), sdist * kShadowRayShorten);
-    // power_heuristic(ls.pdf, bsdf_pdf) with the Lambert pdf max(|cos θ|, 0)/π.
-    const vfloat cos_abs = stdx::abs(wil_z);
-    const vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
-    // A punctual light has no MIS partner.
+    // power_heuristic(ls.pdf, bsdf_pdf); a punctual light has no MIS partner.
     const vfloat w = o.mis ? select(ld(g_delta) != 0.f, vfloat(1.f), power_heuristic(pdf, bpdf)) : vfloat(1.f);
     const vfloat scale = (cos_abs * w) / pdf;
     st(shadow_ok, select(ok && t_max > 0.f, vfloat(1.f), vfloat(0.f)));
@@ -359,9 +417,9 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     st(sd_x, select(at_infinity, wix, tlx / sdist)), st(sd_y, select(at_infinity, wiy, tly / sdist));
     st(sd_z, select(at_infinity, wiz, tlz / sdist));
     st(st_max, t_max);
-    st(sc_r, ((Br * Fr) * select(le_on, Ler, vfloat(0.f))) * scale);
-    st(sc_g, ((Bg * Fg) * select(le_on, Leg, vfloat(0.f))) * scale);
-    st(sc_b, ((Bb * Fb) * select(le_on, Leb, vfloat(0.f))) * scale);
+    st(sc_r, ((Br * nf_r) * select(le_on, Ler, vfloat(0.f))) * scale);
+    st(sc_g, ((Bg * nf_g) * select(le_on, Leg, vfloat(0.f))) * scale);
+    st(sc_b, ((Bb * nf_b) * select(le_on, Leb, vfloat(0.f))) * scale);
   }
 
   // ---- The BSDF sample (cosine-weighted, mirrored to wo's side), the throughput, roulette, the next ray.
@@ -373,13 +431,41 @@ void shade_lambert_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_
     M ok = wo_z > 0.f && !(ld(alb_r) == 0.f && ld(alb_g) == 0.f && ld(alb_b) == 0.f);
     // sample_cosine_hemisphere: the concentric disk (sampling.h), then z = √max(0, 1 − x² − y²).
     const Vec3T<vfloat> local = cosine_hemisphere(ld(bux), ld(buy));
-    const vfloat dxs = local.x, dys = local.y, wz0 = local.z;
+    vfloat dxs = local.x, dys = local.y, wz0 = local.z;
     ok = ok && wz0 > 0.f;
-    const vfloat pdf = cosine_hemisphere_pdf(wz0);
+    vfloat pdf = cosine_hemisphere_pdf(wz0);
+    vfloat fr = Fr, fg = Fg, fb = Fb;
+    if (kM == MaterialSet::Any && any_glossy) {
+      // metallic_roughness_sample: the specular lobe with probability p_s (a visible normal, drawn one lane at a
+      // time: Heitz's sampler calls sin and cos), else the cosine hemisphere; then f and pdf of the direction.
+      alignas(64) float p_s[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], e_s[N], wo_x[N], wo_y[N], wo_z[N];
+      st(p_s, gltf_specular_prob(lobe, WO.z, ld(e_o)));
+      st(cx, dxs), st(cy, dys), st(cz, wz0);
+      st(wo_x, WO.x), st(wo_y, WO.y), st(wo_z, WO.z);
+      for (int l = 0; l < N; ++l) {
+        gx[l] = gy[l] = e_s[l] = 0.f;
+        gz[l] = 1.f;
+        if (glossy[l] == 0.f || !(wo_z[l] > 0.f)) continue;
+        const Vec3 wo(wo_x[l], wo_y[l], wo_z[l]);
+        const Vec3 wi = u_lobe[l] < p_s[l] ? reflect(-wo, ggx_sample_vndf(wo, g_alpha[l], Vec2(bux[l], buy[l])))
+                                           : Vec3(cx[l], cy[l], cz[l]);
+        gx[l] = wi.x, gy[l] = wi.y, gz[l] = wi.z;
+        e_s[l] = gltf_layer_albedo(s.materials[material[l]], wi.z);
+      }
+      const Vec3T<vfloat> wi{ld(gx), ld(gy), ld(gz)};
+      Vec3T<vfloat> f;
+      vfloat gpdf;
+      gltf_value<true, true>(lobe, ld(e_o), ld(e_s), WO, wi, f, gpdf);
+      const M g_ok = WO.z > 0.f && wi.z > 0.f && gpdf > 0.f;
+      ok = (Gl && g_ok) || (!Gl && ok);
+      dxs = select(Gl, wi.x, dxs), dys = select(Gl, wi.y, dys), wz0 = select(Gl, wi.z, wz0);
+      pdf = select(Gl, gpdf, pdf);
+      fr = select(Gl, f.x, fr), fg = select(Gl, f.y, fg), fb = select(Gl, f.z, fb);
+    }
     const vfloat wz = select(flip, -wz0, wz0);
     ok = ok && pdf > 0.f && wz != 0.f;
     const vfloat k_scale = stdx::abs(wz) / pdf;
-    vfloat nbr = Br * (Fr * k_scale), nbg = Bg * (Fg * k_scale), nbb = Bb * (Fb * k_scale);
+    vfloat nbr = Br * (fr * k_scale), nbg = Bg * (fg * k_scale), nbb = Bb * (fb * k_scale);
     // frame.to_world: s·x + t·y + n·z.
     const vfloat wwx = (ld(sx) * dxs + ld(tx) * dys) + FN.x * wz;
     const vfloat wwy = (ld(sy) * dxs + ld(ty) * dys) + FN.y * wz;
