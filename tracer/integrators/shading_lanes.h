@@ -332,13 +332,12 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   const M Gl = ld(glossy) != 0.f;
   GltfLobe<vfloat> lobe{};
   Vec3T<vfloat> WO{};
-  alignas(64) float e_o[N];
+  alignas(64) float e_o[N], wo_x[N], wo_y[N], wo_z[N];  // E_d(μo); WO one lane at a time
   if (kM == MaterialSet::Any && any_glossy) {
     lobe = {{ld(g_f0r), ld(g_f0g), ld(g_f0b)}, {ld(g_dr), ld(g_dg), ld(g_db)}, ld(g_dlum), ld(g_oma), ld(g_alpha)};
     const Vec3T<vfloat> wo{-ld(dx), -ld(dy), -ld(dz)};
     WO = {lanes::dot(wo, {ld(sx), ld(sy), ld(sz)}), lanes::dot(wo, {ld(tx), ld(ty), ld(tz)}), select(Wz < 0.f, -Wz, Wz)};
-    alignas(64) float wo_z[N];
-    st(wo_z, WO.z);
+    st(wo_x, WO.x), st(wo_y, WO.y), st(wo_z, WO.z);
     for (int l = 0; l < N; ++l)
       e_o[l] = glossy[l] != 0.f ? gltf_layer_albedo(s.materials[material[l]], wo_z[l]) : 0.f;
   }
@@ -427,8 +426,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   alignas(64) float nd_x[N], nd_y[N], nd_z[N];
   {
     const M flip = Wz < 0.f;
-    const vfloat wo_z = select(flip, -Wz, Wz);
-    M ok = wo_z > 0.f && !(ld(alb_r) == 0.f && ld(alb_g) == 0.f && ld(alb_b) == 0.f);
+    M ok = select(flip, -Wz, Wz) > 0.f && !(ld(alb_r) == 0.f && ld(alb_g) == 0.f && ld(alb_b) == 0.f);
     // sample_cosine_hemisphere: the concentric disk (sampling.h), then z = √max(0, 1 − x² − y²).
     const Vec3T<vfloat> local = cosine_hemisphere(ld(bux), ld(buy));
     vfloat dxs = local.x, dys = local.y, wz0 = local.z;
@@ -438,10 +436,9 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     if (kM == MaterialSet::Any && any_glossy) {
       // metallic_roughness_sample: the specular lobe with probability p_s (a visible normal, drawn one lane at a
       // time: Heitz's sampler calls sin and cos), else the cosine hemisphere; then f and pdf of the direction.
-      alignas(64) float p_s[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], e_s[N], wo_x[N], wo_y[N], wo_z[N];
+      alignas(64) float p_s[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], e_s[N];
       st(p_s, gltf_specular_prob(lobe, WO.z, ld(e_o)));
       st(cx, dxs), st(cy, dys), st(cz, wz0);
-      st(wo_x, WO.x), st(wo_y, WO.y), st(wo_z, WO.z);
       for (int l = 0; l < N; ++l) {
         gx[l] = gy[l] = e_s[l] = 0.f;
         gz[l] = 1.f;

@@ -156,8 +156,7 @@ inline bool metallic_roughness_sample(const Material& m, Vec3 wo, float uc, Vec2
   if (!(wo.z > 0.f)) return false;
   const Rgb f0 = gltf_f0(m);
   const float e_o = gltf_layer_albedo(m, wo.z);
-  GltfLobe<float> g = gltf_lobe(m, f0, false);
-  const float p_s = gltf_specular_prob(g, wo.z, e_o);
+  const float p_s = gltf_specular_prob(gltf_lobe(m, f0, false), wo.z, e_o);
   const bool specular = uc < p_s;
   if (specular && effectively_smooth(m.alpha)) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
@@ -168,12 +167,9 @@ inline bool metallic_roughness_sample(const Material& m, Vec3 wo, float uc, Vec2
   }
   const Vec3 wi = specular ? reflect(-wo, ggx_sample_vndf(wo, m.alpha, u)) : sample_cosine_hemisphere(u);
   if (!(wi.z > 0.f)) return false;
-  g.one_minus_avg = 1.f - gltf_layer_albedo_avg(m);
-  lanes::Vec3T<float> f{0.f, 0.f, 0.f};
-  float pdf = 0.f;
-  gltf_value<true, true>(g, e_o, gltf_layer_albedo(m, wi.z), lanes::of(wo), lanes::of(wi), f, pdf);
-  if (!(pdf > 0.f)) return false;
-  out = {wi, lanes::to_vec3(f), pdf, BsdfFlags::Reflection | (specular ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
+  const BsdfValue v = metallic_roughness_value_at<true, true>(m, f0, e_o, wo, wi);
+  if (!(v.pdf > 0.f)) return false;
+  out = {wi, v.f, v.pdf, BsdfFlags::Reflection | (specular ? BsdfFlags::Glossy : BsdfFlags::Diffuse), 1.f};
   return true;
 }
 
