@@ -332,7 +332,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits, o
   }
 }
 
-// The lanes shade rough glTF metallic–roughness materials too (gltf_value, written once over the number type):
+// The lanes shade rough glTF metallic–roughness materials too (layered_value, written once over the number type):
 // the same scene with the sphere and the floor in such materials, metallic and not, rough and nearly smooth, and a
 // smooth one (its Dirac lobe goes to shade_vertex) on one of them in turn, flat and smooth-shaded.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on glTF metallic-roughness materials") {
@@ -354,6 +354,40 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       ball.roughness = sphere_lobes[c].roughness;
       floor.metallic = floor_lobes[c].metallic;
       floor.roughness = floor_lobes[c].roughness;
+      const auto scene = compile_scene(d);
+      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+      CAPTURE(kind);
+      CAPTURE(c);
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
+// And the plastic, the same coupled lobe with its coat's exact Fresnel (layered_lobe.h), alone and beside glTF's
+// lobe in one packet (the lanes then compute both Fresnels and pick one per lane): the sphere and the floor rough,
+// nearly smooth and smooth (the smooth coat's Dirac lobe goes to shade_vertex), flat and smooth-shaded.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on plastic, beside glTF's lobe") {
+  struct Case {
+    MaterialType floor_type;
+    float sphere_roughness, floor_roughness;
+  };
+  const Case cases[] = {{MaterialType::Plastic, 0.3f, 0.7f},
+                        {MaterialType::MetallicRoughness, 0.05f, 0.4f},
+                        {MaterialType::Plastic, 0.f, 0.15f},
+                        {MaterialType::MetallicRoughness, 0.6f, 0.f}};
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 4; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 3;
+      MaterialDesc& ball = d.materials[0];
+      MaterialDesc& floor = d.materials.back();
+      ball.type = MaterialType::Plastic;
+      ball.albedo = Rgb(0.7f, 0.1f, 0.05f);
+      ball.ior = 1.4f;
+      ball.roughness = cases[c].sphere_roughness;
+      floor.type = cases[c].floor_type;
+      if (floor.type == MaterialType::MetallicRoughness) floor.metallic = 0.3f;
+      floor.roughness = cases[c].floor_roughness;
       const auto scene = compile_scene(d);
       REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
       CAPTURE(kind);

@@ -1,13 +1,13 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
 // (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of
-// a material written over the number type: the Lambert lobe, and (in the kernels for any material) glTF's rough
-// metallic–roughness lobe (materials/metallic_roughness.h: gltf_value, gltf_specular_prob), lit by next-event
-// estimation. A parallelogram light sampled by area is sampled in the lanes; any other light's sample (sample_li)
+// a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough
+// coupled lobe of layered_lobe.h (layered_value, layer_prob) that glTF's metallic–roughness material and the
+// plastic are, lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any other light's sample (sample_li)
 // is taken one lane at a time and weighed in the lanes. The scene data of the kLanes paths is gathered into arrays
 // (structure of arrays), then every step runs on std::experimental::native_simd<float> lanes (one vector per
 // quantity: kLanes = its width). The formulas both loops share are written once over the number type
 // (core/lanes.h) and instantiated here for vfloat: the shading frame (frame_tangents), the Lambert lobe and its
-// cosine-weighted sample and pdf (lambert_f, cosine_hemisphere), the glTF lobe's f and pdf, the power heuristic,
+// cosine-weighted sample and pdf (lambert_f, cosine_hemisphere), the layered lobe's f and pdf, the power heuristic,
 // vertex_shading's normal and terminator offset, the spawned ray's origin (lanes::offset_point) and the roulette's
 // survival. The rest performs exactly the float operations of the scalar functions, in the same order (glm's
 // vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps multiplies and
@@ -18,7 +18,7 @@
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
-// they take is wavefront.h's (lambert_lane_material, gltf_lane_material). On a smooth-shaded mesh they shade as
+// they take is wavefront.h's (lambert_lane_material, layered_lane_material). On a smooth-shaded mesh they shade as
 // shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted point. A lane takes the
 // scalar path instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits,
 // or has another material (a textured one, a smooth glTF one), or when no light can reach it, or where
@@ -82,10 +82,10 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   alignas(64) float general[N], g_wx[N], g_wy[N], g_wz[N], g_px[N], g_py[N], g_pz[N], g_pdf[N], g_inf[N], g_delta[N];
   // Smooth shading (vertex_shading, interaction.h): the hit polygon's three vertex normals, where the scene has any.
   alignas(64) float vn[3][3][N];  // [vertex][axis][lane]
-  // glTF's metallic–roughness lobe (materials/metallic_roughness.h: GltfLobe), on the lanes whose material is one
-  // (glossy = 1), and the lobe-choice number of their BSDF sample.
-  alignas(64) float glossy[N], g_f0r[N], g_f0g[N], g_f0b[N], g_dr[N], g_dg[N], g_db[N], g_dlum[N], g_oma[N];
-  alignas(64) float g_alpha[N], u_lobe[N];
+  // The layered lobe (materials/layered_lobe.h: LayeredLobe), on the lanes whose material is glTF's or the plastic
+  // (layered = 1; coat = 1 for the plastic's exact Fresnel), and the lobe-choice number of their BSDF sample.
+  alignas(64) float layered[N], coat[N], g_f0r[N], g_f0g[N], g_f0b[N], g_dr[N], g_dg[N], g_db[N], g_dlum[N];
+  alignas(64) float g_oma[N], g_alpha[N], g_eta[N], u_lobe[N];
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
@@ -119,10 +119,10 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     light_prim[l] = kNoPrimitive;
     if (smooth_scene)
       for (int v = 0; v < 3; ++v) vn[v][0][l] = vn[v][1][l] = 0.f, vn[v][2][l] = 1.f;
-    glossy[l] = 0.f;
+    layered[l] = coat[l] = 0.f;
   }
   int lanes_active = 0;
-  bool any_glossy = false;
+  bool any_layered = false, any_coat = false;
   for (int l = 0; l < k; ++l) {
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
@@ -131,13 +131,16 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     if constexpr (kM == MaterialSet::Any) {
-      if (gltf_lane_material(m)) {
-        const GltfLobe<float> g = gltf_lobe(m, gltf_f0(m));
-        glossy[l] = 1.f;
+      if (layered_lane_material(m)) {
+        const bool plastic = m.type == MaterialType::Plastic;
+        const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
+        layered[l] = 1.f;
+        coat[l] = plastic ? 1.f : 0.f;
         g_f0r[l] = g.f0.x, g_f0g[l] = g.f0.y, g_f0b[l] = g.f0.z;
         g_dr[l] = g.diffuse.x, g_dg[l] = g.diffuse.y, g_db[l] = g.diffuse.z;
-        g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha;
-        any_glossy = true;
+        g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha, g_eta[l] = g.eta;
+        any_layered = true;
+        any_coat = any_coat || plastic;
       } else if (!lambert_lane_material(m)) {
         continue;
       }
@@ -171,12 +174,13 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     ++lanes_active;
   }
   if (lanes_active == 0) return;  // nothing for the lanes: every path takes shade_vertex
-  if (any_glossy)  // the other lanes' harmless lobe
+  if (any_layered)  // the other lanes' harmless lobe
     for (int l = 0; l < N; ++l)
-      if (glossy[l] == 0.f) {
+      if (layered[l] == 0.f) {
         g_f0r[l] = g_f0g[l] = g_f0b[l] = 0.04f;
         g_dr[l] = g_dg[l] = g_db[l] = g_dlum[l] = 0.f;
         g_oma[l] = g_alpha[l] = 1.f;
+        g_eta[l] = 1.5f;
       }
 
   // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point; on a
@@ -311,7 +315,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     bux[l] = bu.x, buy[l] = bu.y;
-    if (glossy[l] != 0.f) u_lobe[l] = rng.get_1d(lobe_dim);
+    if (layered[l] != 0.f) u_lobe[l] = rng.get_1d(lobe_dim);
     if (roulette) u_rr[l] = rng.get_1d(rr_dim);
   }
 
@@ -327,19 +331,29 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   };
   const vfloat Wz = ld(wlz);
   const vfloat Fr = lambert_f(ld(alb_r)), Fg = lambert_f(ld(alb_g)), Fb = lambert_f(ld(alb_b));
-  // The glTF lanes: their lobe, wo in the shading frame mirrored to the front (bsdf_value<Any> and bsdf_sample<Any>
-  // mirror wo and wi when wo is below), and the layer's albedo E_d there (a table lookup, one lane at a time).
-  const M Gl = ld(glossy) != 0.f;
-  GltfLobe<vfloat> lobe{};
+  // The layered lanes: their lobe, wo in the shading frame mirrored to the front (bsdf_value<Any> and
+  // bsdf_sample<Any> mirror wo and wi when wo is below), and the layer's albedo E there (a table lookup, one lane
+  // at a time: layer_albedo). Their Fresnel: Schlick's alone unless a plastic is among them.
+  const M Gl = ld(layered) != 0.f;
+  LayeredLobe<vfloat> lobe{};
   Vec3T<vfloat> WO{};
-  alignas(64) float e_o[N], wo_x[N], wo_y[N], wo_z[N];  // E_d(μo); WO one lane at a time
-  if (kM == MaterialSet::Any && any_glossy) {
-    lobe = {{ld(g_f0r), ld(g_f0g), ld(g_f0b)}, {ld(g_dr), ld(g_dg), ld(g_db)}, ld(g_dlum), ld(g_oma), ld(g_alpha)};
+  alignas(64) float e_o[N], wo_x[N], wo_y[N], wo_z[N];  // E(μo); WO one lane at a time
+  const auto layer_albedo = [&](int l, float mu) {
+    const Material& m = s.materials[material[l]];
+    return coat[l] != 0.f ? plastic_coat_albedo(m, mu) : gltf_layer_albedo(m, mu);
+  };
+  const auto value = [&](const vfloat& e_i, const Vec3T<vfloat>& wi, Vec3T<vfloat>& f, vfloat& pdf) {
+    if (any_coat) layered_value<LayerFresnel::Either, true, true>(lobe, ld(e_o), e_i, WO, wi, f, pdf);
+    else layered_value<LayerFresnel::Schlick, true, true>(lobe, ld(e_o), e_i, WO, wi, f, pdf);
+  };
+  if (kM == MaterialSet::Any && any_layered) {
+    lobe = {{ld(g_f0r), ld(g_f0g), ld(g_f0b)}, ld(g_eta), ld(coat) != 0.f, {ld(g_dr), ld(g_dg), ld(g_db)},
+            ld(g_dlum), ld(g_oma), ld(g_alpha)};
     const Vec3T<vfloat> wo{-ld(dx), -ld(dy), -ld(dz)};
     WO = {lanes::dot(wo, {ld(sx), ld(sy), ld(sz)}), lanes::dot(wo, {ld(tx), ld(ty), ld(tz)}), select(Wz < 0.f, -Wz, Wz)};
     st(wo_x, WO.x), st(wo_y, WO.y), st(wo_z, WO.z);
     for (int l = 0; l < N; ++l)
-      e_o[l] = glossy[l] != 0.f ? gltf_layer_albedo(s.materials[material[l]], wo_z[l]) : 0.f;
+      e_o[l] = layered[l] != 0.f ? layer_albedo(l, wo_z[l]) : 0.f;
   }
   const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
   alignas(64) float traced[N], shadow_ok[N];
@@ -378,20 +392,20 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     M same_side;
     if constexpr (kM == MaterialSet::Lambert) same_side = Wz * wil_z > 0.f;
     else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
-    // The BSDF towards wi: ρ/π, or the glTF lobe's f and pdf (gltf_value, as bsdf_value<Any> evaluates it).
+    // The BSDF towards wi: ρ/π, or the layered lobe's f and pdf (layered_value, as bsdf_value<Any> evaluates it).
     const vfloat cos_abs = stdx::abs(wil_z);
     vfloat nf_r = Fr, nf_g = Fg, nf_b = Fb;
     vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
-    if (kM == MaterialSet::Any && any_glossy) {
+    if (kM == MaterialSet::Any && any_layered) {
       const Vec3T<vfloat> wi_l{(wix * ld(sx) + wiy * ld(sy)) + wiz * ld(sz), (wix * ld(tx) + wiy * ld(ty)) + wiz * ld(tz),
                                select(Wz < 0.f, -wil_z, wil_z)};
       alignas(64) float wi_z[N], e_i[N];
       st(wi_z, wi_l.z);
       for (int l = 0; l < N; ++l)
-        e_i[l] = glossy[l] != 0.f ? gltf_layer_albedo(s.materials[material[l]], wi_z[l]) : 0.f;
+        e_i[l] = layered[l] != 0.f ? layer_albedo(l, wi_z[l]) : 0.f;
       Vec3T<vfloat> f;
       vfloat gpdf;
-      gltf_value<true, true>(lobe, ld(e_o), ld(e_i), WO, wi_l, f, gpdf);
+      value(ld(e_i), wi_l, f, gpdf);
       const vfloat zero(0.f);
       nf_r = select(Gl, select(same_side, f.x, zero), Fr);
       nf_g = select(Gl, select(same_side, f.y, zero), Fg);
@@ -433,26 +447,28 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     ok = ok && wz0 > 0.f;
     vfloat pdf = cosine_hemisphere_pdf(wz0);
     vfloat fr = Fr, fg = Fg, fb = Fb;
-    if (kM == MaterialSet::Any && any_glossy) {
-      // metallic_roughness_sample: the specular lobe with probability p_s (a visible normal, drawn one lane at a
-      // time: Heitz's sampler calls sin and cos), else the cosine hemisphere; then f and pdf of the direction.
+    if (kM == MaterialSet::Any && any_layered) {
+      // metallic_roughness_sample and plastic_sample: the layer's lobe with probability p_s (a visible normal, drawn
+      // one lane at a time: Heitz's sampler calls sin and cos), else the cosine hemisphere; then f and pdf of the
+      // direction.
       alignas(64) float p_s[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], e_s[N];
-      st(p_s, gltf_specular_prob(lobe, WO.z, ld(e_o)));
+      st(p_s, any_coat ? layer_prob<LayerFresnel::Either>(lobe, WO.z, ld(e_o))
+                       : layer_prob<LayerFresnel::Schlick>(lobe, WO.z, ld(e_o)));
       st(cx, dxs), st(cy, dys), st(cz, wz0);
       for (int l = 0; l < N; ++l) {
         gx[l] = gy[l] = e_s[l] = 0.f;
         gz[l] = 1.f;
-        if (glossy[l] == 0.f || !(wo_z[l] > 0.f)) continue;
+        if (layered[l] == 0.f || !(wo_z[l] > 0.f)) continue;
         const Vec3 wo(wo_x[l], wo_y[l], wo_z[l]);
         const Vec3 wi = u_lobe[l] < p_s[l] ? reflect(-wo, ggx_sample_vndf(wo, g_alpha[l], Vec2(bux[l], buy[l])))
                                            : Vec3(cx[l], cy[l], cz[l]);
         gx[l] = wi.x, gy[l] = wi.y, gz[l] = wi.z;
-        e_s[l] = gltf_layer_albedo(s.materials[material[l]], wi.z);
+        e_s[l] = layer_albedo(l, wi.z);
       }
       const Vec3T<vfloat> wi{ld(gx), ld(gy), ld(gz)};
       Vec3T<vfloat> f;
       vfloat gpdf;
-      gltf_value<true, true>(lobe, ld(e_o), ld(e_s), WO, wi, f, gpdf);
+      value(ld(e_s), wi, f, gpdf);
       const M g_ok = WO.z > 0.f && wi.z > 0.f && gpdf > 0.f;
       ok = (Gl && g_ok) || (!Gl && ok);
       dxs = select(Gl, wi.x, dxs), dys = select(Gl, wi.y, dys), wz0 = select(Gl, wi.z, wz0);

@@ -9,7 +9,7 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian and glTF polygons are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of
+// Lambertian, glTF and plastic polygons are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of
 // work.
 #pragma once
 #include <algorithm>
@@ -44,17 +44,17 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 inline bool lambert_lane_material(const Material& m) {  // what the lanes shade: untextured, not emitting
   return is_lambertian(m) && !has_textures(m) && is_black(m.emission);
 }
-// glTF's metallic–roughness lobe, rough (a smooth one's Dirac lobe takes shade_vertex), untextured, not emitting;
-// only in the kernels for any material.
-inline bool gltf_lane_material(const Material& m) {
-  return m.type == MaterialType::MetallicRoughness && !effectively_smooth(m.alpha) && !has_textures(m) &&
-         is_black(m.emission);
+// The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough (a smooth layer's
+// Dirac lobe takes shade_vertex), untextured, not emitting; only in the kernels for any material.
+inline bool layered_lane_material(const Material& m) {
+  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) &&
+         !effectively_smooth(m.alpha) && !has_textures(m) && is_black(m.emission);
 }
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;
   const bool any = (features & kFeatureGeneralMaterials) != 0;
   return std::any_of(scene.materials.begin(), scene.materials.end(),
-                     [&](const Material& m) { return lambert_lane_material(m) || (any && gltf_lane_material(m)); });
+                     [&](const Material& m) { return lambert_lane_material(m) || (any && layered_lane_material(m)); });
 }
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on

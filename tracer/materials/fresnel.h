@@ -9,24 +9,25 @@
 #pragma once
 #include "core/lanes.h"
 #include "core/math.h"
+#include "core/simd_sqrt_warnings.h"
 
 namespace pt {
 
 // Exact dielectric Fresnel reflectance (pbrt-v4 eq. 9.4–9.5, FrDielectric without the side flip). Returns 1
 // under total internal reflection (sin²θt ≥ 1).
+// (std::min and std::max as the standard defines them, lane by lane too: lanes::std_min, lanes::std_max.)
+PT_SIMD_SQRT_WARNINGS_OFF  // it runs on SIMD lanes too (layered_lobe.h; every lane computed)
 template <class T>
 T fresnel_dielectric(T cos_i, T eta) {
-  using std::max;
-  using std::min;
-  using std::sqrt;
-  cos_i = min(max(cos_i, T(0)), T(1));
+  cos_i = lanes::std_min(lanes::std_max(cos_i, T(0)), T(1));
   const T sin2_t = (T(1) - cos_i * cos_i) / (eta * eta);
-  const T cos_t = sqrt(max(T(1) - sin2_t, T(0)));
+  const T cos_t = lanes::sqrt(lanes::std_max(T(1) - sin2_t, T(0)));
   const T r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
   const T r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
   // Under TIR the quotients can be 0/0 (cos_i = cos_t = 0); select discards them.
-  return select(sin2_t >= T(1), T(1), T(0.5) * (r_parl * r_parl + r_perp * r_perp));
+  return select(sin2_t >= T(1), T(1), T(0.5f) * (r_parl * r_parl + r_perp * r_perp));
 }
+PT_SIMD_SQRT_WARNINGS_ON
 
 // Minimal complex arithmetic over T (pbrt-v4 pstd::complex), enough for the conductor Fresnel equations.
 template <class T>

@@ -1,6 +1,6 @@
-// Plastic: a Lambertian base (albedo) under a dielectric coat (index m.ior, GGX roughness), coupled as in
-// Kelemen & Szirmay-Kalos 2001, "A Microfacet Based Coupled Specular-Matte BRDF Model with Importance Sampling"
-// (Eurographics short presentations):
+// Plastic: a Lambertian base (albedo) under a dielectric coat (index m.ior, GGX roughness), coupled as in Kelemen &
+// Szirmay-Kalos 2001, "A Microfacet Based Coupled Specular-Matte BRDF Model with Importance Sampling"
+// (Eurographics short presentations): layered_lobe.h's lobe with the coat's exact Fresnel,
 //   f(wo, wi) = f_coat(wo, wi) + (albedo/π) (1 − E_c(μo)) (1 − E_c(μi)) / (1 − E_c,avg),
 // where f_coat is the GGX reflection lobe of the coat with the exact dielectric Fresnel F(wo·wm) (the
 // reflection half of dielectric.h, outside → ior), E_c(μ) its directional albedo (m.energy, tabulated by
@@ -14,6 +14,7 @@
 // Reflection-only and two-sided: wo.z ≥ 0 on entry (bsdf.h mirrors to the front).
 #pragma once
 #include "materials/bsdf_sample.h"
+#include "materials/layered_lobe.h"
 #include "materials/microfacet.h"
 #include "sampling/sampling.h"
 
@@ -23,40 +24,22 @@ inline float plastic_coat_albedo(const Material& m, float cos_theta) {
   return effectively_smooth(m.alpha) ? fresnel_dielectric(cos_theta, m.ior) : m.energy(cos_theta);
 }
 
-// p_c from E_c(μo).
-inline float plastic_coat_prob(const Material& m, float ec_o) {
-  const float denom = ec_o + (1.f - ec_o) * std::max(luminance(m.albedo), 0.f);
-  return denom > 0.f ? ec_o / denom : 1.f;
-}
-
-// The diffuse term from E_c(μo) and μi.
-inline Rgb plastic_diffuse(const Material& m, float ec_o, float cos_i) {
-  const float one_minus_avg = 1.f - m.energy.e_avg;
-  if (!(one_minus_avg > 0.f)) return Rgb(0.f);
-  const float s = (1.f - ec_o) * (1.f - plastic_coat_albedo(m, cos_i)) / one_minus_avg;
-  return m.albedo * (kInvPi * s);
+// The coupled lobe of layered_lobe.h with the coat's exact Fresnel: its f and pdf are written there once for one
+// path and for the SIMD shading lanes (integrators/shading_lanes.h).
+inline LayeredLobe<float> plastic_lobe(const Material& m) {
+  return {{0.f, 0.f, 0.f}, m.ior, true, lanes::of(m.albedo), std::max(luminance(m.albedo), 0.f),
+          1.f - m.energy.e_avg, m.alpha};
 }
 
 // f (kF) and pdf (kPdf) (BsdfValue) for wo.z > 0 and wi.z > 0, given E_c(μo) = ec_o (a sample has it from its
-// lobe choice): the half vector and D computed once.
+// lobe choice).
 template <bool kF, bool kPdf>
 inline BsdfValue plastic_value_at(const Material& m, float ec_o, Vec3 wo, Vec3 wi) {
-  BsdfValue r;
-  const Vec3 h = wo + wi;
-  const bool rough = !effectively_smooth(m.alpha) && glm::dot(h, h) > 0.f;
-  const Vec3 wm = rough ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
-  const float d = rough ? ggx_d(wm, m.alpha) : 0.f;
-  if constexpr (kF) {
-    r.f = plastic_diffuse(m, ec_o, wi.z);
-    if (rough)
-      r.f += 0.25f * d * ggx_g2_over_cos2(wo, wi, m.alpha) * fresnel_dielectric(glm::dot(wo, wm), m.ior);
-  }
-  if constexpr (kPdf) {
-    const float p_c = plastic_coat_prob(m, ec_o);
-    r.pdf = (1.f - p_c) * cosine_hemisphere_pdf(wi.z);
-    if (rough) r.pdf += p_c * ggx_reflection_pdf(wo, wm, d, m.alpha);
-  }
-  return r;
+  const float ec_i = kF ? plastic_coat_albedo(m, wi.z) : 0.f;
+  lanes::Vec3T<float> f{0.f, 0.f, 0.f};
+  float pdf = 0.f;
+  layered_value<LayerFresnel::Dielectric, kF, kPdf>(plastic_lobe(m), ec_o, ec_i, lanes::of(wo), lanes::of(wi), f, pdf);
+  return {lanes::to_vec3(f), pdf};
 }
 
 // The same for any directions (0 below the surface).
@@ -72,7 +55,7 @@ inline float plastic_pdf(const Material& m, Vec3 wo, Vec3 wi) { return plastic_v
 inline bool plastic_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfSample& out) {
   if (!(wo.z > 0.f)) return false;
   const float ec_o = plastic_coat_albedo(m, wo.z);
-  const float p_c = plastic_coat_prob(m, ec_o);
+  const float p_c = layer_prob<LayerFresnel::Dielectric>(plastic_lobe(m), wo.z, ec_o);
   const bool coat = uc < p_c;
   if (effectively_smooth(m.alpha) && coat) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
