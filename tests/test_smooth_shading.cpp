@@ -19,6 +19,7 @@
 #include "geometry/interaction.h"
 #include "geometry/scene_queries.h"
 #include "integrators/wavefront.h"
+#include "materials/texture.h"
 #include "render/renderer.h"
 #include "scene/estimator_choice.h"
 #include "scene/scene.h"
@@ -115,7 +116,7 @@ TEST_CASE("smooth shading: the bent normal keeps the mirror reflection above the
 namespace {
 
 // A unit sphere at the origin as `rings` × 2·`rings` quads split into triangles (outward fronts), with the exact
-// sphere normals at the vertices when `smooth`.
+// sphere normals at the vertices and a latitude–longitude texture mapping when `smooth`.
 void add_tessellated_sphere(SceneDesc& s, int rings, bool smooth) {
   auto shading = std::make_shared<std::vector<TriangleShading>>();
   const int segments = 2 * rings;
@@ -126,15 +127,24 @@ void add_tessellated_sphere(SceneDesc& s, int rings, bool smooth) {
   for (int j = 0; j < rings; ++j)
     for (int i = 0; i < segments; ++i) {
       const DVec3 q[4] = {vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)};
+      const Vec2 quv[4] = {Vec2(float(i) / segments, float(j) / rings), Vec2(float(i + 1) / segments, float(j) / rings),
+                           Vec2(float(i + 1) / segments, float(j + 1) / rings),
+                           Vec2(float(i) / segments, float(j + 1) / rings)};
       for (const std::array<int, 3>& t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
         std::array<DVec3, 3> v{q[t[0]], q[t[1]], q[t[2]]};
+        std::array<Vec2, 3> uv{quv[t[0]], quv[t[1]], quv[t[2]]};
         if (degenerate_triangle(v[0], v[1], v[2])) continue;  // the poles' collapsed corners
-        if (glm::dot(glm::cross(v[1] - v[0], v[2] - v[0]), v[0] + v[1] + v[2]) < 0.0) std::swap(v[1], v[2]);
+        if (glm::dot(glm::cross(v[1] - v[0], v[2] - v[0]), v[0] + v[1] + v[2]) < 0.0) {
+          std::swap(v[1], v[2]);
+          std::swap(uv[1], uv[2]);
+        }
         ShapeDesc tri;
         tri.type = ShapeType::Triangle;
         tri.vertices = {v[0], v[1], v[2], DVec3(0.0)};
         if (smooth) {
           TriangleShading sh;
+          sh.uv = uv;
+          sh.has_uv = true;
           for (int k = 0; k < 3; ++k) sh.normal[k] = Vec3(v[k]);
           tri.shading = static_cast<uint32_t>(shading->size());
           shading->push_back(sh);
@@ -390,6 +400,56 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       floor.roughness = cases[c].floor_roughness;
       const auto scene = compile_scene(d);
       REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+      CAPTURE(kind);
+      CAPTURE(c);
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
+// Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
+// albedo image on the Lambert, glTF and plastic lobes, glTF's metallic–roughness image (whose darkest texels make
+// the lobe smooth: those hits go back to shade_vertex), and a normal map, which sends its hits to shade_vertex.
+// The sphere has texture coordinates where smooth (kind 2); the flat one (kind 1) has none, and its textured hits
+// take shade_vertex. The floor's texture coordinates are 0 (one texel).
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on textured materials") {
+  std::vector<float> checker, ramp;  // 8 × 8 texels
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const float c = (x + y) % 2 ? 0.9f : 0.2f;
+      checker.insert(checker.end(), {c, 0.5f * c + 0.1f, 0.3f});
+      // metallic–roughness: roughness × green (0 to 1 along x: the first column smooth), metallic × blue
+      ramp.insert(ramp.end(), {0.f, float(x) / 7.f, float(y) / 7.f});
+    }
+  const auto colours = make_texture(8, 8, checker, TextureWrap::Repeat, TextureWrap::Repeat, "checker");
+  const auto mr = make_texture(8, 8, ramp, TextureWrap::Repeat, TextureWrap::Repeat, "ramp");
+  const auto bumps = make_texture(1, 1, {0.7f, 0.55f, 0.9f}, TextureWrap::Repeat, TextureWrap::Repeat, "tilt");
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 4; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 3;
+      MaterialDesc& ball = d.materials[0];
+      MaterialDesc& floor = d.materials.back();
+      ball.albedo_map = colours;
+      if (c == 1 || c == 3) floor.albedo_map = colours;
+      if (c == 1) {  // glTF ball with both images; Lambert floor
+        ball.type = MaterialType::MetallicRoughness;
+        ball.roughness = 0.8f;
+        ball.metallic = 1.f;
+        ball.metallic_roughness_map.texture = mr;
+      } else if (c == 2) {  // plastic ball; glTF floor with the metallic–roughness image
+        ball.type = MaterialType::Plastic;
+        ball.roughness = 0.4f;
+        floor.type = MaterialType::MetallicRoughness;
+        floor.roughness = 0.9f;
+        floor.metallic = 1.f;
+        floor.metallic_roughness_map.texture = mr;
+      } else if (c == 3) {  // a normal map on the ball
+        ball.normal_map.texture = bumps;
+      }
+      const auto scene = compile_scene(d);
+      REQUIRE(scene->features.textures);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()) == (kind == 2 || c == 0));
       CAPTURE(kind);
       CAPTURE(c);
       check_lanes_match_scalar_loop(d);

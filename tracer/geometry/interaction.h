@@ -65,6 +65,18 @@ template <class T>
   return lift;
 }
 
+// The texture coordinates of a hit at barycentrics (b0, b1, b2) of a triangle with vertex uv and barycentric
+// gradients `dual`, and their gradients along the surface (it.uv, it.du_dp, it.dv_dp): vertex_shading's, and the
+// shading lanes' for a textured hit (integrators/shading_lanes.h).
+inline void surface_uv(const std::array<Vec2, 3>& uv, float b0, float b1, float b2, const std::array<Vec3, 2>& dual,
+                       Interaction& it) {
+  it.uv = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
+  // u = u0 + b1·(u1 − u0) + b2·(u2 − u0), and b1, b2 have the gradients `dual` (PolygonSoA::dual).
+  const Vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
+  it.du_dp = e1.x * dual[0] + e2.x * dual[1];
+  it.dv_dp = e1.y * dual[0] + e2.y * dual[1];
+}
+
 // The shading normal, texture coordinates and terminator offset of a hit at barycentrics (b0, b1, b2) of a
 // triangle with (camera-relative) vertices v, per-vertex normals n and uv, and barycentric gradients `dual`:
 // - ns interpolates the vertex normals (Phong), turned to ng's side, so that the winding of the triangle keeps
@@ -94,11 +106,7 @@ inline void vertex_shading(const std::array<Vec3, 3>& n, const std::array<Vec2, 
     const Vec4 mix = b0 * t[0] + b1 * t[1] + b2 * t[2];
     if (mix.w != 0.f) it.tangent = Vec4(Vec3(mix), (mix.w < 0.f ? -1.f : 1.f) * side);
   }
-  it.uv = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
-  // u = u0 + b1·(u1 − u0) + b2·(u2 − u0), and b1, b2 have the gradients `dual` (PolygonSoA::dual).
-  const Vec2 e1 = uv[1] - uv[0], e2 = uv[2] - uv[0];
-  it.du_dp = e1.x * dual[0] + e2.x * dual[1];
-  it.dv_dp = e1.y * dual[0] + e2.y * dual[1];
+  surface_uv(uv, b0, b1, b2, dual, it);
   if (flat) return;
   const lanes::Vec3T<float> vl[3] = {lanes::of(v[0]), lanes::of(v[1]), lanes::of(v[2])};
   const Vec3 lift = lanes::to_vec3(terminator_lift(nl, vl, b, lanes::of(it.p), side));

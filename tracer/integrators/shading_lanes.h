@@ -2,29 +2,32 @@
 // (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of
 // a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough
 // coupled lobe of layered_lobe.h (layered_value, layer_prob) that glTF's metallic–roughness material and the
-// plastic are, lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any other light's sample (sample_li)
-// is taken one lane at a time and weighed in the lanes. The scene data of the kLanes paths is gathered into arrays
-// (structure of arrays), then every step runs on std::experimental::native_simd<float> lanes (one vector per
-// quantity: kLanes = its width). The formulas both loops share are written once over the number type
-// (core/lanes.h) and instantiated here for vfloat: the shading frame (frame_tangents), the Lambert lobe and its
-// cosine-weighted sample and pdf (lambert_f, cosine_hemisphere), the layered lobe's f and pdf, the power heuristic,
-// vertex_shading's normal and terminator offset, the spawned ray's origin (lanes::offset_point) and the roulette's
-// survival. The rest performs exactly the float operations of the scalar functions, in the same order (glm's
-// vector operators evaluate component-wise, dot products as (x + y) + z; -ffp-contract=off keeps multiplies and
-// adds apart; std::max is (a < b) ? b : a), so a path's radiance is bit-identical to the scalar loop's (tested by
-// the wavefront and smooth-shading tests, which compare images byte for byte). (Plain loops over the arrays were
-// tried first: GCC 12 vectorised none of them and the code ran 40 % slower than the scalar path;
-// docs/performance.md.)
+// plastic are, lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any
+// other light's sample (sample_li) is taken one lane at a time and weighed in the lanes. The scene data of the
+// kLanes paths is gathered into arrays (structure of arrays), then every step runs on
+// std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both
+// loops share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading
+// frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf (lambert_f, cosine_hemisphere),
+// the layered lobe's f and pdf, the power heuristic, vertex_shading's normal and terminator offset, the spawned
+// ray's origin (lanes::offset_point) and the roulette's survival. The rest performs exactly the float operations
+// of the scalar functions, in the same order (glm's vector operators evaluate component-wise, dot products as
+// (x + y) + z; -ffp-contract=off keeps multiplies and adds apart; std::max is (a < b) ? b : a), so a path's
+// radiance is bit-identical to the scalar loop's (tested by the wavefront and smooth-shading tests, which compare
+// images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised none of them and the
+// code ran 40 % slower than the scalar path; docs/performance.md.)
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
-// they take is wavefront.h's (lambert_lane_material, layered_lane_material). On a smooth-shaded mesh they shade as
-// shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted point. A lane takes the
-// scalar path instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits,
-// or has another material (a textured one, a smooth glTF one), or when no light can reach it, or where
-// shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below the
-// bounce limit. What stays one lane at a time: the gathers, the light choice, the other lights' samples, the 1D
-// random numbers, the glTF layer's albedo (a table lookup) and its visible-normal sample (sin and cos).
+// they take is wavefront.h's (lambert_lane_material, layered_lane_material, lane_textures). On a smooth-shaded
+// mesh they shade as shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted
+// point. A textured material (its albedo's and glTF's metallic–roughness images) is resolved at the hit by the
+// scalar material_at, one lane at a time, over the ray cone shade_vertex filters with. A lane takes the scalar path
+// instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has
+// another material (a normal map, a smooth layer), or textures on a mesh without texture coordinates, or when no
+// light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller
+// uses the lanes only below the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the
+// light choice, the other lights' samples, the 1D random numbers, the layer's albedo (a table lookup) and its
+// visible-normal sample (sin and cos).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -122,8 +125,30 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     layered[l] = coat[l] = 0.f;
   }
   int lanes_active = 0;
-  bool any_layered = false, any_coat = false;
+  bool any_layered = false, any_coat = false, any_textured = false;
+  // The material a lane shades with (mats[l]): the scene's, or for a textured one its copy with what its images
+  // say at the hit (material_at, into resolved[l], once the hit's texture coordinates are known).
+  const Material* mats[N];
+  MaterialScratch resolved[N];
+  alignas(64) uint8_t textured[N];
+  // What the lanes read of lane l's material.
+  const auto take_material = [&](int l, const Material& m) {
+    mats[l] = &m;
+    alb_r[l] = m.albedo.x, alb_g[l] = m.albedo.y, alb_b[l] = m.albedo.z;
+    if (kM == MaterialSet::Any && m.type != MaterialType::Diffuse) {
+      const bool plastic = m.type == MaterialType::Plastic;
+      const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
+      layered[l] = 1.f;
+      coat[l] = plastic ? 1.f : 0.f;
+      g_f0r[l] = g.f0.x, g_f0g[l] = g.f0.y, g_f0b[l] = g.f0.z;
+      g_dr[l] = g.diffuse.x, g_dg[l] = g.diffuse.y, g_db[l] = g.diffuse.z;
+      g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha, g_eta[l] = g.eta;
+      any_layered = true;
+      any_coat = any_coat || plastic;
+    }
+  };
   for (int l = 0; l < k; ++l) {
+    textured[l] = 0;
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
     if (prim >= s.sphere_begin()) continue;  // a sphere or an instance's triangle: the scalar path
@@ -131,19 +156,16 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     if constexpr (kM == MaterialSet::Any) {
-      if (layered_lane_material(m)) {
-        const bool plastic = m.type == MaterialType::Plastic;
-        const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
-        layered[l] = 1.f;
-        coat[l] = plastic ? 1.f : 0.f;
-        g_f0r[l] = g.f0.x, g_f0g[l] = g.f0.y, g_f0b[l] = g.f0.z;
-        g_dr[l] = g.diffuse.x, g_dg[l] = g.diffuse.y, g_db[l] = g.diffuse.z;
-        g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha, g_eta[l] = g.eta;
-        any_layered = true;
-        any_coat = any_coat || plastic;
-      } else if (!lambert_lane_material(m)) {
-        continue;
+      if (!lambert_lane_material(m) && !layered_lane_material(m)) continue;
+      if (has_textures(m)) {
+        if (!smooth_scene) continue;  // no texture coordinates: the scalar path
+        textured[l] = 1;  // its material once the hit is known
+        any_textured = true;
+      } else {
+        take_material(l, m);
       }
+    } else {
+      take_material(l, m);
     }
     const PathState& p = paths[ids[l]];
     ox[l] = p.ray.o.x, oy[l] = p.ray.o.y, oz[l] = p.ray.o.z;
@@ -167,25 +189,16 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
       for (int v = 0; v < 3; ++v) vn[v][0][l] = vns[v].x, vn[v][1][l] = vns[v].y, vn[v][2][l] = vns[v].z;
     }
     quad[l] = P.triangle[prim] ? 0.f : 1.f;
-    alb_r[l] = m.albedo.x, alb_g[l] = m.albedo.y, alb_b[l] = m.albedo.z;
     beta_r[l] = p.beta.x, beta_g[l] = p.beta.y, beta_b[l] = p.beta.z;
     eta[l] = p.eta_scale;
     active[l] = 1;
     ++lanes_active;
   }
   if (lanes_active == 0) return;  // nothing for the lanes: every path takes shade_vertex
-  if (any_layered)  // the other lanes' harmless lobe
-    for (int l = 0; l < N; ++l)
-      if (layered[l] == 0.f) {
-        g_f0r[l] = g_f0g[l] = g_f0b[l] = 0.04f;
-        g_dr[l] = g_dg[l] = g_db[l] = g_dlum[l] = 0.f;
-        g_oma[l] = g_alpha[l] = 1.f;
-        g_eta[l] = 1.5f;
-      }
 
   // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, re-interpolated point; on a
   // smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted).
-  alignas(64) float px[N], py[N], pz[N], ex[N], ey[N], ez[N];
+  alignas(64) float px[N], py[N], pz[N], ex[N], ey[N], ez[N], bary[3][N];
   alignas(64) float nsx[N], nsy[N], nsz[N], lfx[N], lfy[N], lfz[N], lifted[N];
   {
     const vfloat T = ld(t), Ax = ld(ax), Ay = ld(ay), Az = ld(az);
@@ -210,6 +223,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     }
     const Vec3T<vfloat> p{(b0 * Ax + b1 * Bx) + b2 * Cx, (b0 * Ay + b1 * By) + b2 * Cy, (b0 * Az + b1 * Bz) + b2 * Cz};
     st(px, p.x), st(py, p.y), st(pz, p.z);
+    if (any_textured) st(bary[0], b0), st(bary[1], b1), st(bary[2], b2);
     constexpr float g7 = gamma_bound(7);
     st(ex, g7 * ((stdx::abs(b0 * Ax) + stdx::abs(b1 * Bx)) + stdx::abs(b2 * Cx)));
     st(ey, g7 * ((stdx::abs(b0 * Ay) + stdx::abs(b1 * By)) + stdx::abs(b2 * Cy)));
@@ -234,6 +248,32 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
       st(lifted, select(up, vfloat(1.f), vfloat(0.f)));
     }
   }
+
+  // ---- A textured lane's material at its hit (one lane at a time): vertex_shading's texture coordinates, then
+  // material_at over the ray cone shade_vertex filters with. A metallic–roughness image that makes the lobe
+  // smooth there sends the lane to the scalar path.
+  if (kM == MaterialSet::Any && any_textured)
+    for (int l = 0; l < k; ++l) {
+      if (!textured[l]) continue;
+      const uint32_t prim = hits[l].prim;
+      const PathState& p = paths[ids[l]];
+      Interaction it;
+      it.prim = prim;
+      it.material = material[l];
+      it.ng = P.normal[prim];
+      surface_uv(s.shading.uv[prim], bary[0][l], bary[1][l], bary[2][l], P.dual[prim][0], it);
+      const Material& m = material_at<kM>(s, it, p.ray.d, p.cone_width + p.cone_spread * hits[l].t, resolved[l]);
+      if (layered_lane_material(m) || is_lambertian(m)) take_material(l, m);
+      else active[l] = 0;
+    }
+  if (any_layered)  // the other lanes' harmless lobe
+    for (int l = 0; l < N; ++l)
+      if (layered[l] == 0.f) {
+        g_f0r[l] = g_f0g[l] = g_f0b[l] = 0.04f;
+        g_dr[l] = g_dg[l] = g_db[l] = g_dlum[l] = 0.f;
+        g_oma[l] = g_alpha[l] = 1.f;
+        g_eta[l] = 1.5f;
+      }
 
   // ---- The shading frame (Frame::from_normal) about the front geometric normal, or on a smooth-shaded hit the
   // shading normal (shade_vertex: smooth where it.ns != it.ng); wo's z in it; the lit side's geometric normal.
@@ -339,8 +379,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   Vec3T<vfloat> WO{};
   alignas(64) float e_o[N], wo_x[N], wo_y[N], wo_z[N];  // E(μo); WO one lane at a time
   const auto layer_albedo = [&](int l, float mu) {
-    const Material& m = s.materials[material[l]];
-    return coat[l] != 0.f ? plastic_coat_albedo(m, mu) : gltf_layer_albedo(m, mu);
+    return coat[l] != 0.f ? plastic_coat_albedo(*mats[l], mu) : gltf_layer_albedo(*mats[l], mu);
   };
   const auto value = [&](const vfloat& e_i, const Vec3T<vfloat>& wi, Vec3T<vfloat>& f, vfloat& pdf) {
     if (any_coat) layered_value<LayerFresnel::Either, true, true>(lobe, ld(e_o), e_i, WO, wi, f, pdf);
@@ -515,8 +554,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
       it.p = Vec3(px[l], py[l], pz[l]);
       it.ng = Vec3(ngx[l], ngy[l], ngz[l]);
       it.ns = smooth_scene ? Vec3(nsx[l], nsy[l], nsz[l]) : it.ng;
-      p.features.at_vertex<kM>(static_cast<int>(depth), p.ray.o, it, -p.ray.d,
-                                                 s.materials[material[l]], false, p.L);
+      p.features.at_vertex<kM>(static_cast<int>(depth), p.ray.o, it, -p.ray.d, *mats[l], false, p.L);
     }
     if (traced[l] != 0.f) ++count.rays;
     if (shadow_ok[l] != 0.f) {

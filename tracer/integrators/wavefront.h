@@ -9,8 +9,8 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian, glTF and plastic polygons are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of
-// work.
+// Lambertian, glTF and plastic polygons, textured or not, are shaded in SIMD lanes (shading_lanes.h), and each
+// stage's loop runs one kind of work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -41,20 +41,29 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 // where some material is one the lanes take (a scene of others alone would only pay for their gathers).
 // Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
-inline bool lambert_lane_material(const Material& m) {  // what the lanes shade: untextured, not emitting
-  return is_lambertian(m) && !has_textures(m) && is_black(m.emission);
+//
+// The images the lanes read at a hit (through material_at, in the kernels for any material, on meshes with
+// texture coordinates): the albedo's and glTF's metallic–roughness texture. A normal map or an emission map sends
+// the hit to shade_vertex.
+inline bool lane_textures(const Material& m) { return !m.normal_map.texture && !m.emission_map.texture; }
+// The Lambert lobe, not emitting.
+inline bool lambert_lane_material(const Material& m) {
+  return is_lambertian(m) && lane_textures(m) && is_black(m.emission);
 }
 // The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough (a smooth layer's
-// Dirac lobe takes shade_vertex), untextured, not emitting; only in the kernels for any material.
+// Dirac lobe takes shade_vertex, and so does a hit where the metallic–roughness texture makes it smooth), not
+// emitting; only in the kernels for any material.
 inline bool layered_lane_material(const Material& m) {
   return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) &&
-         !effectively_smooth(m.alpha) && !has_textures(m) && is_black(m.emission);
+         !effectively_smooth(m.alpha) && lane_textures(m) && is_black(m.emission);
 }
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;
   const bool any = (features & kFeatureGeneralMaterials) != 0;
-  return std::any_of(scene.materials.begin(), scene.materials.end(),
-                     [&](const Material& m) { return lambert_lane_material(m) || (any && layered_lane_material(m)); });
+  return std::any_of(scene.materials.begin(), scene.materials.end(), [&](const Material& m) {
+    if (has_textures(m) && scene.shading.empty()) return false;  // no texture coordinates: shade_vertex
+    return lambert_lane_material(m) || (any && layered_lane_material(m));
+  });
 }
 
 // Whether settings.path_loop runs the wavefront loop (select_batch_kernel's choice). PathLoop::Auto takes it on
