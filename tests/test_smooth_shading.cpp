@@ -408,9 +408,10 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 
 // Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
 // albedo image on the Lambert, glTF and plastic lobes, glTF's metallic–roughness image (whose darkest texels make
-// the lobe smooth: those hits go back to shade_vertex), and a normal map, which sends its hits to shade_vertex.
-// The sphere has texture coordinates where smooth (kind 2); the flat one (kind 1) has none, and its textured hits
-// take shade_vertex. The floor's texture coordinates are 0 (one texel).
+// the lobe smooth: those hits go back to shade_vertex), and a normal map, which tilts the shading normal (where
+// that bends it too far for the view, the hit goes back to shade_vertex). The sphere has texture coordinates where
+// smooth (kind 2); the flat one (kind 1) has none, and its textured hits take shade_vertex. The floor's texture
+// coordinates are 0 (one texel).
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on textured materials") {
   std::vector<float> checker, ramp;  // 8 × 8 texels
   for (int y = 0; y < 8; ++y)
@@ -444,8 +445,9 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
         floor.roughness = 0.9f;
         floor.metallic = 1.f;
         floor.metallic_roughness_map.texture = mr;
-      } else if (c == 3) {  // a normal map on the ball
+      } else if (c == 3) {  // a normal map on the ball and on the (flat) floor
         ball.normal_map.texture = bumps;
+        floor.normal_map.texture = bumps;
       }
       const auto scene = compile_scene(d);
       REQUIRE(scene->features.textures);

@@ -20,10 +20,10 @@
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
 // they take is wavefront.h's (lambert_lane_material, layered_lane_material, lane_textures). On a smooth-shaded
 // mesh they shade as shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted
-// point. A textured material (its albedo's and glTF's metallic–roughness images) is resolved at the hit by the
-// scalar material_at, one lane at a time, over the ray cone shade_vertex filters with. A lane takes the scalar path
-// instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has
-// another material (a normal map, a smooth layer), or textures on a mesh without texture coordinates, or when no
+// point. A textured material (its albedo's, glTF's metallic–roughness and normal images) is resolved at the hit by
+// the scalar material_at, one lane at a time, over the ray cone shade_vertex filters with. A lane takes the scalar
+// path instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has
+// another material (a smooth layer), or textures on a mesh without texture coordinates, or when no
 // light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller
 // uses the lanes only below the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the
 // light choice, the other lights' samples, the 1D random numbers, the layer's albedo (a table lookup) and its
@@ -250,8 +250,8 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   }
 
   // ---- A textured lane's material at its hit (one lane at a time): vertex_shading's texture coordinates, then
-  // material_at over the ray cone shade_vertex filters with. A metallic–roughness image that makes the lobe
-  // smooth there sends the lane to the scalar path.
+  // material_at over the ray cone shade_vertex filters with; a normal map bends the shading normal there. A
+  // metallic–roughness image that makes the lobe smooth there sends the lane to the scalar path.
   if (kM == MaterialSet::Any && any_textured)
     for (int l = 0; l < k; ++l) {
       if (!textured[l]) continue;
@@ -261,10 +261,12 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
       it.prim = prim;
       it.material = material[l];
       it.ng = P.normal[prim];
+      it.ns = Vec3(nsx[l], nsy[l], nsz[l]);
       surface_uv(s.shading.uv[prim], bary[0][l], bary[1][l], bary[2][l], P.dual[prim][0], it);
       const Material& m = material_at<kM>(s, it, p.ray.d, p.cone_width + p.cone_spread * hits[l].t, resolved[l]);
       if (layered_lane_material(m) || is_lambertian(m)) take_material(l, m);
       else active[l] = 0;
+      nsx[l] = it.ns.x, nsy[l] = it.ns.y, nsz[l] = it.ns.z;
     }
   if (any_layered)  // the other lanes' harmless lobe
     for (int l = 0; l < N; ++l)

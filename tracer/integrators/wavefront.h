@@ -43,9 +43,9 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
 //
 // The images the lanes read at a hit (through material_at, in the kernels for any material, on meshes with
-// texture coordinates): the albedo's and glTF's metallic–roughness texture. A normal map or an emission map sends
-// the hit to shade_vertex.
-inline bool lane_textures(const Material& m) { return !m.normal_map.texture && !m.emission_map.texture; }
+// texture coordinates): the albedo's, glTF's metallic–roughness and the normal map. An emission map sends the hit
+// to shade_vertex (with the emission's MIS weight).
+inline bool lane_textures(const Material& m) { return !m.emission_map.texture; }
 // The Lambert lobe, not emitting.
 inline bool lambert_lane_material(const Material& m) {
   return is_lambertian(m) && lane_textures(m) && is_black(m.emission);
