@@ -406,6 +406,43 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
     }
 }
 
+// And the rough conductor (materials/conductor.h: Schlick's Fresnel through its albedo or a metal's complex index,
+// Kulla–Conty's compensation), beside the Lambert, plastic and glTF lobes and itself with the other Fresnel in one
+// packet; a smooth one (a Dirac lobe) goes to shade_vertex; flat and smooth-shaded, textured where smooth.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on rough conductors") {
+  const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
+                                    TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 4; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 3;
+      MaterialDesc& ball = d.materials[0];
+      MaterialDesc& floor = d.materials.back();
+      ball.type = MaterialType::Conductor;
+      ball.albedo = Rgb(0.95f, 0.7f, 0.4f);
+      ball.roughness = c == 3 ? 0.f : 0.25f + 0.15f * static_cast<float>(c);
+      if (c == 1) ball.metal = MetalPreset::Gold;
+      if (c == 2) {
+        ball.albedo_map = colours;
+        floor.type = MaterialType::Conductor;
+        floor.metal = MetalPreset::Copper;
+        floor.roughness = 0.6f;
+      } else if (c == 1) {
+        floor.type = MaterialType::Plastic;
+        floor.roughness = 0.4f;
+      } else if (c == 3) {
+        floor.type = MaterialType::MetallicRoughness;
+        floor.roughness = 0.5f;
+      }
+      const auto scene = compile_scene(d);
+      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
+      CAPTURE(kind);
+      CAPTURE(c);
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
 // Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
 // albedo image on the Lambert, glTF and plastic lobes, glTF's metallic–roughness image (whose darkest texels make
 // the lobe smooth: those hits go back to shade_vertex), and a normal map, which tilts the shading normal (where

@@ -74,6 +74,12 @@ template <class T>
 [[gnu::always_inline]] inline vmask isfinite(const vfloat& x) { return stdx::isfinite(x); }
 [[gnu::always_inline]] inline bool isinf(float x) { return std::isinf(x); }
 [[gnu::always_inline]] inline vmask isinf(const vfloat& x) { return stdx::isinf(x); }
+// std::copysign(a, b): |a| with b's sign bit.
+[[gnu::always_inline]] inline float copysign(float a, float b) { return std::copysign(a, b); }
+[[gnu::always_inline]] inline vfloat copysign(const vfloat& a, const vfloat& b) {
+  const vfloat m = stdx::abs(a);
+  return select(stdx::signbit(b), -m, m);
+}
 // std::copysign(1, x): the sign bit of x as ±1.
 [[gnu::always_inline]] inline float sign_of(float x) { return std::copysign(1.f, x); }
 [[gnu::always_inline]] inline vfloat sign_of(const vfloat& x) {

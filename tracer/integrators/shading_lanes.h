@@ -1,14 +1,14 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
 // (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of
-// a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough
-// coupled lobe of layered_lobe.h (layered_value, layer_prob) that glTF's metallic–roughness material and the
-// plastic are, lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any
+// a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes
+// of lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the rough
+// conductor), lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any
 // other light's sample (sample_li) is taken one lane at a time and weighed in the lanes. The scene data of the
 // kLanes paths is gathered into arrays (structure of arrays), then every step runs on
 // std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both
 // loops share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading
 // frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf (lambert_f, cosine_hemisphere),
-// the layered lobe's f and pdf, the power heuristic, vertex_shading's normal and terminator offset, the spawned
+// the rough lobes' f and pdf, the power heuristic, vertex_shading's normal and terminator offset, the spawned
 // ray's origin (lanes::offset_point) and the roulette's survival. The rest performs exactly the float operations
 // of the scalar functions, in the same order (glm's vector operators evaluate component-wise, dot products as
 // (x + y) + z; -ffp-contract=off keeps multiplies and adds apart; std::max is (a < b) ? b : a), so a path's
@@ -18,22 +18,23 @@
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
-// they take is wavefront.h's (lambert_lane_material, layered_lane_material, lane_textures). On a smooth-shaded
-// mesh they shade as shade_vertex does: the frame about the interpolated normal, rays leaving from the lifted
-// point. A textured material (its albedo's, glTF's metallic–roughness and normal images) is resolved at the hit by
-// the scalar material_at, one lane at a time, over the ray cone shade_vertex filters with. A lane takes the scalar
-// path instead (the caller runs shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has
-// another material (a smooth layer), or textures on a mesh without texture coordinates, or when no
-// light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller
-// uses the lanes only below the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the
-// light choice, the other lights' samples, the 1D random numbers, the layer's albedo (a table lookup) and its
-// visible-normal sample (sin and cos).
+// they take is wavefront.h's (lane_material, lane_textures). On a smooth-shaded mesh they shade as shade_vertex
+// does: the frame about the interpolated normal, rays leaving from the lifted point. A textured material (its
+// albedo's, glTF's metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane
+// at a time, over the ray cone shade_vertex filters with. A lane takes the scalar path instead (the caller runs
+// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material (a smooth
+// lobe, glass, subsurface), or textures on a mesh without texture coordinates, or when no light can reach it, or
+// where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only
+// below the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the
+// light choice, the other lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and
+// visible-normal samples.
 #pragma once
 #include <array>
 #include <cstdint>
 
 #include "core/simd_sqrt_warnings.h"
 #include "geometry/simd_polygons.h"
+#include "integrators/lane_lobes.h"
 #include "integrators/path_tracer.h"
 #include "integrators/wavefront.h"
 
@@ -85,10 +86,9 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   alignas(64) float general[N], g_wx[N], g_wy[N], g_wz[N], g_px[N], g_py[N], g_pz[N], g_pdf[N], g_inf[N], g_delta[N];
   // Smooth shading (vertex_shading, interaction.h): the hit polygon's three vertex normals, where the scene has any.
   alignas(64) float vn[3][3][N];  // [vertex][axis][lane]
-  // The layered lobe (materials/layered_lobe.h: LayeredLobe), on the lanes whose material is glTF's or the plastic
-  // (layered = 1; coat = 1 for the plastic's exact Fresnel), and the lobe-choice number of their BSDF sample.
-  alignas(64) float layered[N], coat[N], g_f0r[N], g_f0g[N], g_f0b[N], g_dr[N], g_dg[N], g_db[N], g_dlum[N];
-  alignas(64) float g_oma[N], g_alpha[N], g_eta[N], u_lobe[N];
+  // The rough lobes besides Lambert's (lane_lobes.h), and the lobe-choice number of their BSDF sample.
+  LaneLobes lobes;
+  alignas(64) float u_lobe[N];
   alignas(64) uint8_t active[N];
   alignas(64) uint32_t light_prim[N], material[N];
   const bool roulette = roulette_applies(static_cast<int>(depth), o.rr_depth);
@@ -122,10 +122,10 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     light_prim[l] = kNoPrimitive;
     if (smooth_scene)
       for (int v = 0; v < 3; ++v) vn[v][0][l] = vn[v][1][l] = 0.f, vn[v][2][l] = 1.f;
-    layered[l] = coat[l] = 0.f;
+    lobes.clear(l);
   }
   int lanes_active = 0;
-  bool any_layered = false, any_coat = false, any_textured = false;
+  bool any_textured = false;
   // The material a lane shades with (mats[l]): the scene's, or for a textured one its copy with what its images
   // say at the hit (material_at, into resolved[l], once the hit's texture coordinates are known).
   const Material* mats[N];
@@ -135,17 +135,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   const auto take_material = [&](int l, const Material& m) {
     mats[l] = &m;
     alb_r[l] = m.albedo.x, alb_g[l] = m.albedo.y, alb_b[l] = m.albedo.z;
-    if (kM == MaterialSet::Any && m.type != MaterialType::Diffuse) {
-      const bool plastic = m.type == MaterialType::Plastic;
-      const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
-      layered[l] = 1.f;
-      coat[l] = plastic ? 1.f : 0.f;
-      g_f0r[l] = g.f0.x, g_f0g[l] = g.f0.y, g_f0b[l] = g.f0.z;
-      g_dr[l] = g.diffuse.x, g_dg[l] = g.diffuse.y, g_db[l] = g.diffuse.z;
-      g_dlum[l] = g.diffuse_lum, g_oma[l] = g.one_minus_avg, g_alpha[l] = g.alpha, g_eta[l] = g.eta;
-      any_layered = true;
-      any_coat = any_coat || plastic;
-    }
+    if (kM == MaterialSet::Any && m.type != MaterialType::Diffuse) lobes.take(l, m);
   };
   for (int l = 0; l < k; ++l) {
     textured[l] = 0;
@@ -156,7 +146,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     const Material& m = s.materials[material[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     if constexpr (kM == MaterialSet::Any) {
-      if (!lambert_lane_material(m) && !layered_lane_material(m)) continue;
+      if (!lane_material(m)) continue;
       if (has_textures(m)) {
         if (!smooth_scene) continue;  // no texture coordinates: the scalar path
         textured[l] = 1;  // its material once the hit is known
@@ -264,18 +254,11 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
       it.ns = Vec3(nsx[l], nsy[l], nsz[l]);
       surface_uv(s.shading.uv[prim], bary[0][l], bary[1][l], bary[2][l], P.dual[prim][0], it);
       const Material& m = material_at<kM>(s, it, p.ray.d, p.cone_width + p.cone_spread * hits[l].t, resolved[l]);
-      if (layered_lane_material(m) || is_lambertian(m)) take_material(l, m);
+      if (lane_material(m)) take_material(l, m);
       else active[l] = 0;
       nsx[l] = it.ns.x, nsy[l] = it.ns.y, nsz[l] = it.ns.z;
     }
-  if (any_layered)  // the other lanes' harmless lobe
-    for (int l = 0; l < N; ++l)
-      if (layered[l] == 0.f) {
-        g_f0r[l] = g_f0g[l] = g_f0b[l] = 0.04f;
-        g_dr[l] = g_dg[l] = g_db[l] = g_dlum[l] = 0.f;
-        g_oma[l] = g_alpha[l] = 1.f;
-        g_eta[l] = 1.5f;
-      }
+  if (lobes.any()) lobes.finish();
 
   // ---- The shading frame (Frame::from_normal) about the front geometric normal, or on a smooth-shaded hit the
   // shading normal (shade_vertex: smooth where it.ns != it.ng); wo's z in it; the lit side's geometric normal.
@@ -357,7 +340,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     bux[l] = bu.x, buy[l] = bu.y;
-    if (layered[l] != 0.f) u_lobe[l] = rng.get_1d(lobe_dim);
+    if (lobes.layered[l] != 0.f || lobes.metal[l] != 0.f) u_lobe[l] = rng.get_1d(lobe_dim);
     if (roulette) u_rr[l] = rng.get_1d(rr_dim);
   }
 
@@ -373,28 +356,14 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   };
   const vfloat Wz = ld(wlz);
   const vfloat Fr = lambert_f(ld(alb_r)), Fg = lambert_f(ld(alb_g)), Fb = lambert_f(ld(alb_b));
-  // The layered lanes: their lobe, wo in the shading frame mirrored to the front (bsdf_value<Any> and
-  // bsdf_sample<Any> mirror wo and wi when wo is below), and the layer's albedo E there (a table lookup, one lane
-  // at a time: layer_albedo). Their Fresnel: Schlick's alone unless a plastic is among them.
-  const M Gl = ld(layered) != 0.f;
-  LayeredLobe<vfloat> lobe{};
-  Vec3T<vfloat> WO{};
-  alignas(64) float e_o[N], wo_x[N], wo_y[N], wo_z[N];  // E(μo); WO one lane at a time
-  const auto layer_albedo = [&](int l, float mu) {
-    return coat[l] != 0.f ? plastic_coat_albedo(*mats[l], mu) : gltf_layer_albedo(*mats[l], mu);
-  };
-  const auto value = [&](const vfloat& e_i, const Vec3T<vfloat>& wi, Vec3T<vfloat>& f, vfloat& pdf) {
-    if (any_coat) layered_value<LayerFresnel::Either, true, true>(lobe, ld(e_o), e_i, WO, wi, f, pdf);
-    else layered_value<LayerFresnel::Schlick, true, true>(lobe, ld(e_o), e_i, WO, wi, f, pdf);
-  };
-  if (kM == MaterialSet::Any && any_layered) {
-    lobe = {{ld(g_f0r), ld(g_f0g), ld(g_f0b)}, ld(g_eta), ld(coat) != 0.f, {ld(g_dr), ld(g_dg), ld(g_db)},
-            ld(g_dlum), ld(g_oma), ld(g_alpha)};
+  // The lanes with another lobe: wo in the shading frame mirrored to the front (bsdf_value<Any> and
+  // bsdf_sample<Any> mirror wo and wi when wo is below), and E(μo) there.
+  const bool any_lobe = kM == MaterialSet::Any && lobes.any();
+  const M Gl = any_lobe ? lobes.lobe_mask() : M(false);
+  if (any_lobe) {
     const Vec3T<vfloat> wo{-ld(dx), -ld(dy), -ld(dz)};
-    WO = {lanes::dot(wo, {ld(sx), ld(sy), ld(sz)}), lanes::dot(wo, {ld(tx), ld(ty), ld(tz)}), select(Wz < 0.f, -Wz, Wz)};
-    st(wo_x, WO.x), st(wo_y, WO.y), st(wo_z, WO.z);
-    for (int l = 0; l < N; ++l)
-      e_o[l] = layered[l] != 0.f ? layer_albedo(l, wo_z[l]) : 0.f;
+    lobes.at({lanes::dot(wo, {ld(sx), ld(sy), ld(sz)}), lanes::dot(wo, {ld(tx), ld(ty), ld(tz)}),
+              select(Wz < 0.f, -Wz, Wz)});
   }
   const vfloat Br = ld(beta_r), Bg = ld(beta_g), Bb = ld(beta_b);
   alignas(64) float traced[N], shadow_ok[N];
@@ -433,20 +402,16 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     M same_side;
     if constexpr (kM == MaterialSet::Lambert) same_side = Wz * wil_z > 0.f;
     else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
-    // The BSDF towards wi: ρ/π, or the layered lobe's f and pdf (layered_value, as bsdf_value<Any> evaluates it).
+    // The BSDF towards wi: ρ/π, or the other lobe's f and pdf (lane_lobes.h, as bsdf_value<Any> evaluates it).
     const vfloat cos_abs = stdx::abs(wil_z);
     vfloat nf_r = Fr, nf_g = Fg, nf_b = Fb;
     vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
-    if (kM == MaterialSet::Any && any_layered) {
+    if (any_lobe) {
       const Vec3T<vfloat> wi_l{(wix * ld(sx) + wiy * ld(sy)) + wiz * ld(sz), (wix * ld(tx) + wiy * ld(ty)) + wiz * ld(tz),
                                select(Wz < 0.f, -wil_z, wil_z)};
-      alignas(64) float wi_z[N], e_i[N];
-      st(wi_z, wi_l.z);
-      for (int l = 0; l < N; ++l)
-        e_i[l] = layered[l] != 0.f ? layer_albedo(l, wi_z[l]) : 0.f;
       Vec3T<vfloat> f;
       vfloat gpdf;
-      value(ld(e_i), wi_l, f, gpdf);
+      lobes.value(wi_l, f, gpdf);
       const vfloat zero(0.f);
       nf_r = select(Gl, select(same_side, f.x, zero), Fr);
       nf_g = select(Gl, select(same_side, f.y, zero), Fg);
@@ -488,29 +453,13 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     ok = ok && wz0 > 0.f;
     vfloat pdf = cosine_hemisphere_pdf(wz0);
     vfloat fr = Fr, fg = Fg, fb = Fb;
-    if (kM == MaterialSet::Any && any_layered) {
-      // metallic_roughness_sample and plastic_sample: the layer's lobe with probability p_s (a visible normal, drawn
-      // one lane at a time: Heitz's sampler calls sin and cos), else the cosine hemisphere; then f and pdf of the
-      // direction.
-      alignas(64) float p_s[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], e_s[N];
-      st(p_s, any_coat ? layer_prob<LayerFresnel::Either>(lobe, WO.z, ld(e_o))
-                       : layer_prob<LayerFresnel::Schlick>(lobe, WO.z, ld(e_o)));
-      st(cx, dxs), st(cy, dys), st(cz, wz0);
-      for (int l = 0; l < N; ++l) {
-        gx[l] = gy[l] = e_s[l] = 0.f;
-        gz[l] = 1.f;
-        if (layered[l] == 0.f || !(wo_z[l] > 0.f)) continue;
-        const Vec3 wo(wo_x[l], wo_y[l], wo_z[l]);
-        const Vec3 wi = u_lobe[l] < p_s[l] ? reflect(-wo, ggx_sample_vndf(wo, g_alpha[l], Vec2(bux[l], buy[l])))
-                                           : Vec3(cx[l], cy[l], cz[l]);
-        gx[l] = wi.x, gy[l] = wi.y, gz[l] = wi.z;
-        e_s[l] = layer_albedo(l, wi.z);
-      }
-      const Vec3T<vfloat> wi{ld(gx), ld(gy), ld(gz)};
-      Vec3T<vfloat> f;
+    if (any_lobe) {
+      // metallic_roughness_sample, plastic_sample and conductor_sample: the visible normal's reflection or the
+      // cosine direction, as each lane's lobe choice says; then f and pdf of the direction.
+      Vec3T<vfloat> wi, f;
       vfloat gpdf;
-      value(ld(e_s), wi, f, gpdf);
-      const M g_ok = WO.z > 0.f && wi.z > 0.f && gpdf > 0.f;
+      lobes.sample(u_lobe, bux, buy, {dxs, dys, wz0}, wi, f, gpdf);
+      const M g_ok = ld(lobes.wo[2]) > 0.f && wi.z > 0.f && gpdf > 0.f;
       ok = (Gl && g_ok) || (!Gl && ok);
       dxs = select(Gl, wi.x, dxs), dys = select(Gl, wi.y, dys), wz0 = select(Gl, wi.z, wz0);
       pdf = select(Gl, gpdf, pdf);

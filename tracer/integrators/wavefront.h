@@ -9,8 +9,8 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian, glTF and plastic polygons, textured or not, are shaded in SIMD lanes (shading_lanes.h), and each
-// stage's loop runs one kind of work.
+// Lambertian, glTF, plastic and conductor polygons, textured or not, are shaded in SIMD lanes (shading_lanes.h),
+// and each stage's loop runs one kind of work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -57,12 +57,22 @@ inline bool layered_lane_material(const Material& m) {
   return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) &&
          !effectively_smooth(m.alpha) && lane_textures(m) && is_black(m.emission);
 }
+// The rough conductor (materials/conductor.h: GGX with Kulla–Conty's compensation, Schlick's or the complex
+// index's Fresnel), not emitting; only in the kernels for any material.
+inline bool conductor_lane_material(const Material& m) {
+  return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha) && lane_textures(m) &&
+         is_black(m.emission);
+}
+// Any material the lanes shade, in the kernels for any material.
+inline bool lane_material(const Material& m) {
+  return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m);
+}
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;
   const bool any = (features & kFeatureGeneralMaterials) != 0;
   return std::any_of(scene.materials.begin(), scene.materials.end(), [&](const Material& m) {
     if (has_textures(m) && scene.shading.empty()) return false;  // no texture coordinates: shade_vertex
-    return lambert_lane_material(m) || (any && layered_lane_material(m));
+    return any ? lane_material(m) : lambert_lane_material(m);
   });
 }
 

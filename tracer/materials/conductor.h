@@ -18,6 +18,7 @@
 // hemisphere for f_ms (probability p_ms = 1 − E(μo), the share of f_ms in a white conductor's albedo); pdf is
 // the matching mixture density, and the sample returns the full f and pdf (one-sample MIS over the two lobes).
 #pragma once
+#include "core/lanes.h"
 #include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
 #include "sampling/sampling.h"
@@ -32,46 +33,94 @@ inline bool mirror_sample(const Material& m, Vec3 wo, BsdfSample& out) {
   return true;
 }
 
-inline Rgb conductor_fresnel(const Material& m, float cos_theta) {
-  return m.complex_ior ? fresnel_complex(cos_theta, m.eta, m.k) : fresnel_schlick(m.albedo, cos_theta);
-}
-
-// Probability of sampling the multiple-scattering (cosine) lobe, from E(μo).
-inline float conductor_ms_prob(const Material& m, float e_o) {
-  return m.energy.e_avg < 1.f ? std::clamp(1.f - e_o, 0.f, 1.f) : 0.f;
-}
-
-// f_ms from E(μo) and μi.
-inline Rgb conductor_ms(const Material& m, float e_o, float cos_i) {
-  const float one_minus_e_avg = 1.f - m.energy.e_avg;
-  if (!(one_minus_e_avg > 1e-6f)) return Rgb(0.f);
+// The rough lobe's parameters, over T = float (one path) or vfloat (the SIMD shading lanes,
+// integrators/shading_lanes.h, one material per lane): the formulas below are written once for both, so the lanes
+// round as one path does. E(μ) is a table lookup (m.energy) the caller makes.
+template <class T>
+struct ConductorLobe {
+  lanes::Vec3T<T> f0;      // Schlick's F0 (the albedo)
+  lanes::Vec3T<T> eta, k;  // the complex index, where m.complex_ior
+  lanes::Mask<T> complex;  // which Fresnel ConductorFresnel::Either takes: the complex index's (true) or Schlick's
+  lanes::Vec3T<T> f_ms;    // F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg))
+  T e_avg;                 // E_avg
+  T alpha;
+};
+inline ConductorLobe<float> conductor_lobe(const Material& m) {
   const Rgb& fa = m.f_avg;
-  const Rgb f_ms = fa * fa * m.energy.e_avg / (Rgb(1.f) - fa * one_minus_e_avg);
-  return f_ms * ((1.f - e_o) * (1.f - m.energy(cos_i)) / (kPi * one_minus_e_avg));
+  const Rgb f_ms = fa * fa * m.energy.e_avg / (Rgb(1.f) - fa * (1.f - m.energy.e_avg));
+  return {lanes::of(m.albedo), lanes::of(m.eta), lanes::of(m.k), m.complex_ior, lanes::of(f_ms), m.energy.e_avg, m.alpha};
 }
 
-// f (kF) and pdf (kPdf) of the rough lobes (BsdfValue) for wo.z > 0 and wi.z > 0, given E(μo) = e_o (a sample
-// has it from its lobe choice): the half vector and D computed once.
-template <bool kF, bool kPdf>
-inline BsdfValue conductor_value_at(const Material& m, float e_o, Vec3 wo, Vec3 wi) {
-  BsdfValue r;
-  const Vec3 h = wo + wi;
-  const bool has_half = glm::dot(h, h) > 0.f;
-  const Vec3 wm = has_half ? glm::normalize(h) : Vec3(0.f, 0.f, 1.f);
-  const float d = has_half ? ggx_d(wm, m.alpha) : 0.f;
+// Which Fresnel: Schlick's through F0, the complex index's, or (for lanes holding both) each lane's own.
+enum class ConductorFresnel { Schlick, Complex, Either };
+template <ConductorFresnel kC, class T>
+[[gnu::always_inline]] inline lanes::Vec3T<T> conductor_fresnel(const ConductorLobe<T>& g, const T& cos_theta) {
+  lanes::Vec3T<T> s{}, c{};
+  if constexpr (kC != ConductorFresnel::Complex) {  // fresnel_schlick
+    const T m = 1.f - lanes::std_min(lanes::std_max(cos_theta, T(0.f)), T(1.f));
+    const T m2 = m * m;
+    const T w = m2 * m2 * m;
+    s = {g.f0.x + (1.f - g.f0.x) * w, g.f0.y + (1.f - g.f0.y) * w, g.f0.z + (1.f - g.f0.z) * w};
+  }
+  if constexpr (kC != ConductorFresnel::Schlick)
+    c = {fresnel_complex(cos_theta, g.eta.x, g.k.x), fresnel_complex(cos_theta, g.eta.y, g.k.y),
+         fresnel_complex(cos_theta, g.eta.z, g.k.z)};
+  if constexpr (kC == ConductorFresnel::Schlick) return s;
+  else if constexpr (kC == ConductorFresnel::Complex) return c;
+  else return {select(g.complex, c.x, s.x), select(g.complex, c.y, s.y), select(g.complex, c.z, s.z)};
+}
+
+// Probability of sampling the multiple-scattering (cosine) lobe, from E_avg and E(μo) = e_o.
+template <class T>
+[[gnu::always_inline]] inline T conductor_ms_prob(const T& e_avg, const T& e_o) {
+  return select(e_avg < 1.f, lanes::std_clamp(1.f - e_o, T(0.f), T(1.f)), T(0.f));
+}
+
+// f (kF) and pdf (kPdf) of the rough lobes for wo.z > 0 and wi.z > 0, given E(μo) = e_o and E(μi) = e_i (read by
+// kF alone): the half vector and D computed once. f_ms is 0 where 1 − E_avg ≤ 10⁻⁶.
+template <ConductorFresnel kC, bool kF, bool kPdf, class T>
+[[gnu::always_inline]] inline void conductor_lobe_value(const ConductorLobe<T>& g, const T& e_o, const T& e_i,
+                                                        const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& wi,
+                                                        lanes::Vec3T<T>& f, T& pdf) {
+  const lanes::Vec3T<T> h{wo.x + wi.x, wo.y + wi.y, wo.z + wi.z};
+  const T h2 = lanes::dot(h, h);
+  const lanes::Mask<T> has_half = h2 > 0.f;
+  const T inv = 1.f / lanes::sqrt(h2);  // glm::normalize: h · (1/√(h·h))
+  const lanes::Vec3T<T> wm{select(has_half, h.x * inv, T(0.f)), select(has_half, h.y * inv, T(0.f)),
+                           select(has_half, h.z * inv, T(1.f))};
+  const T d = select(has_half, ggx_d(wm.x, wm.y, wm.z, g.alpha), T(0.f));
   if constexpr (kF) {
-    r.f = conductor_ms(m, e_o, wi.z);
-    if (has_half) {
-      const float d_v = d * 0.25f * ggx_g2_over_cos2(wo, wi, m.alpha);
-      r.f += d_v * conductor_fresnel(m, glm::dot(wo, wm));
-    }
+    const T one_minus_e_avg = 1.f - g.e_avg;
+    const lanes::Mask<T> ms = one_minus_e_avg > 1e-6f;
+    const T s = ((1.f - e_o) * (1.f - e_i)) / (kPi * one_minus_e_avg);
+    f = {select(ms, g.f_ms.x * s, T(0.f)), select(ms, g.f_ms.y * s, T(0.f)), select(ms, g.f_ms.z * s, T(0.f))};
+    const T d_v = d * 0.25f * ggx_g2_over_cos2(wo.x, wo.y, wo.z, wi.x, wi.y, wi.z, g.alpha);
+    const lanes::Vec3T<T> F = conductor_fresnel<kC>(g, lanes::dot(wo, wm));
+    f = {select(has_half, f.x + d_v * F.x, f.x), select(has_half, f.y + d_v * F.y, f.y),
+         select(has_half, f.z + d_v * F.z, f.z)};
   }
   if constexpr (kPdf) {
-    const float p_ms = conductor_ms_prob(m, e_o);
-    const float p_ss = has_half ? ggx_reflection_pdf(wo, wm, d, m.alpha) : 0.f;
-    r.pdf = (1.f - p_ms) * p_ss + p_ms * cosine_hemisphere_pdf(wi.z);
+    const T p_ms = conductor_ms_prob(g.e_avg, e_o);
+    // ggx_reflection_pdf: G1(wo) D/(4|wo.z|) where wo·wm > 0.
+    const T reflection = select(lanes::dot(wo, wm) > 0.f, 0.25f * ggx_g1_over_cos(wo.x, wo.y, wo.z, g.alpha) * d,
+                                T(0.f));
+    const T p_ss = select(has_half, reflection, T(0.f));
+    pdf = (1.f - p_ms) * p_ss + p_ms * cosine_hemisphere_pdf(wi.z);
   }
-  return r;
+}
+
+// The same for one path (BsdfValue), given E(μo) = e_o (a sample has it from its lobe choice).
+template <bool kF, bool kPdf>
+inline BsdfValue conductor_value_at(const Material& m, float e_o, Vec3 wo, Vec3 wi) {
+  const ConductorLobe<float> g = conductor_lobe(m);
+  const float e_i = kF ? m.energy(wi.z) : 0.f;
+  lanes::Vec3T<float> f{0.f, 0.f, 0.f};
+  float pdf = 0.f;
+  if (m.complex_ior)
+    conductor_lobe_value<ConductorFresnel::Complex, kF, kPdf>(g, e_o, e_i, lanes::of(wo), lanes::of(wi), f, pdf);
+  else
+    conductor_lobe_value<ConductorFresnel::Schlick, kF, kPdf>(g, e_o, e_i, lanes::of(wo), lanes::of(wi), f, pdf);
+  return {lanes::to_vec3(f), pdf};
 }
 
 // The same for any directions (0 where a lobe is not).
@@ -88,14 +137,14 @@ inline bool conductor_sample(const Material& m, Vec3 wo, float uc, Vec2 u, BsdfS
   if (!(wo.z > 0.f)) return false;
   if (effectively_smooth(m.alpha)) {
     const Vec3 wi(-wo.x, -wo.y, wo.z);
-    const Rgb F = conductor_fresnel(m, wo.z);
+    const Rgb F = m.complex_ior ? fresnel_complex(wo.z, m.eta, m.k) : fresnel_schlick(m.albedo, wo.z);
     if (is_black(F)) return false;
     out = {wi, F / wi.z, 1.f, BsdfFlags::Reflection | BsdfFlags::Specular, 1.f};
     return true;
   }
   const float e_o = m.energy(wo.z);
   Vec3 wi;
-  if (uc < conductor_ms_prob(m, e_o)) {
+  if (uc < conductor_ms_prob(m.energy.e_avg, e_o)) {
     wi = sample_cosine_hemisphere(u);
   } else {
     const Vec3 wm = ggx_sample_vndf(wo, m.alpha, u);

@@ -50,27 +50,24 @@ Complex<T> operator/(Complex<T> a, Complex<T> b) {
 template <class T>
 T complex_norm(Complex<T> a) { return a.re * a.re + a.im * a.im; }  // |a|²
 // Principal square root (pbrt-v4 pstd::sqrt for complex).
+PT_SIMD_SQRT_WARNINGS_OFF  // it runs on SIMD lanes too (conductor.h; every lane computed)
 template <class T>
 Complex<T> complex_sqrt(Complex<T> z) {
-  using std::abs;
-  using std::copysign;
-  using std::max;
-  using std::sqrt;
+  using lanes::abs, lanes::sqrt;
   const T n = sqrt(z.re * z.re + z.im * z.im);
-  const T t1 = sqrt(T(0.5) * (n + abs(z.re)));
-  const T t2 = T(0.5) * z.im / max(t1, T(1e-30f));
+  const T t1 = sqrt(T(0.5f) * (n + abs(z.re)));
+  const T t2 = T(0.5f) * z.im / lanes::std_max(t1, T(1e-30f));
   const T re = select(z.re >= T(0), t1, abs(t2));
-  const T im = select(z.re >= T(0), t2, copysign(t1, z.im));
+  const T im = select(z.re >= T(0), t2, lanes::copysign(t1, z.im));
   return {select(n == T(0), T(0), re), select(n == T(0), T(0), im)};
 }
+PT_SIMD_SQRT_WARNINGS_ON
 
 // Exact Fresnel reflectance of a conductor with complex relative index η + ik, unpolarised (pbrt-v4 FrComplex,
 // eq. 9.6 with the complex Snell law). Evaluate per RGB channel.
 template <class T>
 T fresnel_complex(T cos_i, T eta, T k) {
-  using std::max;
-  using std::min;
-  cos_i = min(max(cos_i, T(0)), T(1));
+  cos_i = lanes::std_min(lanes::std_max(cos_i, T(0)), T(1));
   const Complex<T> e{eta, k};
   const T sin2_i = T(1) - cos_i * cos_i;
   const Complex<T> sin2_t = Complex<T>{sin2_i, T(0)} / (e * e);
@@ -79,7 +76,7 @@ T fresnel_complex(T cos_i, T eta, T k) {
   const Complex<T> r_parl = (e * ci - cos_t) / (e * ci + cos_t);
   const Complex<T> r_perp = (ci - e * cos_t) / (ci + e * cos_t);
   // Grazing incidence reflects everything; it also avoids 0/0 for the degenerate index 1 + 0i.
-  return select(cos_i <= T(0), T(1), T(0.5) * (complex_norm(r_parl) + complex_norm(r_perp)));
+  return select(cos_i <= T(0), T(1), T(0.5f) * (complex_norm(r_parl) + complex_norm(r_perp)));
 }
 inline Rgb fresnel_complex(float cos_i, Rgb eta, Rgb k) {
   return {fresnel_complex(cos_i, eta.x, k.x), fresnel_complex(cos_i, eta.y, k.y), fresnel_complex(cos_i, eta.z, k.z)};

@@ -1,0 +1,164 @@
+// The shading lanes' rough lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per
+// lane, the coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h) or
+// the rough conductor (materials/conductor.h), each written once over the number type, so that a lane rounds as
+// bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one lane at
+// a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a kind of
+// lobe no lane holds costs nothing. What stays one lane at a time: the directional-albedo table lookups E(μ) and
+// the visible-normal sample (Heitz's sampler calls sin and cos).
+#pragma once
+#include <cstdint>
+
+#include "core/lanes.h"
+#include "core/simd_sqrt_warnings.h"
+#include "materials/conductor.h"
+#include "materials/metallic_roughness.h"
+#include "materials/plastic.h"
+
+namespace pt {
+namespace integrator_detail {
+
+PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
+struct LaneLobes {
+  static constexpr int N = kLanes;
+  using M = vmask;
+
+  // Per lane (0 or 1): the coupled lobe, the plastic's exact Fresnel in it, the conductor, its complex index.
+  alignas(64) float layered[N], coat[N], metal[N], complex[N];
+  // The lobe's parameters: f0 (the conductor's albedo); the base colour (the layered lobe's diffuse colour, the
+  // conductor's F_ms); the coat's index and the conductor's complex index; the base's luminance; 1 − E_avg
+  // (layered) or E_avg (conductor); α.
+  alignas(64) float f0[3][N], colour[3][N], eta[3][N], k[3][N], lum[N], avg[N], alpha[N];
+  alignas(64) float e_o[N], wo[3][N];  // E(μo), and wo in the shading frame mirrored to the front
+  const Material* material[N];
+  bool any_layered = false, any_coat = false, any_metal = false, any_complex = false;
+
+  bool any() const { return any_layered || any_metal; }
+  M lobe_mask() const { return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f; }
+
+  void clear(int l) { layered[l] = coat[l] = metal[l] = complex[l] = 0.f; }
+
+  // Lane l shades with m, a rough plastic, glTF or conductor material (wavefront.h: layered_lane_material,
+  // conductor_lane_material), which outlives the lanes.
+  void take(int l, const Material& m) {
+    material[l] = &m;
+    if (m.type == MaterialType::Conductor) {
+      const ConductorLobe<float> g = conductor_lobe(m);
+      metal[l] = 1.f;
+      complex[l] = m.complex_ior ? 1.f : 0.f;
+      store(l, g.f0, f0), store(l, g.f_ms, colour), store(l, g.eta, eta), store(l, g.k, k);
+      avg[l] = g.e_avg, alpha[l] = g.alpha;
+      any_metal = true;
+      any_complex = any_complex || m.complex_ior;
+      return;
+    }
+    const bool plastic = m.type == MaterialType::Plastic;
+    const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
+    layered[l] = 1.f;
+    coat[l] = plastic ? 1.f : 0.f;
+    store(l, g.f0, f0), store(l, g.diffuse, colour);
+    eta[0][l] = g.eta, lum[l] = g.diffuse_lum, avg[l] = g.one_minus_avg, alpha[l] = g.alpha;
+    any_layered = true;
+    any_coat = any_coat || plastic;
+  }
+
+  // After the last take: harmless parameters in every other lane (the lanes compute all of them), and for each
+  // kind the fields it does not use.
+  void finish() {
+    for (int l = 0; l < N; ++l) {
+      if (metal[l] == 0.f)
+        for (int c = 0; c < 3; ++c) {
+          if (c > 0 || layered[l] == 0.f) eta[c][l] = 1.5f;  // a layered lane's coat index is eta[0]
+          k[c][l] = 0.f;
+        }
+      if (layered[l] == 0.f) lum[l] = 0.f;
+      if (layered[l] != 0.f || metal[l] != 0.f) continue;
+      for (int c = 0; c < 3; ++c) f0[c][l] = 0.04f, colour[c][l] = 0.f;
+      avg[l] = alpha[l] = 1.f;
+    }
+  }
+
+  // E(μ) of lane l's lobe: the plastic's coat, glTF's layer, the conductor's GGX lobe.
+  float albedo_at(int l, float mu) const {
+    const Material& m = *material[l];
+    if (metal[l] != 0.f) return m.energy(mu);
+    return coat[l] != 0.f ? plastic_coat_albedo(m, mu) : gltf_layer_albedo(m, mu);
+  }
+
+  // The lobes at wo (the shading frame's, mirrored to the front): E(μo), one lane at a time.
+  void at(const lanes::Vec3T<vfloat>& w) {
+    st(wo[0], w.x), st(wo[1], w.y), st(wo[2], w.z);
+    for (int l = 0; l < N; ++l) e_o[l] = layered[l] != 0.f || metal[l] != 0.f ? albedo_at(l, wo[2][l]) : 0.f;
+  }
+
+  // f and pdf of each lane's lobe towards wi (the shading frame's, on wo's side), as bsdf_value<Any> evaluates it
+  // for wo.z > 0 and wi.z > 0 (the caller masks the rest). Lanes without a lobe get 0.
+  void value(const lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf) const {
+    alignas(64) float wz[N], e_i[N];
+    st(wz, wi.z);
+    for (int l = 0; l < N; ++l) e_i[l] = layered[l] != 0.f || metal[l] != 0.f ? albedo_at(l, wz[l]) : 0.f;
+    const lanes::Vec3T<vfloat> w{lanes_of(wo[0]), lanes_of(wo[1]), lanes_of(wo[2])};
+    const vfloat eo = lanes_of(e_o), ei = lanes_of(e_i);
+    f = {vfloat(0.f), vfloat(0.f), vfloat(0.f)};
+    pdf = vfloat(0.f);
+    if (any_layered) {
+      const LayeredLobe<vfloat> g = layered_lobe();
+      if (any_coat) layered_value<LayerFresnel::Either, true, true>(g, eo, ei, w, wi, f, pdf);
+      else layered_value<LayerFresnel::Schlick, true, true>(g, eo, ei, w, wi, f, pdf);
+    }
+    if (any_metal) {
+      const ConductorLobe<vfloat> g = conductor_lobe_lanes();
+      lanes::Vec3T<vfloat> fc;
+      vfloat pc;
+      if (any_complex) conductor_lobe_value<ConductorFresnel::Either, true, true>(g, eo, ei, w, wi, fc, pc);
+      else conductor_lobe_value<ConductorFresnel::Schlick, true, true>(g, eo, ei, w, wi, fc, pc);
+      const M on = lanes_of(metal) != 0.f;
+      f = {select(on, fc.x, f.x), select(on, fc.y, f.y), select(on, fc.z, f.z)};
+      pdf = select(on, pc, pdf);
+    }
+  }
+
+  // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample): per lane with wo.z > 0, the
+  // visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the same u), as the
+  // lobe choice u_lobe says; then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0.
+  void sample(const float* u_lobe, const float* ux, const float* uy, const lanes::Vec3T<vfloat>& cosine,
+              lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf) const {
+    alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N];
+    // The probability of the reflection's visible normal: the layer's share, or 1 − the conductor's cosine share.
+    const vfloat eo = lanes_of(e_o), w_z = lanes_of(wo[2]);
+    vfloat p_vndf(0.f);
+    if (any_layered) {
+      const LayeredLobe<vfloat> g = layered_lobe();
+      p_vndf = any_coat ? layer_prob<LayerFresnel::Either>(g, w_z, eo) : layer_prob<LayerFresnel::Schlick>(g, w_z, eo);
+    }
+    st(p, p_vndf);
+    st(cx, cosine.x), st(cy, cosine.y), st(cz, cosine.z);
+    for (int l = 0; l < N; ++l) {
+      gx[l] = gy[l] = 0.f;
+      gz[l] = 1.f;
+      if ((layered[l] == 0.f && metal[l] == 0.f) || !(wo[2][l] > 0.f)) continue;
+      // conductor_sample: the cosine lobe where u < p_ms; the layered lobes: the reflection where u < p_s.
+      const bool vndf = metal[l] != 0.f ? !(u_lobe[l] < conductor_ms_prob(avg[l], e_o[l])) : u_lobe[l] < p[l];
+      const Vec3 w(wo[0][l], wo[1][l], wo[2][l]);
+      const Vec3 d = vndf ? reflect(-w, ggx_sample_vndf(w, alpha[l], Vec2(ux[l], uy[l]))) : Vec3(cx[l], cy[l], cz[l]);
+      gx[l] = d.x, gy[l] = d.y, gz[l] = d.z;
+    }
+    wi = {lanes_of(gx), lanes_of(gy), lanes_of(gz)};
+    value(wi, f, pdf);
+  }
+
+ private:
+  [[gnu::always_inline]] static vfloat lanes_of(const float* a) { return vfloat(a, stdx::vector_aligned); }
+  [[gnu::always_inline]] static void st(float* a, const vfloat& v) { v.copy_to(a, stdx::vector_aligned); }
+  static void store(int l, const lanes::Vec3T<float>& v, float (&a)[3][N]) { a[0][l] = v.x, a[1][l] = v.y, a[2][l] = v.z; }
+  lanes::Vec3T<vfloat> vec(const float (&a)[3][N]) const { return {lanes_of(a[0]), lanes_of(a[1]), lanes_of(a[2])}; }
+  LayeredLobe<vfloat> layered_lobe() const {
+    return {vec(f0), lanes_of(eta[0]), lanes_of(coat) != 0.f, vec(colour), lanes_of(lum), lanes_of(avg), lanes_of(alpha)};
+  }
+  ConductorLobe<vfloat> conductor_lobe_lanes() const {
+    return {vec(f0), vec(eta), vec(k), lanes_of(complex) != 0.f, vec(colour), lanes_of(avg), lanes_of(alpha)};
+  }
+};
+PT_SIMD_SQRT_WARNINGS_ON
+
+}  // namespace integrator_detail
+}  // namespace pt
