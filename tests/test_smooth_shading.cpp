@@ -312,6 +312,26 @@ void check_lanes_match_scalar_loop(SceneDesc d) {
     }
 }
 
+// check_lanes_match_scalar_loop on the sphere on its floor (24 × 24 pixels, three bounces), flat (kind 1) and
+// smooth-shaded (kind 2), for the cases c < n that set_up(ball, floor, c) makes of its two materials;
+// lanes_apply(kind, c) says whether the lanes must run there (shading_lanes_apply).
+template <class SetUp, class LanesApply>
+void check_lobe_cases(int n, const SetUp& set_up, const LanesApply& lanes_apply) {
+  for (const int kind : {1, 2})
+    for (int c = 0; c < n; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 3;
+      set_up(d.materials[0], d.materials.back(), c);
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(c);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()) == lanes_apply(kind, c));
+      check_lanes_match_scalar_loop(d);
+    }
+}
+const auto kAlwaysApply = [](int, int) { return true; };
+
 }  // namespace
 
 // The SIMD shading lanes (integrators/shading_lanes.h) shade the Lambertian hits on a smooth mesh with
@@ -351,25 +371,15 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   };
   const Lobe sphere_lobes[] = {{0.f, 1.f}, {0.3f, 0.5f}, {1.f, 0.2f}, {0.f, 0.f}};
   const Lobe floor_lobes[] = {{1.f, 0.6f}, {0.f, 0.04f}, {0.5f, 0.9f}, {0.2f, 0.35f}};
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 4; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 3;
-      MaterialDesc& ball = d.materials[0];
-      MaterialDesc& floor = d.materials.back();
-      for (MaterialDesc* m : {&ball, &floor}) m->type = MaterialType::MetallicRoughness;
-      ball.albedo = Rgb(0.9f, 0.6f, 0.3f);
-      ball.metallic = sphere_lobes[c].metallic;
-      ball.roughness = sphere_lobes[c].roughness;
-      floor.metallic = floor_lobes[c].metallic;
-      floor.roughness = floor_lobes[c].roughness;
-      const auto scene = compile_scene(d);
-      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
-      CAPTURE(kind);
-      CAPTURE(c);
-      check_lanes_match_scalar_loop(d);
-    }
+  const auto set_up = [&](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    for (MaterialDesc* m : {&ball, &floor}) m->type = MaterialType::MetallicRoughness;
+    ball.albedo = Rgb(0.9f, 0.6f, 0.3f);
+    ball.metallic = sphere_lobes[c].metallic;
+    ball.roughness = sphere_lobes[c].roughness;
+    floor.metallic = floor_lobes[c].metallic;
+    floor.roughness = floor_lobes[c].roughness;
+  };
+  check_lobe_cases(4, set_up, kAlwaysApply);
 }
 
 // And the plastic, the same coupled lobe with its coat's exact Fresnel (layered_lobe.h), alone and beside glTF's
@@ -384,26 +394,16 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
                         {MaterialType::MetallicRoughness, 0.05f, 0.4f},
                         {MaterialType::Plastic, 0.f, 0.15f},
                         {MaterialType::MetallicRoughness, 0.6f, 0.f}};
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 4; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 3;
-      MaterialDesc& ball = d.materials[0];
-      MaterialDesc& floor = d.materials.back();
-      ball.type = MaterialType::Plastic;
-      ball.albedo = Rgb(0.7f, 0.1f, 0.05f);
-      ball.ior = 1.4f;
-      ball.roughness = cases[c].sphere_roughness;
-      floor.type = cases[c].floor_type;
-      if (floor.type == MaterialType::MetallicRoughness) floor.metallic = 0.3f;
-      floor.roughness = cases[c].floor_roughness;
-      const auto scene = compile_scene(d);
-      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
-      CAPTURE(kind);
-      CAPTURE(c);
-      check_lanes_match_scalar_loop(d);
-    }
+  const auto set_up = [&](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    ball.type = MaterialType::Plastic;
+    ball.albedo = Rgb(0.7f, 0.1f, 0.05f);
+    ball.ior = 1.4f;
+    ball.roughness = cases[c].sphere_roughness;
+    floor.type = cases[c].floor_type;
+    if (floor.type == MaterialType::MetallicRoughness) floor.metallic = 0.3f;
+    floor.roughness = cases[c].floor_roughness;
+  };
+  check_lobe_cases(4, set_up, kAlwaysApply);
 }
 
 // And the rough conductor (materials/conductor.h: Schlick's Fresnel through its albedo or a metal's complex index,
@@ -412,35 +412,25 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on rough conductors") {
   const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
                                     TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 4; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 3;
-      MaterialDesc& ball = d.materials[0];
-      MaterialDesc& floor = d.materials.back();
-      ball.type = MaterialType::Conductor;
-      ball.albedo = Rgb(0.95f, 0.7f, 0.4f);
-      ball.roughness = c == 3 ? 0.f : 0.25f + 0.15f * static_cast<float>(c);
-      if (c == 1) ball.metal = MetalPreset::Gold;
-      if (c == 2) {
-        ball.albedo_map = colours;
-        floor.type = MaterialType::Conductor;
-        floor.metal = MetalPreset::Copper;
-        floor.roughness = 0.6f;
-      } else if (c == 1) {
-        floor.type = MaterialType::Plastic;
-        floor.roughness = 0.4f;
-      } else if (c == 3) {
-        floor.type = MaterialType::MetallicRoughness;
-        floor.roughness = 0.5f;
-      }
-      const auto scene = compile_scene(d);
-      REQUIRE(shading_lanes_apply(*scene, scene->kernel_features()));
-      CAPTURE(kind);
-      CAPTURE(c);
-      check_lanes_match_scalar_loop(d);
+  const auto set_up = [&](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    ball.type = MaterialType::Conductor;
+    ball.albedo = Rgb(0.95f, 0.7f, 0.4f);
+    ball.roughness = c == 3 ? 0.f : 0.25f + 0.15f * static_cast<float>(c);
+    if (c == 1) ball.metal = MetalPreset::Gold;
+    if (c == 2) {
+      ball.albedo_map = colours;
+      floor.type = MaterialType::Conductor;
+      floor.metal = MetalPreset::Copper;
+      floor.roughness = 0.6f;
+    } else if (c == 1) {
+      floor.type = MaterialType::Plastic;
+      floor.roughness = 0.4f;
+    } else if (c == 3) {
+      floor.type = MaterialType::MetallicRoughness;
+      floor.roughness = 0.5f;
     }
+  };
+  check_lobe_cases(4, set_up, kAlwaysApply);
 }
 
 // Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
@@ -461,38 +451,28 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   const auto colours = make_texture(8, 8, checker, TextureWrap::Repeat, TextureWrap::Repeat, "checker");
   const auto mr = make_texture(8, 8, ramp, TextureWrap::Repeat, TextureWrap::Repeat, "ramp");
   const auto bumps = make_texture(1, 1, {0.7f, 0.55f, 0.9f}, TextureWrap::Repeat, TextureWrap::Repeat, "tilt");
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 4; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 3;
-      MaterialDesc& ball = d.materials[0];
-      MaterialDesc& floor = d.materials.back();
-      ball.albedo_map = colours;
-      if (c == 1 || c == 3) floor.albedo_map = colours;
-      if (c == 1) {  // glTF ball with both images; Lambert floor
-        ball.type = MaterialType::MetallicRoughness;
-        ball.roughness = 0.8f;
-        ball.metallic = 1.f;
-        ball.metallic_roughness_map.texture = mr;
-      } else if (c == 2) {  // plastic ball; glTF floor with the metallic–roughness image
-        ball.type = MaterialType::Plastic;
-        ball.roughness = 0.4f;
-        floor.type = MaterialType::MetallicRoughness;
-        floor.roughness = 0.9f;
-        floor.metallic = 1.f;
-        floor.metallic_roughness_map.texture = mr;
-      } else if (c == 3) {  // a normal map on the ball and on the (flat) floor
-        ball.normal_map.texture = bumps;
-        floor.normal_map.texture = bumps;
-      }
-      const auto scene = compile_scene(d);
-      REQUIRE(scene->features.textures);
-      CHECK(shading_lanes_apply(*scene, scene->kernel_features()) == (kind == 2 || c == 0));
-      CAPTURE(kind);
-      CAPTURE(c);
-      check_lanes_match_scalar_loop(d);
+  const auto set_up = [&](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    ball.albedo_map = colours;
+    if (c == 1 || c == 3) floor.albedo_map = colours;
+    if (c == 1) {  // glTF ball with both images; Lambert floor
+      ball.type = MaterialType::MetallicRoughness;
+      ball.roughness = 0.8f;
+      ball.metallic = 1.f;
+      ball.metallic_roughness_map.texture = mr;
+    } else if (c == 2) {  // plastic ball; glTF floor with the metallic–roughness image
+      ball.type = MaterialType::Plastic;
+      ball.roughness = 0.4f;
+      floor.type = MaterialType::MetallicRoughness;
+      floor.roughness = 0.9f;
+      floor.metallic = 1.f;
+      floor.metallic_roughness_map.texture = mr;
+    } else if (c == 3) {  // a normal map on the ball and on the (flat) floor
+      ball.normal_map.texture = bumps;
+      floor.normal_map.texture = bumps;
     }
+  };
+  // Textured materials count only where the scene has texture coordinates (the smooth ball's).
+  check_lobe_cases(4, set_up, [](int kind, int c) { return kind == 2 || c == 0; });
 }
 
 namespace {

@@ -82,13 +82,10 @@ template <ConductorFresnel kC, bool kF, bool kPdf, class T>
 [[gnu::always_inline]] inline void conductor_lobe_value(const ConductorLobe<T>& g, const T& e_o, const T& e_i,
                                                         const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& wi,
                                                         lanes::Vec3T<T>& f, T& pdf) {
-  const lanes::Vec3T<T> h{wo.x + wi.x, wo.y + wi.y, wo.z + wi.z};
-  const T h2 = lanes::dot(h, h);
-  const lanes::Mask<T> has_half = h2 > 0.f;
-  const T inv = 1.f / lanes::sqrt(h2);  // glm::normalize: h · (1/√(h·h))
-  const lanes::Vec3T<T> wm{select(has_half, h.x * inv, T(0.f)), select(has_half, h.y * inv, T(0.f)),
-                           select(has_half, h.z * inv, T(1.f))};
-  const T d = select(has_half, ggx_d(wm.x, wm.y, wm.z, g.alpha), T(0.f));
+  const HalfVectorD<T> half = half_vector_d(wo, wi, g.alpha, lanes::Mask<T>(true));
+  const lanes::Mask<T> has_half = half.ok;
+  const lanes::Vec3T<T>& wm = half.wm;
+  const T& d = half.d;
   if constexpr (kF) {
     const T one_minus_e_avg = 1.f - g.e_avg;
     const lanes::Mask<T> ms = one_minus_e_avg > 1e-6f;

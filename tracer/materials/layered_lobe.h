@@ -82,13 +82,11 @@ template <LayerFresnel kC, bool kF, bool kPdf, class T>
 [[gnu::always_inline]] inline void layered_value(const LayeredLobe<T>& g, const T& e_o, const T& e_i,
                                                  const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& wi,
                                                  lanes::Vec3T<T>& f, T& pdf) {
-  const lanes::Vec3T<T> h{wo.x + wi.x, wo.y + wi.y, wo.z + wi.z};
-  const T h2 = lanes::dot(h, h);
-  const lanes::Mask<T> rough = !(g.alpha < kSmoothAlpha) && h2 > 0.f;  // !effectively_smooth(α)
-  const T inv = 1.f / lanes::sqrt(h2);  // glm::normalize: h · (1/√(h·h))
-  const lanes::Vec3T<T> wm{select(rough, h.x * inv, T(0.f)), select(rough, h.y * inv, T(0.f)),
-                           select(rough, h.z * inv, T(1.f))};
-  const T d = select(rough, ggx_d(wm.x, wm.y, wm.z, g.alpha), T(0.f));
+  const lanes::Mask<T> smooth = g.alpha < kSmoothAlpha;  // effectively_smooth(α)
+  const HalfVectorD<T> half = half_vector_d(wo, wi, g.alpha, !smooth);
+  const lanes::Mask<T> rough = half.ok;
+  const lanes::Vec3T<T>& wm = half.wm;
+  const T& d = half.d;
   if constexpr (kF) {
     const T s = ((1.f - e_o) * (1.f - e_i)) / g.one_minus_avg;
     const lanes::Mask<T> base = g.one_minus_avg > 0.f;

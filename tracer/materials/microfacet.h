@@ -89,6 +89,25 @@ T ggx_g2_over_cos2(T ox, T oy, T oz, T ix, T iy, T iz, T alpha) {
   return T(2) / (ci * ro + co * ri);
 }
 
+// The half vector wm = normalize(wo + wi) and D(wm), where `valid` and wo + wi ≠ 0 (`ok`); elsewhere wm = +z and
+// D = 0. As glm::normalize computes it: h · (1/√(h·h)).
+template <class T>
+struct HalfVectorD {
+  lanes::Vec3T<T> wm;
+  T d;
+  lanes::Mask<T> ok;
+};
+template <class T>
+[[gnu::always_inline]] inline HalfVectorD<T> half_vector_d(const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& wi,
+                                                           const T& alpha, const lanes::Mask<T>& valid) {
+  const lanes::Vec3T<T> h{wo.x + wi.x, wo.y + wi.y, wo.z + wi.z};
+  const T h2 = lanes::dot(h, h);
+  const lanes::Mask<T> ok = valid && h2 > 0.f;
+  const T inv = 1.f / lanes::sqrt(h2);
+  const lanes::Vec3T<T> wm{select(ok, h.x * inv, T(0.f)), select(ok, h.y * inv, T(0.f)), select(ok, h.z * inv, T(1.f))};
+  return {wm, select(ok, ggx_d(wm.x, wm.y, wm.z, alpha), T(0.f)), ok};
+}
+
 PT_SIMD_SQRT_WARNINGS_ON
 
 // Vector conveniences for the scalar lobes.
