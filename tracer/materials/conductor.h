@@ -56,12 +56,8 @@ enum class ConductorFresnel { Schlick, Complex, Either };
 template <ConductorFresnel kC, class T>
 [[gnu::always_inline]] inline lanes::Vec3T<T> conductor_fresnel(const ConductorLobe<T>& g, const T& cos_theta) {
   lanes::Vec3T<T> s{}, c{};
-  if constexpr (kC != ConductorFresnel::Complex) {  // fresnel_schlick
-    const T m = 1.f - lanes::std_min(lanes::std_max(cos_theta, T(0.f)), T(1.f));
-    const T m2 = m * m;
-    const T w = m2 * m2 * m;
-    s = {g.f0.x + (1.f - g.f0.x) * w, g.f0.y + (1.f - g.f0.y) * w, g.f0.z + (1.f - g.f0.z) * w};
-  }
+  if constexpr (kC != ConductorFresnel::Complex)
+    s = {fresnel_schlick(g.f0.x, cos_theta), fresnel_schlick(g.f0.y, cos_theta), fresnel_schlick(g.f0.z, cos_theta)};
   if constexpr (kC != ConductorFresnel::Schlick)
     c = {fresnel_complex(cos_theta, g.eta.x, g.k.x), fresnel_complex(cos_theta, g.eta.y, g.k.y),
          fresnel_complex(cos_theta, g.eta.z, g.k.z)};

@@ -85,9 +85,7 @@ inline Rgb fresnel_complex(float cos_i, Rgb eta, Rgb k) {
 // Schlick's approximation F0 + (1 − F0)(1 − cos θ)⁵ (Schlick 1994). S may be a colour (per-channel F0).
 template <class S, class T>
 S fresnel_schlick(S f0, T cos_theta) {
-  using std::max;
-  using std::min;
-  const T m = T(1) - min(max(cos_theta, T(0)), T(1));
+  const T m = T(1) - lanes::std_min(lanes::std_max(cos_theta, T(0)), T(1));
   const T m2 = m * m;
   return f0 + (S(1) - f0) * (m2 * m2 * m);
 }
