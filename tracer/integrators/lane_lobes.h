@@ -35,7 +35,7 @@ struct LaneLobes {
   bool any() const { return any_layered || any_metal; }
   M lobe_mask() const { return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f; }
 
-  void clear(int l) { layered[l] = coat[l] = metal[l] = complex[l] = 0.f; }
+  void clear() { st(layered, vfloat(0.f)), st(coat, vfloat(0.f)), st(metal, vfloat(0.f)), st(complex, vfloat(0.f)); }
 
   // Lane l shades with m, a rough plastic, glTF or conductor material (wavefront.h: layered_lane_material,
   // conductor_lane_material), which outlives the lanes.
