@@ -408,7 +408,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 
 // And the rough conductor (materials/conductor.h: Schlick's Fresnel through its albedo or a metal's complex index,
 // Kulla–Conty's compensation), beside the Lambert, plastic and glTF lobes and itself with the other Fresnel in one
-// packet; a smooth one (a Dirac lobe) goes to shade_vertex; flat and smooth-shaded, textured where smooth.
+// packet, and beside a smooth one (a Dirac lobe: the next test's); flat and smooth-shaded, textured where smooth.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on rough conductors") {
   const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
                                     TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
@@ -473,6 +473,56 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   };
   // Textured materials count only where the scene has texture coordinates (the smooth ball's).
   check_lobe_cases(4, set_up, [](int kind, int c) { return kind == 2 || c == 0; });
+}
+
+// The Dirac lobes in the lanes (lane_lobes.h: sample_dirac): the mirror, the smooth conductor (Schlick's Fresnel
+// and gold's complex index) and smooth glass, which are only sampled (no light sample there), beside the Lambert
+// lobe and each other. The glass ball is entered and left (its index inverted inside, total internal reflection),
+// a glass floor refracts paths away, a conductor of F0 = 0 reflects only at grazing angles; six bounces, roulette
+// from the first (whose worth the refractions' η² scale enters), flat and smooth-shaded, a textured mirror where
+// the sphere has texture coordinates, and the feature buffers, whose albedo is tinted through the Dirac vertices
+// (FeatureTrace::through_specular).
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on mirrors, smooth metals and smooth glass") {
+  const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
+                                    TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
+  const auto set_up = [&](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    if (c == 0) {  // a glass ball on the Lambert floor
+      ball.type = MaterialType::Dielectric;
+      ball.ior = 1.5f;
+    } else if (c == 1) {  // a tinted mirror ball on smooth gold
+      ball.type = MaterialType::Mirror;
+      ball.albedo = Rgb(0.9f, 0.7f, 0.5f);
+      floor.type = MaterialType::Conductor;
+      floor.metal = MetalPreset::Gold;
+    } else if (c == 2) {  // a smooth Schlick conductor ball on a glass floor
+      ball.type = MaterialType::Conductor;
+      ball.albedo = Rgb(0.6f, 0.9f, 0.95f);
+      floor.type = MaterialType::Dielectric;
+      floor.ior = 1.33f;
+    } else if (c == 3) {  // a textured mirror ball on a glass floor of a high index
+      ball.type = MaterialType::Mirror;
+      ball.albedo_map = colours;
+      floor.type = MaterialType::Dielectric;
+      floor.ior = 2.4f;
+    } else {  // a smooth Schlick conductor of F0 = 0 (its albedo: the Lambert lobe would absorb everything)
+      ball.type = MaterialType::Conductor;
+      ball.albedo = Rgb(0.f);
+    }
+  };
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 5; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 6;
+      d.render.russian_roulette_depth = 1;
+      set_up(d.materials[0], d.materials.back(), c);
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(c);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      CHECK(dirac_lane_material(scene->materials[0]));  // the ball
+      check_lanes_match_scalar_loop(d);
+    }
 }
 
 namespace {

@@ -147,11 +147,19 @@ TEST_CASE("wavefront: the scalar loop's bits on users' scenes: glTF, thin lens, 
     // the floor under the cut-outs, the studio's ground under the OBJ ball, the gold, the engine's parts).
     INFO(name);
     CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
-    if (name == "torus-and-gem.glb") {  // a smooth gold and the crystal alone: nothing for the lanes
+    if (name == "torus-and-gem.glb") {
+      // A smooth gold and the crystal alone: Dirac lobes, which the lanes take too (the scalar loop's bits below).
       SceneDesc smooth = desc;
       for (MaterialDesc& m : smooth.materials) m.roughness = 0.f;
+      smooth.render.estimator = Estimator::Mis;
       const auto polished = compile_scene(smooth);
-      CHECK_FALSE(shading_lanes_apply(*polished, polished->kernel_features()));
+      CHECK(shading_lanes_apply(*polished, polished->kernel_features()));
+      check_loops_agree(smooth);
+      // Rough glass alone: nothing for the lanes, which then stay off (they would only pay for their gathers).
+      SceneDesc frosted = desc;
+      for (MaterialDesc& m : frosted.materials) m.type = MaterialType::Dielectric, m.roughness = 0.3f;
+      const auto rough_glass = compile_scene(frosted);
+      CHECK_FALSE(shading_lanes_apply(*rough_glass, rough_glass->kernel_features()));
     }
     for (Estimator est : {Estimator::Nee, Estimator::Mis}) {
       desc.render.estimator = est;

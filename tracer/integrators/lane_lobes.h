@@ -1,6 +1,7 @@
-// The shading lanes' rough lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per
-// lane, the coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h) or
-// the rough conductor (materials/conductor.h), each written once over the number type, so that a lane rounds as
+// The shading lanes' lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per lane, the
+// coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h) or the rough
+// conductor (materials/conductor.h), each written once over the number type, or a Dirac lobe: the mirror, the
+// smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane rounds as
 // bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one lane at
 // a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a kind of
 // lobe no lane holds costs nothing. What stays one lane at a time: the directional-albedo table lookups E(μ) and
@@ -11,6 +12,8 @@
 #include "core/lanes.h"
 #include "core/simd_sqrt_warnings.h"
 #include "materials/conductor.h"
+#include "materials/dielectric.h"
+#include "materials/fresnel.h"
 #include "materials/metallic_roughness.h"
 #include "materials/plastic.h"
 
@@ -22,26 +25,36 @@ struct LaneLobes {
   static constexpr int N = kLanes;
   using M = vmask;
 
-  // Per lane (0 or 1): the coupled lobe, the plastic's exact Fresnel in it, the conductor, its complex index.
-  alignas(64) float layered[N], coat[N], metal[N], complex[N];
+  // Per lane (0 or 1): the coupled lobe, the plastic's exact Fresnel in it, the rough conductor, a conductor's
+  // complex index; a Dirac lobe, and which: smooth glass, or a mirror's constant tint (else a smooth conductor).
+  alignas(64) float layered[N], coat[N], metal[N], complex[N], dirac[N], glass[N], tint[N];
   // The lobe's parameters: f0 (the conductor's albedo); the base colour (the layered lobe's diffuse colour, the
-  // conductor's F_ms); the coat's index and the conductor's complex index; the base's luminance; 1 − E_avg
-  // (layered) or E_avg (conductor); α.
+  // conductor's F_ms); the coat's index, the conductor's complex index and the glass's index (eta[0]); the base's
+  // luminance; 1 − E_avg (layered) or E_avg (conductor); α. A Dirac lobe's f0 is its tint or Schlick's F0.
   alignas(64) float f0[3][N], colour[3][N], eta[3][N], k[3][N], lum[N], avg[N], alpha[N];
   alignas(64) float e_o[N], wo[3][N];  // E(μo), and wo in the shading frame mirrored to the front
   const Material* material[N];
-  bool any_layered = false, any_coat = false, any_metal = false, any_complex = false;
+  bool any_layered = false, any_coat = false, any_metal = false, any_complex = false, any_dirac = false,
+       any_glass = false;
+  bool any_reflector = false, any_reflector_complex = false;  // a Dirac mirror or conductor; one with a complex index
 
-  bool any() const { return any_layered || any_metal; }
-  M lobe_mask() const { return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f; }
+  bool any() const { return any_rough() || any_dirac; }
+  bool any_rough() const { return any_layered || any_metal; }
+  M lobe_mask() const { return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f; }  // the rough lobes
+  M dirac_mask() const { return lanes_of(dirac) != 0.f; }
 
-  void clear() { st(layered, vfloat(0.f)), st(coat, vfloat(0.f)), st(metal, vfloat(0.f)), st(complex, vfloat(0.f)); }
+  // Before the first take: no lobe in any lane.
+  void clear() {
+    for (float* a : {layered, coat, metal, complex, dirac, glass, tint}) st(a, vfloat(0.f));
+  }
 
-  // Lane l shades with m, a rough plastic, glTF or conductor material (wavefront.h: layered_lane_material,
-  // conductor_lane_material), which outlives the lanes.
+  // Lane l shades with m, a rough plastic, glTF or conductor material, or a mirror, smooth conductor or smooth
+  // glass (wavefront.h: layered_lane_material, conductor_lane_material, dirac_lane_material), which outlives the
+  // lanes.
   void take(int l, const Material& m) {
+    if (!any()) defaults();
     material[l] = &m;
-    if (m.type == MaterialType::Conductor) {
+    if (m.type == MaterialType::Conductor && !effectively_smooth(m.alpha)) {
       const ConductorLobe<float> g = conductor_lobe(m);
       metal[l] = 1.f;
       complex[l] = m.complex_ior ? 1.f : 0.f;
@@ -49,32 +62,28 @@ struct LaneLobes {
       avg[l] = g.e_avg, alpha[l] = g.alpha;
       any_metal = true;
       any_complex = any_complex || m.complex_ior;
-      return;
+    } else if (m.type == MaterialType::Plastic || m.type == MaterialType::MetallicRoughness) {  // rough here
+      const bool plastic = m.type == MaterialType::Plastic;
+      const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
+      layered[l] = 1.f;
+      coat[l] = plastic ? 1.f : 0.f;
+      store(l, g.f0, f0), store(l, g.diffuse, colour);
+      eta[0][l] = g.eta, lum[l] = g.diffuse_lum, avg[l] = g.one_minus_avg, alpha[l] = g.alpha;
+      any_layered = true;
+      any_coat = any_coat || plastic;
+    } else {
+      take_dirac(l, m);
     }
-    const bool plastic = m.type == MaterialType::Plastic;
-    const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
-    layered[l] = 1.f;
-    coat[l] = plastic ? 1.f : 0.f;
-    store(l, g.f0, f0), store(l, g.diffuse, colour);
-    eta[0][l] = g.eta, lum[l] = g.diffuse_lum, avg[l] = g.one_minus_avg, alpha[l] = g.alpha;
-    any_layered = true;
-    any_coat = any_coat || plastic;
   }
 
-  // After the last take: harmless parameters in every other lane (the lanes compute all of them), and for each
-  // kind the fields it does not use.
-  void finish() {
-    for (int l = 0; l < N; ++l) {
-      if (metal[l] == 0.f)
-        for (int c = 0; c < 3; ++c) {
-          if (c > 0 || layered[l] == 0.f) eta[c][l] = 1.5f;  // a layered lane's coat index is eta[0]
-          k[c][l] = 0.f;
-        }
-      if (layered[l] == 0.f) lum[l] = 0.f;
-      if (layered[l] != 0.f || metal[l] != 0.f) continue;
-      for (int c = 0; c < 3; ++c) f0[c][l] = 0.04f, colour[c][l] = 0.f;
-      avg[l] = alpha[l] = 1.f;
-    }
+
+  // At the first take: harmless parameters in every lane (the lanes compute every lane), which take overwrites
+  // with those its lobe uses; the rest keep these (a layered lane's η[1], η[2] and k, a conductor's base
+  // luminance, a glass lane's f0, ...).
+  void defaults() {
+    st(lum, vfloat(0.f)), st(avg, vfloat(1.f)), st(alpha, vfloat(1.f));
+    for (int c = 0; c < 3; ++c)
+      st(f0[c], vfloat(0.04f)), st(colour[c], vfloat(0.f)), st(eta[c], vfloat(1.5f)), st(k[c], vfloat(0.f));
   }
 
   // E(μ) of lane l's lobe: the plastic's coat, glTF's layer, the conductor's GGX lobe.
@@ -146,7 +155,73 @@ struct LaneLobes {
     value(wi, f, pdf);
   }
 
+  // The Dirac lobes' samples, as bsdf_sample<Any> takes them with wo mirrored to the front (`below`: wo was
+  // under the surface), for the lanes of dirac_mask (the others compute harmless values):
+  // - mirror_sample and conductor_sample's smooth lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with F the mirror's
+  //   tint or the conductor's Fresnel at μ = wo.z (Schlick's or the complex index's), pdf 1; none where F is black;
+  // - dielectric_sample's smooth interface: η = the index for wo's side (below: 1/ior); reflection with
+  //   probability F(μ, η) (u_lobe < F, or total internal reflection), f = F/μ, pdf F (none where F = 0); else
+  //   the refraction about z, f = (1 − F)/(|wt.z| η²) (radiance), pdf 1 − F, and `eta_t` = η (1 elsewhere).
+  // `ok`: a sample where wo.z > 0.
+  void sample_dirac(const float* u_lobe, const M& below, lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f,
+                    vfloat& pdf, M& transmits, vfloat& eta_t, M& ok) const {
+    const lanes::Vec3T<vfloat> w{lanes_of(wo[0]), lanes_of(wo[1]), lanes_of(wo[2])};
+    const vfloat mu = w.z;
+    wi = {-w.x, -w.y, w.z};
+    f = {vfloat(0.f), vfloat(0.f), vfloat(0.f)};
+    pdf = vfloat(1.f);
+    ok = M(false);
+    if (any_reflector) {  // the mirror's and the smooth conductor's reflectance
+      const ConductorLobe<vfloat> g = conductor_lobe_lanes();
+      lanes::Vec3T<vfloat> F = any_reflector_complex ? conductor_fresnel<ConductorFresnel::Either>(g, mu)
+                                                     : conductor_fresnel<ConductorFresnel::Schlick>(g, mu);
+      const M tinted = lanes_of(tint) != 0.f;
+      F = {select(tinted, g.f0.x, F.x), select(tinted, g.f0.y, F.y), select(tinted, g.f0.z, F.z)};
+      f = {F.x / wi.z, F.y / wi.z, F.z / wi.z};
+      ok = mu > 0.f && !(F.x == 0.f && F.y == 0.f && F.z == 0.f);
+    }
+    transmits = M(false);
+    eta_t = vfloat(1.f);
+    if (!any_glass) return;
+    const M G = lanes_of(glass) != 0.f;
+    const vfloat ior = lanes_of(eta[0]);
+    const vfloat eta_g = select(below, 1.f / ior, ior);
+    const vfloat fd = fresnel_dielectric(mu, eta_g);
+    lanes::Vec3T<vfloat> wt;
+    const M refracts = refract_t(w, {vfloat(0.f), vfloat(0.f), vfloat(1.f)}, eta_g, wt);
+    const M reflects = lanes_of(u_lobe) < fd || !refracts;
+    const vfloat fr = fd / wi.z;
+    const vfloat ft = (1.f - fd) / ((-wt.z * eta_g) * eta_g);
+    const vfloat fg = select(reflects, fr, ft);
+    f = {select(G, fg, f.x), select(G, fg, f.y), select(G, fg, f.z)};
+    pdf = select(G, select(reflects, fd, 1.f - fd), pdf);
+    ok = (G && mu > 0.f && ((reflects && fd > 0.f) || (!reflects && wt.z < 0.f))) || (!G && ok);
+    transmits = G && !reflects;
+    wi = {select(transmits, wt.x, wi.x), select(transmits, wt.y, wi.y), select(transmits, wt.z, wi.z)};
+    eta_t = select(transmits, eta_g, eta_t);
+  }
+
  private:
+  // The mirror, the smooth conductor or smooth glass in lane l.
+  void take_dirac(int l, const Material& m) {
+    dirac[l] = 1.f;
+    any_dirac = true;
+    if (m.type == MaterialType::Dielectric) {
+      glass[l] = 1.f;
+      eta[0][l] = m.ior;
+      any_glass = true;
+      return;
+    }
+    store(l, lanes::of(m.albedo), f0);
+    any_reflector = true;
+    if (m.type == MaterialType::Mirror) {
+      tint[l] = 1.f;
+      return;
+    }
+    complex[l] = m.complex_ior ? 1.f : 0.f;  // the smooth conductor
+    store(l, lanes::of(m.eta), eta), store(l, lanes::of(m.k), k);
+    any_reflector_complex = any_reflector_complex || m.complex_ior;
+  }
   [[gnu::always_inline]] static vfloat lanes_of(const float* a) { return vfloat(a, stdx::vector_aligned); }
   [[gnu::always_inline]] static void st(float* a, const vfloat& v) { v.copy_to(a, stdx::vector_aligned); }
   static void store(int l, const lanes::Vec3T<float>& v, float (&a)[3][N]) { a[0][l] = v.x, a[1][l] = v.y, a[2][l] = v.z; }

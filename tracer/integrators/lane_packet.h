@@ -1,6 +1,7 @@
 // What the shading lanes (shading_lanes.h) know of their kLanes paths, in structure of arrays: one aligned array
 // of kLanes floats per quantity, so that each stage loads a quantity of every lane as one vfloat. The stages fill
-// the parts in order (gather, hit point, frame, light choice, light sample, BSDF sample); a part is read only by
+// the parts in order (gather, hit point, frame, light choice, light sample, BSDF sample, continuation); a part is
+// read only by
 // the stages after the one that writes it. A lane the lanes do not shade keeps the harmless values `clear`
 // writes into every lane before the gather (the lanes compute every lane; its results are never used).
 #pragma once
@@ -118,7 +119,7 @@ struct LaneLights {
 struct LaneNumbers {
   alignas(64) float bux[kPacket], buy[kPacket], u_lobe[kPacket], u_rr[kPacket];
 
-  void clear() { fill_lanes(0.5f, bux, buy, u_rr); }
+  void clear() { fill_lanes(0.5f, bux, buy, u_lobe, u_rr); }
 };
 
 // The light sample's shadow ray and what it adds if unblocked.
@@ -129,10 +130,21 @@ struct LaneShadows {
   alignas(64) float c_r[kPacket], c_g[kPacket], c_b[kPacket];  // its contribution
 };
 
+// The BSDF sample of each lane, as bsdf_sample<Any> returns it (in the shading frame mirrored to the front), before
+// the path takes it.
+struct LaneSamples {
+  alignas(64) float ok[kPacket];                           // 1: there is a sample
+  alignas(64) float wx[kPacket], wy[kPacket], wz[kPacket];  // its direction
+  alignas(64) float f_r[kPacket], f_g[kPacket], f_b[kPacket], pdf[kPacket];
+  // Written where some lane has a Dirac lobe (lane_dirac_samples): whether the sample is a Dirac lobe's, whether
+  // it refracted (0 or 1), the refraction's η (1 elsewhere), and the path's η scale after it (times η²).
+  alignas(64) float specular[kPacket], transmits[kPacket], eta_t[kPacket], eta[kPacket];
+};
+
 // The BSDF sample's continuation: the next ray and the path's new throughput.
 struct LaneContinuations {
   alignas(64) float goes_on[kPacket];  // 1: the path continues (it survived the roulette)
-  alignas(64) float beta_r[kPacket], beta_g[kPacket], beta_b[kPacket], pdf[kPacket];
+  alignas(64) float beta_r[kPacket], beta_g[kPacket], beta_b[kPacket];
   alignas(64) float ox[kPacket], oy[kPacket], oz[kPacket], dx[kPacket], dy[kPacket], dz[kPacket];
 };
 
@@ -147,6 +159,7 @@ struct LanePacket {
   LaneLights light;
   LaneNumbers u;
   LaneShadows shadow;
+  LaneSamples sample;
   LaneContinuations next;
 };
 

@@ -1,37 +1,38 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
-// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of
-// a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes
-// of lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the rough
-// conductor), lit by next-event estimation. A parallelogram light sampled by area is sampled in the lanes; any
-// other light's sample (sample_li) is taken one lane at a time and weighed in the lanes. The scene data of the
-// kLanes paths is gathered into arrays (structure of arrays), then every step runs on
-// std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both
-// loops share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading
-// frame (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf (lambert_f, cosine_hemisphere),
-// the rough lobes' f and pdf, the power heuristic, vertex_shading's normal and terminator offset, the spawned
-// ray's origin (lanes::offset_point) and the roulette's survival. The rest performs exactly the float operations
-// of the scalar functions, in the same order (glm's vector operators evaluate component-wise, dot products as
-// (x + y) + z; -ffp-contract=off keeps multiplies and adds apart; std::max is (a < b) ? b : a), so a path's
-// radiance is bit-identical to the scalar loop's (tested by the wavefront and smooth-shading tests, which compare
-// images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised none of them and the
-// code ran 40 % slower than the scalar path; docs/performance.md.)
+// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of a
+// material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes of
+// lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the rough conductor),
+// lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only
+// sampled, as shade_vertex samples no light where a material has no other lobe. A parallelogram light sampled by area
+// is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and weighed in the lanes.
+// The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every step runs on
+// std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both loops
+// share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading frame
+// (frame_tangents), the Lambert lobe and its cosine-weighted sample and pdf (lambert_f, cosine_hemisphere), the rough
+// lobes' f and pdf, the Fresnel factors and Snell's refraction, the power heuristic, vertex_shading's normal and
+// terminator offset, the spawned ray's origin (lanes::offset_point) and the roulette's survival. The rest performs
+// exactly the float operations of the scalar functions, in the same order (glm's vector operators evaluate
+// component-wise, dot products as (x + y) + z; -ffp-contract=off keeps multiplies and adds apart; std::max is (a < b) ?
+// b : a), so a path's radiance is bit-identical to the scalar loop's (tested by the wavefront and smooth-shading tests,
+// which compare images byte for byte). (Plain loops over the arrays were tried first: GCC 12 vectorised none of them
+// and the code ran 40 % slower than the scalar path; docs/performance.md.)
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
-// bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials
-// they take is wavefront.h's (lane_material, lane_textures). On a smooth-shaded mesh they shade as shade_vertex
-// does: the frame about the interpolated normal, rays leaving from the lifted point. A textured material (its
-// albedo's, glTF's metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane
-// at a time, over the ray cone shade_vertex filters with. A lane takes the scalar path instead (the caller runs
-// shade_vertex for it) when its hit is on a sphere or an instance, or emits, or has another material (a smooth
-// lobe, glass, subsurface), or textures on a mesh without texture coordinates, or when no light can reach it, or
-// where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only
-// below the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the
-// light choice, the other lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and
-// visible-normal samples.
+// bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials they
+// take is wavefront.h's (lane_material, lane_textures). On a smooth-shaded mesh they shade as shade_vertex does: the
+// frame about the interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
+// metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane at a time, over the
+// ray cone shade_vertex filters with. A lane takes the scalar path instead (the caller runs shade_vertex for it) when
+// its hit is on a sphere or an instance, or emits, or has another material (a smooth plastic or glTF layer over its
+// base, rough glass, subsurface), or textures on a mesh without texture coordinates, or when no light can reach it, or
+// where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below
+// the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the light choice, the other
+// lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
 //
 // shade_lanes runs in stages, each a function of its own over the packet's arrays (lane_packet.h: LanePacket):
 // gather_lanes, lane_hit_points, resolve_textured_lanes, lane_frames, choose_lane_lights, lane_light_samples,
-// lane_bsdf_samples and write_back_lanes. Each stage reads what the ones before it wrote.
+// lane_bsdf_samples, lane_dirac_samples, lane_continuations and write_back_lanes. Each stage reads what the ones before
+// it wrote.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -105,7 +106,7 @@ template <MaterialSet kM>
   pk.material.clear();
   pk.light.clear();
   pk.u.clear();
-  lobes.clear();
+  if constexpr (kM == MaterialSet::Any) lobes.clear();
   bool any = false;
   any_textured = false;
   for (int l = 0; l < k; ++l) {
@@ -280,9 +281,18 @@ template <MaterialSet kM, uint32_t F, class RngOf>
   const LaneHits& h = pk.hit;
   const LaneFrames& f = pk.frame;
   LaneLights& L = pk.light;
+  const bool any_dirac = kM == MaterialSet::Any && lobes.any_dirac;
+  const bool any_rough = kM == MaterialSet::Any && lobes.any_rough();
   for (int l = 0; l < k; ++l) {
     if (!pk.active[l]) continue;
     const auto& rng = rng_of(l);
+    if (any_dirac && lobes.dirac[l] != 0.f) {
+      // A Dirac lobe alone: no light sample (shade_vertex samples lights only where a lobe has_non_specular), and
+      // only glass chooses between its lobes.
+      if (lobes.glass[l] != 0.f) pk.u.u_lobe[l] = rng.get_1d(lobe_dim);
+      if (c.roulette) pk.u.u_rr[l] = rng.get_1d(rr_dim);
+      continue;
+    }
     const Vec3 ref(h.px[l], h.py[l], h.pz[l]);
     if (!s.lights.empty()) {
       float pmf = 0.f;
@@ -327,7 +337,7 @@ template <MaterialSet kM, uint32_t F, class RngOf>
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     pk.u.bux[l] = bu.x, pk.u.buy[l] = bu.y;
-    if (lobes.layered[l] != 0.f || lobes.metal[l] != 0.f) pk.u.u_lobe[l] = rng.get_1d(lobe_dim);
+    if (any_rough && (lobes.layered[l] != 0.f || lobes.metal[l] != 0.f)) pk.u.u_lobe[l] = rng.get_1d(lobe_dim);
     if (c.roulette) pk.u.u_rr[l] = rng.get_1d(rr_dim);
   }
 }
@@ -358,10 +368,11 @@ template <MaterialSet kM, uint32_t F, class RngOf>
 }
 
 // ---- The light sample (sample_li by area, sample_lights' choice probability), the BSDF there, the shadow ray
-// and its contribution. `Gl`: the lanes with another lobe than Lambert's (lane_lobes.h).
+// and its contribution. `Gl`: the lanes with a rough lobe other than Lambert's (lane_lobes.h); a lane with a
+// Dirac lobe has no light sample (choose_lane_lights left its light_ok 0), so no shadow ray.
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void lane_light_samples(const LaneContext<kM>& c, const LanePacket& pk,
-                                                      const LaneLobes& lobes, bool any_lobe, const M& Gl,
+                                                      const LaneLobes& lobes, bool any_rough, const M& Gl,
                                                       LaneShadows& out) {
   const LaneLights& L = pk.light;
   const LaneFrames& fr = pk.frame;
@@ -406,7 +417,7 @@ template <MaterialSet kM>
   const vfloat cos_abs = stdx::abs(wil_z);
   Vec3T<vfloat> nf = lambert_lanes(pk.material);
   vfloat bpdf = select(same_side, cosine_hemisphere_pdf(cos_abs), vfloat(0.f));
-  if (any_lobe) {
+  if (any_rough) {
     const Vec3T<vfloat> wi_l{(wix * ld(fr.sx) + wiy * ld(fr.sy)) + wiz * ld(fr.sz),
                              (wix * ld(fr.tx) + wiy * ld(fr.ty)) + wiz * ld(fr.tz), select(Wz < 0.f, -wil_z, wil_z)};
     Vec3T<vfloat> f;
@@ -440,25 +451,19 @@ template <MaterialSet kM>
   st(out.c_b, ((ld(r.beta_b) * nf.z) * select(le_on, Leb, vfloat(0.f))) * scale);
 }
 
-// ---- The BSDF sample (cosine-weighted, or the other lobe's, mirrored to wo's side), the throughput, roulette,
-// the next ray.
-template <MaterialSet kM>
-[[gnu::always_inline]] inline void lane_bsdf_samples(const LaneContext<kM>& c, const LanePacket& pk,
-                                                     const LaneLobes& lobes, bool any_lobe, const M& Gl,
-                                                     LaneContinuations& out) {
-  using lanes::std_max;
-  const LaneFrames& fr = pk.frame;
+// ---- The BSDF sample (cosine-weighted, or the rough lobe's), in the shading frame mirrored to the front.
+[[gnu::always_inline]] inline void lane_bsdf_samples(const LanePacket& pk, const LaneLobes& lobes, bool any_rough,
+                                                     const M& Gl, LaneSamples& out) {
   const LaneMaterials& mat = pk.material;
-  const vfloat Wz = ld(fr.wlz);
-  const M flip = Wz < 0.f;
-  M ok = select(flip, -Wz, Wz) > 0.f && !(ld(mat.alb_r) == 0.f && ld(mat.alb_g) == 0.f && ld(mat.alb_b) == 0.f);
+  const vfloat Wz = ld(pk.frame.wlz);
+  M ok = select(Wz < 0.f, -Wz, Wz) > 0.f && !(ld(mat.alb_r) == 0.f && ld(mat.alb_g) == 0.f && ld(mat.alb_b) == 0.f);
   // sample_cosine_hemisphere: the concentric disk (sampling.h), then z = √max(0, 1 − x² − y²).
   const Vec3T<vfloat> local = cosine_hemisphere(ld(pk.u.bux), ld(pk.u.buy));
   vfloat dxs = local.x, dys = local.y, wz0 = local.z;
   ok = ok && wz0 > 0.f;
   vfloat pdf = cosine_hemisphere_pdf(wz0);
   Vec3T<vfloat> f = lambert_lanes(mat);
-  if (any_lobe) {
+  if (any_rough) {
     // metallic_roughness_sample, plastic_sample and conductor_sample: the visible normal's reflection or the
     // cosine direction, as each lane's lobe choice says; then f and pdf of the direction.
     Vec3T<vfloat> wi, fl;
@@ -470,18 +475,51 @@ template <MaterialSet kM>
     pdf = select(Gl, gpdf, pdf);
     f = {select(Gl, fl.x, f.x), select(Gl, fl.y, f.y), select(Gl, fl.z, f.z)};
   }
-  const vfloat wz = select(flip, -wz0, wz0);
-  ok = ok && pdf > 0.f && wz != 0.f;
-  const vfloat k_scale = stdx::abs(wz) / pdf;
+  st(out.ok, one_where(ok));
+  st(out.wx, dxs), st(out.wy, dys), st(out.wz, wz0);
+  st(out.f_r, f.x), st(out.f_g, f.y), st(out.f_b, f.z), st(out.pdf, pdf);
+}
+
+// ---- The Dirac lobes' samples (the mirror's, the smooth conductor's and smooth glass's), in place of the others
+// in their lanes; a refraction scales the path's η scale by η² before the roulette judges it (shade_vertex). Run
+// only where some lane has one, so that the other packets pay nothing for them.
+[[gnu::always_inline]] inline void lane_dirac_samples(const LanePacket& pk, const LaneLobes& lobes, LaneSamples& s) {
+  const M D = lobes.dirac_mask();
+  Vec3T<vfloat> wi, f;
+  vfloat pdf, eta_t;
+  M transmits, ok;
+  lobes.sample_dirac(pk.u.u_lobe, ld(pk.frame.wlz) < 0.f, wi, f, pdf, transmits, eta_t, ok);
+  st(s.ok, select(D, one_where(ok), ld(s.ok)));
+  st(s.wx, select(D, wi.x, ld(s.wx))), st(s.wy, select(D, wi.y, ld(s.wy))), st(s.wz, select(D, wi.z, ld(s.wz)));
+  st(s.f_r, select(D, f.x, ld(s.f_r))), st(s.f_g, select(D, f.y, ld(s.f_g))), st(s.f_b, select(D, f.z, ld(s.f_b)));
+  st(s.pdf, select(D, pdf, ld(s.pdf)));
+  st(s.specular, one_where(D)), st(s.transmits, one_where(transmits)), st(s.eta_t, eta_t);
+  const vfloat eta = ld(pk.ray.eta);
+  st(s.eta, select(transmits, eta * (eta_t * eta_t), eta));
+}
+
+// ---- The path takes the sample (mirrored back to wo's side): the throughput, roulette, the next ray.
+// `any_dirac`: lane_dirac_samples ran (the η scale is then its).
+template <MaterialSet kM>
+[[gnu::always_inline]] inline void lane_continuations(const LaneContext<kM>& c, const LanePacket& pk, bool any_dirac,
+                                                      LaneContinuations& out) {
+  using lanes::std_max;
+  const LaneFrames& fr = pk.frame;
+  const LaneSamples& s = pk.sample;
   const LaneRays& r = pk.ray;
-  vfloat nbr = ld(r.beta_r) * (f.x * k_scale), nbg = ld(r.beta_g) * (f.y * k_scale),
-         nbb = ld(r.beta_b) * (f.z * k_scale);
+  const vfloat dxs = ld(s.wx), dys = ld(s.wy), pdf = ld(s.pdf);
+  const vfloat wz = select(ld(fr.wlz) < 0.f, -ld(s.wz), ld(s.wz));
+  M ok = ld(s.ok) != 0.f && pdf > 0.f && wz != 0.f;
+  const vfloat k_scale = stdx::abs(wz) / pdf;
+  vfloat nbr = ld(r.beta_r) * (ld(s.f_r) * k_scale), nbg = ld(r.beta_g) * (ld(s.f_g) * k_scale),
+         nbb = ld(r.beta_b) * (ld(s.f_b) * k_scale);
   // frame.to_world: s·x + t·y + n·z.
   const vfloat wwx = (ld(fr.sx) * dxs + ld(fr.tx) * dys) + ld(fr.fnx) * wz;
   const vfloat wwy = (ld(fr.sy) * dxs + ld(fr.ty) * dys) + ld(fr.fny) * wz;
   const vfloat wwz = (ld(fr.sz) * dxs + ld(fr.tz) * dys) + ld(fr.fnz) * wz;
   if (c.roulette) {
-    const vfloat q = roulette_survival(std_max(nbr, std_max(nbg, nbb)) * ld(r.eta));
+    const vfloat eta = ld(any_dirac ? s.eta : r.eta);
+    const vfloat q = roulette_survival(std_max(nbr, std_max(nbg, nbb)) * eta);
     ok = ok && ld(pk.u.u_rr) < q;
     nbr = nbr / q, nbg = nbg / q, nbb = nbb / q;
   }
@@ -489,7 +527,6 @@ template <MaterialSet kM>
        stdx::isfinite(nbb);
   st(out.goes_on, one_where(ok));
   st(out.beta_r, nbr), st(out.beta_g, nbg), st(out.beta_b, nbb);
-  st(out.pdf, pdf);
   // The side it leaves on: wi's in the world on a flat hit, the shading frame's on a smooth one (shade_vertex).
   const LanePolygons& g = pk.polygon;
   M back = lanes::dot(Vec3T<vfloat>{wwx, wwy, wwz}, Vec3T<vfloat>{ld(g.ngx), ld(g.ngy), ld(g.ngz)}) < 0.f;
@@ -503,14 +540,15 @@ template <MaterialSet kM>
 }
 
 // ---- Write back (scalar, lane order): the feature buffers at a first hit, the shadow ray, the next ray and the
-// path's new state.
+// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran).
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void write_back_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
-                                                    const Hit* hits, const LanePacket& pk, PathState* paths,
-                                                    LaneShading& out, RayCount& count) {
+                                                    const Hit* hits, const LanePacket& pk, bool any_dirac,
+                                                    PathState* paths, LaneShading& out, RayCount& count) {
   const LaneHits& h = pk.hit;
   const LanePolygons& g = pk.polygon;
   const LaneShadows& sh = pk.shadow;
+  const LaneSamples& sample = pk.sample;
   const LaneContinuations& next = pk.next;
   for (int l = 0; l < k; ++l) {
     if (!pk.active[l]) continue;
@@ -533,10 +571,21 @@ template <MaterialSet kM>
     if (next.goes_on[l] == 0.f) continue;
     out.continues[l] = true;
     p.beta = Rgb(next.beta_r[l], next.beta_g[l], next.beta_b[l]);
-    p.count_emission = false;
-    p.prev_bsdf_pdf = next.pdf[l];
-    p.prev_p = Vec3(h.px[l], h.py[l], h.pz[l]);
-    p.prev_n = Vec3(pk.frame.nx[l], pk.frame.ny[l], pk.frame.nz[l]);
+    if (any_dirac) p.eta_scale = sample.eta[l];
+    if (any_dirac && sample.specular[l] != 0.f) {
+      p.count_emission = true;  // no light sample covered the direction
+      if (p.features.out) [[unlikely]] {
+        const BsdfFlags side = sample.transmits[l] != 0.f ? BsdfFlags::Transmission : BsdfFlags::Reflection;
+        p.features.through_specular({Vec3(sample.wx[l], sample.wy[l], sample.wz[l]),
+                                     Rgb(sample.f_r[l], sample.f_g[l], sample.f_b[l]), sample.pdf[l],
+                                     side | BsdfFlags::Specular, sample.eta_t[l]});
+      }
+    } else {
+      p.count_emission = false;
+      p.prev_bsdf_pdf = sample.pdf[l];
+      p.prev_p = Vec3(h.px[l], h.py[l], h.pz[l]);
+      p.prev_n = Vec3(pk.frame.nx[l], pk.frame.ny[l], pk.frame.nz[l]);
+    }
     p.ray = {Vec3(next.ox[l], next.oy[l], next.oz[l]), Vec3(next.dx[l], next.dy[l], next.dz[l])};
     p.skip = hits[l].prim;
     p.depth = static_cast<int>(c.depth) + 1;
@@ -567,16 +616,19 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   // A textured lane's material with what its images say at the hit (material_at's copy, held here).
   MaterialScratch resolved[kLanes];
   if (kM == MaterialSet::Any && any_textured) resolve_textured_lanes(c, ids, k, hits, paths, pk, lobes, resolved);
-  if (lobes.any()) lobes.finish();
   lane_frames(pk.ray, pk.polygon, pk.hit, c.smooth_scene, pk.active, pk.frame);
   choose_lane_lights<kM, F>(c, rng_of, k, hits, lobes, pk);
-  // The lanes with another lobe: E(μo) at wo (lane_lobes.h).
+  // The lanes with another lobe: wo, and E(μo) of the rough ones (Gl) there (lane_lobes.h).
   const bool any_lobe = kM == MaterialSet::Any && lobes.any();
-  const M Gl = any_lobe ? lobes.lobe_mask() : M(false);
+  const bool any_rough = any_lobe && lobes.any_rough();
+  const M Gl = any_rough ? lobes.lobe_mask() : M(false);
   if (any_lobe) lobes.at(lane_wo_local(pk.ray, pk.frame));
-  lane_light_samples(c, pk, lobes, any_lobe, Gl, pk.shadow);
-  lane_bsdf_samples(c, pk, lobes, any_lobe, Gl, pk.next);
-  write_back_lanes(c, ids, k, hits, pk, paths, out, count);
+  lane_light_samples(c, pk, lobes, any_rough, Gl, pk.shadow);
+  lane_bsdf_samples(pk, lobes, any_rough, Gl, pk.sample);
+  const bool any_dirac = kM == MaterialSet::Any && lobes.any_dirac;
+  if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
+  lane_continuations(c, pk, any_dirac, pk.next);
+  write_back_lanes(c, ids, k, hits, pk, any_dirac, paths, out, count);
 }
 PT_SIMD_SQRT_WARNINGS_ON
 

@@ -9,8 +9,8 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian, glTF, plastic and conductor polygons, textured or not, are shaded in SIMD lanes (shading_lanes.h),
-// and each stage's loop runs one kind of work.
+// Lambertian, glTF, plastic, conductor, mirror and smooth glass polygons, textured or not, are shaded in SIMD
+// lanes (shading_lanes.h), and each stage's loop runs one kind of work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -63,9 +63,17 @@ inline bool conductor_lane_material(const Material& m) {
   return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha) && lane_textures(m) &&
          is_black(m.emission);
 }
+// A Dirac lobe alone, only sampled (no light sample there): the mirror, the smooth conductor and smooth glass, not
+// emitting; only in the kernels for any material.
+inline bool dirac_lane_material(const Material& m) {
+  const bool smooth_kind = m.type == MaterialType::Conductor || m.type == MaterialType::Dielectric;
+  const bool dirac = m.type == MaterialType::Mirror || (smooth_kind && effectively_smooth(m.alpha));
+  return dirac && lane_textures(m) && is_black(m.emission);
+}
 // Any material the lanes shade, in the kernels for any material.
 inline bool lane_material(const Material& m) {
-  return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m);
+  return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m) ||
+         dirac_lane_material(m);
 }
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;

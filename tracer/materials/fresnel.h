@@ -95,12 +95,27 @@ inline Vec3 reflect(Vec3 v, Vec3 n) { return v - 2.f * glm::dot(v, n) * n; }
 
 // Snell refraction of wo (pointing away from the surface, on the side of n) through an interface with relative
 // index eta = n_t/n_i. Returns false under total internal reflection.
+// Written once over T (float, or vfloat for the SIMD shading lanes, integrators/lane_lobes.h): wt is computed in
+// every lane, and is meaningful where the returned mask is set. The operations are glm's, in its order
+// (normalize(v) = v · (1/√(v·v))), so both instances round alike.
+PT_SIMD_SQRT_WARNINGS_OFF  // it runs on SIMD lanes too (every lane computed)
+template <class T>
+[[gnu::always_inline]] inline lanes::Mask<T> refract_t(const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& n,
+                                                       const T& eta, lanes::Vec3T<T>& wt) {
+  const T cos_i = lanes::dot(n, wo);
+  const T sin2_t = lanes::std_max(T(0.f), T(1.f) - cos_i * cos_i) / (eta * eta);
+  const T cos_t = lanes::sqrt(lanes::std_max(T(0.f), T(1.f) - sin2_t));  // safe_sqrt
+  const T k = cos_i / eta - cos_t;
+  const lanes::Vec3T<T> v{-wo.x / eta + k * n.x, -wo.y / eta + k * n.y, -wo.z / eta + k * n.z};
+  const T inv = T(1.f) / lanes::sqrt(lanes::dot(v, v));
+  wt = {v.x * inv, v.y * inv, v.z * inv};
+  return !(sin2_t >= T(1.f));
+}
+PT_SIMD_SQRT_WARNINGS_ON
 inline bool refract(Vec3 wo, Vec3 n, float eta, Vec3& wt) {
-  const float cos_i = glm::dot(n, wo);
-  const float sin2_t = std::max(0.f, 1.f - cos_i * cos_i) / (eta * eta);
-  if (sin2_t >= 1.f) return false;
-  const float cos_t = safe_sqrt(1.f - sin2_t);
-  wt = glm::normalize(-wo / eta + (cos_i / eta - cos_t) * n);
+  lanes::Vec3T<float> t;
+  if (!refract_t(lanes::of(wo), lanes::of(n), eta, t)) return false;
+  wt = lanes::to_vec3(t);
   return true;
 }
 
