@@ -7,6 +7,8 @@
 // Conventions (pbrt-v4 §9.3): cos_i ≥ 0 is the cosine on the incident side; eta = n_t / n_i is the relative index
 // of the transmitted side over the incident side; reflectance is for unpolarised light (mean of s and p).
 #pragma once
+#include <type_traits>
+
 #include "core/lanes.h"
 #include "core/math.h"
 #include "core/simd_sqrt_warnings.h"
@@ -104,6 +106,9 @@ template <class T>
                                                        const T& eta, lanes::Vec3T<T>& wt) {
   const T cos_i = lanes::dot(n, wo);
   const T sin2_t = lanes::std_max(T(0.f), T(1.f) - cos_i * cos_i) / (eta * eta);
+  if constexpr (std::is_same_v<T, float>) {
+    if (sin2_t >= 1.f) return false;  // one path stops here; the lanes compute on (and select)
+  }
   const T cos_t = lanes::sqrt(lanes::std_max(T(0.f), T(1.f) - sin2_t));  // safe_sqrt
   const T k = cos_i / eta - cos_t;
   const lanes::Vec3T<T> v{-wo.x / eta + k * n.x, -wo.y / eta + k * n.y, -wo.z / eta + k * n.z};
