@@ -12,7 +12,6 @@
 #include "core/lanes.h"
 #include "core/simd_sqrt_warnings.h"
 #include "materials/conductor.h"
-#include "materials/dielectric.h"
 #include "materials/fresnel.h"
 #include "materials/metallic_roughness.h"
 #include "materials/plastic.h"
