@@ -525,6 +525,61 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
     }
 }
 
+// The lanes shade analytic spheres too (make_interaction's sphere_point in the gather; a ray leaving a sphere may
+// hit it again: a refraction into glass, a reflection off its inside). Four spheres in front of the mesh sphere,
+// one material each, every lane material in turn: the Lambert, plastic, glTF and rough conductor lobes, a mirror,
+// smooth glass and a smooth conductor, and, handed back to shade_vertex, a smooth plastic, rough glass and a
+// textured sphere (no texture coordinates); beside a flat (kind 1) and a smooth-shaded mesh (kind 2, whose vertex
+// normals the spheres' lanes must not read), six bounces, roulette from the first.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on analytic spheres of every material") {
+  const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
+                                    TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
+  const auto material = [&](int i) {
+    MaterialDesc m;
+    m.name = "sphere " + std::to_string(i);
+    m.albedo = Rgb(0.9f, 0.6f, 0.3f);
+    switch (i) {
+      case 0: break;  // Lambert
+      case 1: m.type = MaterialType::Plastic, m.roughness = 0.3f, m.ior = 1.4f; break;
+      case 2: m.type = MaterialType::MetallicRoughness, m.metallic = 0.4f, m.roughness = 0.5f; break;
+      case 3: m.type = MaterialType::Conductor, m.metal = MetalPreset::Gold, m.roughness = 0.35f; break;
+      case 4: m.type = MaterialType::Mirror; break;
+      case 5: m.type = MaterialType::Dielectric, m.ior = 1.5f; break;
+      case 6: m.type = MaterialType::Conductor, m.roughness = 0.f; break;
+      case 7: m.type = MaterialType::Plastic, m.roughness = 0.f; break;  // its Dirac coat: shade_vertex
+      case 8: m.type = MaterialType::Dielectric, m.roughness = 0.3f; break;  // rough glass: shade_vertex
+      default: m.albedo_map = colours; break;  // a textured sphere: shade_vertex
+    }
+    return m;
+  };
+  const DVec3 centres[4] = {DVec3(-1.0, -0.55, 1.0), DVec3(1.0, -0.55, 1.0), DVec3(-0.45, 0.1, 1.9),
+                            DVec3(0.45, 0.1, 1.9)};
+  const double radii[4] = {0.4, 0.4, 0.25, 0.25};
+  for (const int kind : {1, 2})
+    for (int first = 0; first < 10; first += 4) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 6;
+      d.render.russian_roulette_depth = 1;
+      for (int j = 0; j < 4; ++j) {
+        d.materials.push_back(material((first + j) % 10));
+        ShapeDesc ball;
+        ball.type = ShapeType::Sphere;
+        ball.center = centres[j];
+        ball.radius = radii[j];
+        ball.material = static_cast<int>(d.materials.size()) - 1;
+        d.shapes.push_back(ball);
+      }
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(first);
+      REQUIRE((scene->kernel_features() & kFeatureSpheres) != 0);
+      CHECK(scene->shading.empty() == (kind == 1));
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
 namespace {
 
 // A diffuse floor of two triangles lit by a small one-sided square light above it (unseen by the camera); with

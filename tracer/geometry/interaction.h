@@ -209,6 +209,22 @@ inline void instance_point(const SceneGeometry& s, const Ray& ray, const Hit& h,
 
 }  // namespace interaction_detail
 
+// A hit on a sphere (h.prim ≥ s.sphere_begin(), not an instance's): recomputed in double and projected back onto
+// the surface, so the only float error left is the final rounding of p (bounded by γ3·|p| with margin). Fills
+// it.p, p_error, ng, ns and planar (the SIMD shading lanes take a sphere's hit from here too).
+inline void sphere_point(const SceneGeometry& s, const Ray& ray, const Hit& h, Interaction& it) {
+  const uint32_t i = h.prim - s.sphere_begin();
+  const DVec3 c = s.spheres.center[i];
+  const DVec3 pd = DVec3(ray.o) + static_cast<double>(h.t) * DVec3(ray.d);
+  const DVec3 n = glm::normalize(pd - c);
+  const DVec3 p = c + s.spheres.radius[i] * n;
+  it.p = Vec3(p);
+  it.p_error = gamma_bound(3) * glm::abs(it.p);
+  it.ng = Vec3(n);
+  it.ns = it.ng;
+  it.planar = false;
+}
+
 // F: the kernel's feature set (KernelFeature); a kind of primitive outside it is never hit, so its code is left out.
 template <uint32_t F = kAllFeatures>
 inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, const Hit& h) {
@@ -239,18 +255,7 @@ inline Interaction make_interaction(const SceneGeometry& s, const Ray& ray, cons
   } else if (!kOnlyPolygons && s.instances.holds(h.prim)) [[unlikely]] {
     interaction_detail::instance_point<kShading>(s, ray, h, it);
   } else {
-    // Sphere: recompute in double and project back onto the surface, so the only float error left is the final
-    // rounding of p (bounded by γ3·|p| with margin).
-    const uint32_t i = h.prim - s.sphere_begin();
-    const DVec3 c = s.spheres.center[i];
-    const DVec3 pd = DVec3(ray.o) + static_cast<double>(h.t) * DVec3(ray.d);
-    const DVec3 n = glm::normalize(pd - c);
-    const DVec3 p = c + s.spheres.radius[i] * n;
-    it.p = Vec3(p);
-    it.p_error = gamma_bound(3) * glm::abs(it.p);
-    it.ng = Vec3(n);
-    it.ns = it.ng;
-    it.planar = false;
+    sphere_point(s, ray, h, it);
   }
   return it;
 }

@@ -36,7 +36,9 @@ struct LaneRays {
   }
 };
 
-// The hit polygon (PolygonSoA): what make_interaction and vertex_shading read of it.
+// The hit polygon (PolygonSoA): what make_interaction and vertex_shading read of it. A lane whose hit is on a
+// sphere has its normal here (and as its three vertex normals, so vertex_shading leaves it flat), `sphere` set,
+// and its point and error bound (make_interaction's sphere_point, in the gather), which lane_hit_points copies.
 struct LanePolygons {
   // Its corners a, v1, v2 and v3 (a triangle's v3 is unused).
   alignas(64) float ax[kPacket], ay[kPacket], az[kPacket], v1x[kPacket], v1y[kPacket], v1z[kPacket];
@@ -49,6 +51,8 @@ struct LanePolygons {
   alignas(64) float ngx[kPacket], ngy[kPacket], ngz[kPacket];  // the geometric normal
   alignas(64) float quad[kPacket];                             // 1 for a parallelogram, 0 for a triangle
   alignas(64) float vn[3][3][kPacket];  // on a smooth-shaded scene, its vertex normals: [vertex][axis][lane]
+  alignas(64) float sphere[kPacket];    // 1 for a sphere's hit (no polygon); set where the packet holds one
+  alignas(64) float spx[kPacket], spy[kPacket], spz[kPacket], sex[kPacket], sey[kPacket], sez[kPacket];  // its p, bound
 
   void clear(bool smooth_scene) {
     fill_lanes(0.f, ax, ay, az, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z);
@@ -58,6 +62,8 @@ struct LanePolygons {
     if (smooth_scene)
       for (auto& n : vn) fill_lanes(0.f, n[0], n[1]), fill_lanes(1.f, n[2]);
   }
+  // Before the first sphere's lane (the sphere arrays are read only in packets holding one).
+  void clear_spheres() { fill_lanes(0.f, sphere, spx, spy, spz, sex, sey, sez); }
 };
 
 // The material each lane shades with (the rough lobes' parameters are lane_lobes.h's LaneLobes).

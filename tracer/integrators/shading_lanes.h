@@ -1,6 +1,6 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
-// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon of a
-// material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes of
+// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon or
+// sphere of a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes of
 // lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the rough conductor),
 // lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only
 // sampled, as shade_vertex samples no light where a material has no other lobe. A parallelogram light sampled by area
@@ -22,9 +22,11 @@
 // take is wavefront.h's (lane_material, lane_textures). On a smooth-shaded mesh they shade as shade_vertex does: the
 // frame about the interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
 // metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane at a time, over the
-// ray cone shade_vertex filters with. A lane takes the scalar path instead (the caller runs shade_vertex for it) when
-// its hit is on a sphere or an instance, or emits, or has another material (a smooth plastic or glTF layer over its
-// base, rough glass, subsurface), or textures on a mesh without texture coordinates, or when no light can reach it, or
+// ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point in the gather
+// and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
+// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits, or has another material (a
+// smooth plastic or glTF layer over its base, rough glass, subsurface), or textures on a sphere or on a mesh without
+// texture coordinates, or when no light can reach it, or
 // where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below
 // the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the light choice, the other
 // lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
@@ -36,6 +38,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <utility>
 
 #include "core/simd_sqrt_warnings.h"
 #include "geometry/simd_polygons.h"
@@ -87,13 +90,29 @@ template <MaterialSet kM>
   if (kM == MaterialSet::Any && m.type != MaterialType::Diffuse) lobes.take(l, m);
 }
 
-// ---- Gather (scalar): which lanes the lanes shade, their rays, hit polygons and materials. A textured material
-// is marked for resolve_textured_lanes. Returns whether any lane is active; sets `any_textured`.
-template <MaterialSet kM>
+// A sphere's hit in lane l (kSpheres: the kernel has spheres): make_interaction's point, error bound and normal,
+// which vertex_shading keeps (three vertex normals equal to it).
+[[gnu::always_inline]] inline void gather_sphere(const Scene& s, bool smooth_scene, const Ray& ray, const Hit& hit,
+                                                 LanePacket& pk, int l) {
+  Interaction it;
+  sphere_point(s, ray, hit, it);
+  LanePolygons& g = pk.polygon;
+  g.spx[l] = it.p.x, g.spy[l] = it.p.y, g.spz[l] = it.p.z;
+  g.sex[l] = it.p_error.x, g.sey[l] = it.p_error.y, g.sez[l] = it.p_error.z;
+  g.ngx[l] = it.ng.x, g.ngy[l] = it.ng.y, g.ngz[l] = it.ng.z;
+  if (smooth_scene)
+    for (int v = 0; v < 3; ++v) g.vn[v][0][l] = it.ng.x, g.vn[v][1][l] = it.ng.y, g.vn[v][2][l] = it.ng.z;
+  g.sphere[l] = 1.f;
+}
+
+// ---- Gather (scalar): which lanes the lanes shade, their rays, hit polygons or spheres and materials. A textured
+// material is marked for resolve_textured_lanes. Returns whether any lane is active; sets `any_textured` and
+// `any_sphere`. kSpheres: the kernel has spheres.
+template <MaterialSet kM, bool kSpheres>
 [[gnu::always_inline]] inline bool gather_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                 const Hit* hits, const bool* found, const PathState* paths,
                                                 LanePacket& pk, LaneLobes& lobes, LaneShading& out,
-                                                bool& any_textured) {
+                                                bool& any_textured, bool& any_sphere) {
   constexpr int N = kLanes;
   const Scene& s = c.s;
   const PolygonSoA& P = s.polygons;
@@ -108,21 +127,22 @@ template <MaterialSet kM>
   pk.u.clear();
   if constexpr (kM == MaterialSet::Any) lobes.clear();
   bool any = false;
-  any_textured = false;
+  bool textured = false, spheres = false;  // locals: a bool& might alias the packet's byte arrays
   for (int l = 0; l < k; ++l) {
     pk.material.textured[l] = 0;
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
-    if (prim >= s.sphere_begin()) continue;  // a sphere or an instance's triangle: the scalar path
-    pk.material.index[l] = P.material[prim];
+    const bool sphere = kSpheres && prim >= s.sphere_begin();
+    if (prim >= s.sphere_begin() && !(sphere && s.is_sphere(prim))) continue;  // an instance's: the scalar path
+    pk.material.index[l] = sphere ? s.spheres.material[prim - s.sphere_begin()] : P.material[prim];
     const Material& m = s.materials[pk.material.index[l]];
     if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
     if constexpr (kM == MaterialSet::Any) {
       if (!lane_material(m)) continue;
       if (has_textures(m)) {
-        if (!c.smooth_scene) continue;  // no texture coordinates: the scalar path
+        if (sphere || !c.smooth_scene) continue;  // no texture coordinates: the scalar path
         pk.material.textured[l] = 1;  // its material once the hit is known
-        any_textured = true;
+        textured = true;
       } else {
         take_material<kM>(pk, lobes, l, m);
       }
@@ -136,6 +156,13 @@ template <MaterialSet kM>
     r.t[l] = hits[l].t;
     r.beta_r[l] = p.beta.x, r.beta_g[l] = p.beta.y, r.beta_b[l] = p.beta.z;
     r.eta[l] = p.eta_scale;
+    if (sphere) {
+      if (!spheres) pk.polygon.clear_spheres();
+      gather_sphere(s, c.smooth_scene, p.ray, hits[l], pk, l);
+      pk.active[l] = 1;
+      any = spheres = true;
+      continue;
+    }
     LanePolygons& g = pk.polygon;
     const Vec3 a = P.v[0][prim], b = P.v[1][prim], cc = P.v[2][prim], d = P.v[3][prim];
     g.ax[l] = a.x, g.ay[l] = a.y, g.az[l] = a.z, g.v1x[l] = b.x, g.v1y[l] = b.y, g.v1z[l] = b.z;
@@ -158,13 +185,15 @@ template <MaterialSet kM>
     pk.active[l] = 1;
     any = true;
   }
+  any_textured = textured, any_sphere = spheres;
   return any;
 }
 
 // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, the re-interpolated point; on a
-// smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted).
+// smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted). A sphere's lane
+// (any_sphere) keeps the point and error bound the gather wrote.
 [[gnu::always_inline]] inline void lane_hit_points(const LaneRays& r, const LanePolygons& g, bool smooth_scene,
-                                                   bool any_textured, LaneHits& h) {
+                                                   bool any_textured, bool any_sphere, LaneHits& h) {
   using lanes::std_max;
   const vfloat T = ld(r.t), Ax = ld(g.ax), Ay = ld(g.ay), Az = ld(g.az);
   const vfloat qx = (ld(r.ox) + T * ld(r.dx)) - Ax, qy = (ld(r.oy) + T * ld(r.dy)) - Ay,
@@ -187,13 +216,20 @@ template <MaterialSet kM>
     const vfloat inv = 1.f / ((c0 + c1) + c2);
     b0 = select(clamp, c0 * inv, b0), b1 = select(clamp, c1 * inv, b1), b2 = select(clamp, c2 * inv, b2);
   }
-  const Vec3T<vfloat> p{(b0 * Ax + b1 * Bx) + b2 * Cx, (b0 * Ay + b1 * By) + b2 * Cy, (b0 * Az + b1 * Bz) + b2 * Cz};
+  Vec3T<vfloat> p{(b0 * Ax + b1 * Bx) + b2 * Cx, (b0 * Ay + b1 * By) + b2 * Cy, (b0 * Az + b1 * Bz) + b2 * Cz};
   st(h.px, p.x), st(h.py, p.y), st(h.pz, p.z);
   if (any_textured) st(h.bary[0], b0), st(h.bary[1], b1), st(h.bary[2], b2);
   constexpr float g7 = gamma_bound(7);
   st(h.ex, g7 * ((stdx::abs(b0 * Ax) + stdx::abs(b1 * Bx)) + stdx::abs(b2 * Cx)));
   st(h.ey, g7 * ((stdx::abs(b0 * Ay) + stdx::abs(b1 * By)) + stdx::abs(b2 * Cy)));
   st(h.ez, g7 * ((stdx::abs(b0 * Az) + stdx::abs(b1 * Bz)) + stdx::abs(b2 * Cz)));
+  if (any_sphere) {  // the spheres' lanes: the gather's point and bound
+    const M S = ld(g.sphere) != 0.f;
+    for (auto [to, from] : {std::pair{h.px, g.spx}, {h.py, g.spy}, {h.pz, g.spz}, {h.ex, g.sex}, {h.ey, g.sey},
+                            {h.ez, g.sez}})
+      st(to, select(S, ld(from), ld(to)));
+    p = {ld(h.px), ld(h.py), ld(h.pz)};
+  }
   if (!smooth_scene) return;
   // vertex_shading: a face whose three normals are ng (one without vertex normals) stays exactly flat.
   const Vec3T<vfloat> ng{ld(g.ngx), ld(g.ngy), ld(g.ngz)};
@@ -540,11 +576,13 @@ template <MaterialSet kM>
 }
 
 // ---- Write back (scalar, lane order): the feature buffers at a first hit, the shadow ray, the next ray and the
-// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran).
+// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran); `any_sphere`: some lane's hit
+// is on a sphere.
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void write_back_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                     const Hit* hits, const LanePacket& pk, bool any_dirac,
-                                                    PathState* paths, LaneShading& out, RayCount& count) {
+                                                    bool any_sphere, PathState* paths, LaneShading& out,
+                                                    RayCount& count) {
   const LaneHits& h = pk.hit;
   const LanePolygons& g = pk.polygon;
   const LaneShadows& sh = pk.shadow;
@@ -590,6 +628,13 @@ template <MaterialSet kM>
     p.skip = hits[l].prim;
     p.depth = static_cast<int>(c.depth) + 1;
   }
+  // skip_on_leave: a polygon cannot be hit again by a ray leaving it, a sphere can (from inside, or elsewhere).
+  if (any_sphere)
+    for (int l = 0; l < k; ++l) {
+      if (!pk.active[l] || g.sphere[l] == 0.f) continue;
+      out.shadow_ray[l].skip_a = ~0u;
+      paths[ids[l]].skip = ~0u;
+    }
 }
 
 PT_SIMD_SQRT_WARNINGS_ON
@@ -609,10 +654,12 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
                           roulette_applies(static_cast<int>(depth), o.rr_depth)};
   LanePacket pk;
   LaneLobes lobes;  // the rough lobes besides Lambert's (lane_lobes.h)
-  bool any_textured = false;
-  if (!gather_lanes(c, ids, k, hits, found, paths, pk, lobes, out, any_textured))
+  constexpr bool kSpheres = (F & kFeatureSpheres) != 0;
+  bool any_textured = false, gathered_sphere = false;
+  if (!gather_lanes<kM, kSpheres>(c, ids, k, hits, found, paths, pk, lobes, out, any_textured, gathered_sphere))
     return;  // nothing for the lanes: every path takes shade_vertex
-  lane_hit_points(pk.ray, pk.polygon, c.smooth_scene, any_textured, pk.hit);
+  const bool any_sphere = kSpheres && gathered_sphere;  // false at compile time in a kernel without spheres
+  lane_hit_points(pk.ray, pk.polygon, c.smooth_scene, any_textured, any_sphere, pk.hit);
   // A textured lane's material with what its images say at the hit (material_at's copy, held here).
   MaterialScratch resolved[kLanes];
   if (kM == MaterialSet::Any && any_textured) resolve_textured_lanes(c, ids, k, hits, paths, pk, lobes, resolved);
@@ -628,7 +675,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   const bool any_dirac = kM == MaterialSet::Any && lobes.any_dirac;
   if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
   lane_continuations(c, pk, any_dirac, pk.next);
-  write_back_lanes(c, ids, k, hits, pk, any_dirac, paths, out, count);
+  write_back_lanes(c, ids, k, hits, pk, any_dirac, any_sphere, paths, out, count);
 }
 PT_SIMD_SQRT_WARNINGS_ON
 

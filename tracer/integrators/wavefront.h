@@ -9,8 +9,8 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian, glTF, plastic, conductor, mirror and smooth glass polygons, textured or not, are shaded in SIMD
-// lanes (shading_lanes.h), and each stage's loop runs one kind of work.
+// Lambertian, glTF, plastic, conductor, mirror and smooth glass polygons and spheres, textured or not (polygons),
+// are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -36,7 +36,7 @@ using BatchKernel = bool (*)(const Scene&, const RenderSettings&, const Sampler*
 template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
-// Whether the batch kernel compiled for `features` shades this scene's hits on polygons in SIMD lanes
+// Whether the batch kernel compiled for `features` shades this scene's hits on polygons and spheres in SIMD lanes
 // (shading_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
 // where some material is one the lanes take (a scene of others alone would only pay for their gathers).
 // Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there

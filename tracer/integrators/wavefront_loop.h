@@ -31,8 +31,8 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   constexpr bool kBatchPoints = std::is_same_v<Sampler, SobolSampler>;
   using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
   Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1], bsdf_points[kBatchPoints ? kWavefrontBatch : 1];
-  // Polygons of the lanes' materials shade in lanes in every kernel with polygons (shading_lanes.h), where
-  // shading_lanes_apply (wavefront.h) says so.
+  // Polygons and spheres of the lanes' materials shade in lanes in every kernel with polygons (shading_lanes.h),
+  // where shading_lanes_apply (wavefront.h) says so.
   constexpr bool kLambertLanes = (F & kFeaturePolygons) != 0;
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   LaneShading lane_shading;
@@ -40,7 +40,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;
-    // Polygons of the lanes' materials lit by next-event estimation are shaded kLanes at a time
+    // Polygons and spheres of the lanes' materials lit by next-event estimation are shaded kLanes at a time
     // (shading_lanes.h); every other vertex, and every lane that code hands back, by shade_vertex.
     const bool lanes = lanes_apply && o.light_sampling && static_cast<int>(bounce) < o.max_bounces;
     uint32_t light_dim = SamplerWithPoints<Sampler>::kNone, bsdf_dim = SamplerWithPoints<Sampler>::kNone;
