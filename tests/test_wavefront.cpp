@@ -5,6 +5,7 @@
 #include <chrono>
 #include <fstream>
 #include <cstring>
+#include <set>
 #include <thread>
 
 #include "geometry/alpha_mask.h"
@@ -283,6 +284,58 @@ TEST_CASE("wavefront: among other materials and spheres, the lanes shade the Lam
     CAPTURE(std::string(to_string(est)));
     check_loops_agree(desc);
   }
+}
+
+// The order the kernels for any material shade a bounce's hits in (wavefront.h: lane_sort_key): every material the
+// lanes take has a key of its own kind (a material the lanes take, keyed as one they hand back, would be shaded among
+// those), the others share Scalar, a miss is Missed; and the batch sorts only where the lanes take several kinds.
+TEST_CASE("wavefront: each kind of lobe the lanes take has its own sort key, and only scenes of several kinds sort") {
+  const auto scene_of = [](std::vector<MaterialDesc> materials) {
+    SceneDesc d = load_scene("cornell");
+    for (MaterialDesc& m : materials) {
+      m.name = "m" + std::to_string(d.materials.size());
+      d.materials.push_back(m);
+    }
+    return compile_scene(d);
+  };
+  std::vector<MaterialDesc> lane_kinds(8), others(4);
+  lane_kinds[1].type = MaterialType::Plastic, lane_kinds[1].roughness = 0.3f;
+  lane_kinds[2].type = MaterialType::MetallicRoughness, lane_kinds[2].roughness = 0.5f;
+  lane_kinds[3].type = MaterialType::Conductor, lane_kinds[3].roughness = 0.4f;
+  lane_kinds[4].type = MaterialType::Conductor, lane_kinds[4].roughness = 0.4f, lane_kinds[4].metal = MetalPreset::Gold;
+  lane_kinds[5].type = MaterialType::Mirror;
+  lane_kinds[6].type = MaterialType::Conductor, lane_kinds[6].metal = MetalPreset::Copper;
+  lane_kinds[7].type = MaterialType::Dielectric;
+  others[0].emission = Rgb(2.f);
+  others[1].type = MaterialType::Dielectric, others[1].roughness = 0.3f;
+  others[2].type = MaterialType::Subsurface;
+  others[3].type = MaterialType::Plastic;  // smooth: its Dirac coat over a base
+  std::vector<MaterialDesc> all = lane_kinds;
+  all.insert(all.end(), others.begin(), others.end());
+  const auto scene = scene_of(all);
+  const size_t first = scene->materials.size() - all.size();
+  std::set<LaneSortKey> keys;
+  for (size_t i = first; i < scene->materials.size(); ++i) {
+    const Material& m = scene->materials[i];
+    CAPTURE(i - first);
+    const LaneSortKey key = material_sort_key(m);
+    CHECK((key == LaneSortKey::Scalar) == !lane_material(m));
+    CHECK(key != LaneSortKey::Missed);
+    CHECK(static_cast<int>(key) < static_cast<int>(LaneSortKey::Count));
+    if (i - first < lane_kinds.size()) CHECK(keys.insert(key).second);  // a kind of its own
+  }
+  MaterialKeys table;
+  table.look_up(*scene);
+  CHECK(table.mixed);
+  CHECK(lane_sort_key(*scene, Hit{}, false, table) == LaneSortKey::Missed);
+  // The cornell box is Lambertian walls and a lamp: one kind, no sort; one metal more makes two.
+  const auto cornell = compile_scene(load_scene("cornell"));
+  table.look_up(*cornell);
+  CHECK_FALSE(table.mixed);
+  table.look_up(*scene_of({lane_kinds[3]}));
+  CHECK(table.mixed);
+  table.look_up(*scene_of({others[1], others[2]}));  // kinds the lanes do not take do not count
+  CHECK_FALSE(table.mixed);
 }
 
 TEST_CASE("wavefront: auto takes it on every scene, the scalar loop only when asked") {

@@ -76,8 +76,10 @@ inline bool intersect_quad(Vec3 a, Vec3 b, Vec3 c, Vec3 d, Vec3 o, const RayShea
 // Ray/Sphere Intersection", Haines et al., Ray Tracing Gems ch. 7): the discriminant is formed from the
 // perpendicular offset of the centre from the ray rather than b²−4ac, and the roots from q = −b − sign(b)√Δ so
 // neither root suffers cancellation. Done in double: spheres are few, and it keeps spheres 10^5 times the scene
-// size exact to well below a float ulp of the hit point. Returns the nearest root in (0, t_max).
-inline bool intersect_sphere(DVec3 center, double radius, Vec3 o, Vec3 d, float t_max, float& t_hit) {
+// size exact to well below a float ulp of the hit point. Returns the nearest root in (0, t_max). Inlined into the
+// loops over a scene's spheres: called out of line (GCC's choice in the larger kernels), it cost `materials` 7 % more
+// instructions per sample (docs/performance.md, session 45).
+[[gnu::always_inline]] inline bool intersect_sphere(DVec3 center, double radius, Vec3 o, Vec3 d, float t_max, float& t_hit) {
   const DVec3 dd(d);
   const DVec3 f = DVec3(o) - center;  // centre → origin
   const double a = glm::dot(dd, dd);

@@ -134,6 +134,8 @@ struct LaneShadows {
   alignas(64) float ok[kPacket];         // 1: the shadow ray is cast
   alignas(64) float ox[kPacket], oy[kPacket], oz[kPacket], dx[kPacket], dy[kPacket], dz[kPacket], t_max[kPacket];
   alignas(64) float c_r[kPacket], c_g[kPacket], c_b[kPacket];  // its contribution
+
+  void none() { fill_lanes(0.f, traced, ok); }  // a packet of Dirac lobes alone: no light sample
 };
 
 // The BSDF sample of each lane, as bsdf_sample<Any> returns it (in the shading frame mirrored to the front), before
@@ -145,6 +147,9 @@ struct LaneSamples {
   // Written where some lane has a Dirac lobe (lane_dirac_samples): whether the sample is a Dirac lobe's, whether
   // it refracted (0 or 1), the refraction's η (1 elsewhere), and the path's η scale after it (times η²).
   alignas(64) float specular[kPacket], transmits[kPacket], eta_t[kPacket], eta[kPacket];
+
+  // In a packet of Dirac lobes alone, before lane_dirac_samples (which writes every lane of one).
+  void none() { fill_lanes(0.f, ok, wx, wy, wz, f_r, f_g, f_b, pdf); }
 };
 
 // The BSDF sample's continuation: the next ray and the path's new throughput.

@@ -670,9 +670,19 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   const bool any_rough = any_lobe && lobes.any_rough();
   const M Gl = any_rough ? lobes.lobe_mask() : M(false);
   if (any_lobe) lobes.at(lane_wo_local(pk.ray, pk.frame));
-  lane_light_samples(c, pk, lobes, any_rough, Gl, pk.shadow);
-  lane_bsdf_samples(pk, lobes, any_rough, Gl, pk.sample);
   const bool any_dirac = kM == MaterialSet::Any && lobes.any_dirac;
+  // A packet whose lanes all have a Dirac lobe (a mirror's or glass's, hits lane_sort_key grouped) has no light
+  // sample and no other BSDF sample to compute.
+  bool only_dirac = any_dirac;
+  if (any_dirac)
+    for (int l = 0; l < k; ++l) only_dirac = only_dirac && !(pk.active[l] && lobes.dirac[l] == 0.f);
+  if (only_dirac) {
+    pk.shadow.none();
+    pk.sample.none();
+  } else {
+    lane_light_samples(c, pk, lobes, any_rough, Gl, pk.shadow);
+    lane_bsdf_samples(pk, lobes, any_rough, Gl, pk.sample);
+  }
   if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
   lane_continuations(c, pk, any_dirac, pk.next);
   write_back_lanes(c, ids, k, hits, pk, any_dirac, any_sphere, paths, out, count);

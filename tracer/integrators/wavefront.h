@@ -75,6 +75,70 @@ inline bool lane_material(const Material& m) {
   return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m) ||
          dirac_lane_material(m);
 }
+// The order the kernels for any material shade a bounce's hits in (trace_batch), in a scene whose materials the lanes
+// take are of several kinds (MaterialKeys::mixed): by this key, so that a packet of the shading lanes holds one kind
+// of lobe where it can. The lanes compute every kind of lobe some lane of the packet holds for all its lanes
+// (lane_lobes.h), so a packet mixing kinds pays for each in every lane; and packets of misses or of hits the lanes
+// hand back skip them. (A queue per kind of material, as pbrt-v4's wavefront integrator keeps one per material type
+// and evaluates each in its own kernel, wavefront/integrator.cpp: EvaluateMaterialsAndBSDFs; Laine, Karras and Aila
+// 2013, "Megakernels Considered Harmful: Wavefront Path Tracing on GPUs".) Only the order of work changes: each
+// path's arithmetic is its own, so the images stay the scalar loop's bits.
+enum class LaneSortKey : uint8_t {
+  Missed,           // the ray left the scene
+  Scalar,           // shade_vertex: an emitter, an instance's triangle, a material the lanes do not take
+  Lambert,
+  Plastic,          // the coupled lobe with the coat's exact Fresnel
+  Gltf,             // the coupled lobe with Schlick's
+  Conductor,        // rough, Schlick's Fresnel
+  ComplexConductor, // rough, the complex index's
+  Mirror,
+  SmoothConductor,
+  Glass,
+  Count
+};
+inline LaneSortKey material_sort_key(const Material& m) {
+  if (!lane_material(m)) return LaneSortKey::Scalar;
+  switch (m.type) {
+    case MaterialType::Diffuse: return LaneSortKey::Lambert;
+    case MaterialType::Plastic: return LaneSortKey::Plastic;
+    case MaterialType::MetallicRoughness: return LaneSortKey::Gltf;
+    case MaterialType::Mirror: return LaneSortKey::Mirror;
+    case MaterialType::Dielectric: return LaneSortKey::Glass;
+    case MaterialType::Conductor:
+      if (effectively_smooth(m.alpha)) return LaneSortKey::SmoothConductor;
+      return m.complex_ior ? LaneSortKey::ComplexConductor : LaneSortKey::Conductor;
+    default: return LaneSortKey::Scalar;
+  }
+}
+// The keys of a scene's first kKeyedMaterials materials, looked up once per batch (a material edited live is
+// seen at the next one); the others' are found at each hit. `mixed`: the lanes take more than one kind of lobe
+// here (or there are more materials than that), so sorting pays; with one kind it may not (instructions per sample,
+// sorted against not: WusonOBJ.obj +0.7 %, the 2CylinderEngine −1.0 %; docs/performance.md, session 45).
+struct MaterialKeys {
+  static constexpr size_t kKeyedMaterials = 256;
+  LaneSortKey key[kKeyedMaterials];
+  bool mixed = false;
+  void look_up(const Scene& s) {
+    const size_t n = std::min(s.materials.size(), kKeyedMaterials);
+    LaneSortKey first = LaneSortKey::Scalar;
+    mixed = s.materials.size() > kKeyedMaterials;
+    for (size_t i = 0; i < n; ++i) {
+      key[i] = material_sort_key(s.materials[i]);
+      if (key[i] == LaneSortKey::Scalar) continue;
+      if (first == LaneSortKey::Scalar) first = key[i];
+      mixed = mixed || key[i] != first;
+    }
+  }
+};
+[[gnu::always_inline]] inline LaneSortKey lane_sort_key(const Scene& s, const Hit& h, bool found,
+                                                        const MaterialKeys& keys) {
+  if (!found) return LaneSortKey::Missed;
+  if (h.prim >= s.primitive_count()) return LaneSortKey::Scalar;  // an instance's triangle
+  const uint32_t material = h.prim < s.sphere_begin() ? s.polygons.material[h.prim]
+                                                      : s.spheres.material[h.prim - s.sphere_begin()];
+  return material < MaterialKeys::kKeyedMaterials ? keys.key[material] : material_sort_key(s.materials[material]);
+}
+
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   if ((features & kFeaturePolygons) == 0) return false;
   const bool any = (features & kFeatureGeneralMaterials) != 0;

@@ -30,13 +30,24 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   // the whole queue at once (bit-identical to the path's own get_2d; sampling/sobol_batch.h).
   constexpr bool kBatchPoints = std::is_same_v<Sampler, SobolSampler>;
   using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
-  Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1], bsdf_points[kBatchPoints ? kWavefrontBatch : 1];
+  // Zeroed: GCC cannot see that a queue position read through the sorted order was written.
+  Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1]{}, bsdf_points[kBatchPoints ? kWavefrontBatch : 1]{};
   // Polygons and spheres of the lanes' materials shade in lanes in every kernel with polygons (shading_lanes.h),
   // where shading_lanes_apply (wavefront.h) says so.
   constexpr bool kLambertLanes = (F & kFeaturePolygons) != 0;
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   LaneShading lane_shading;
   const bool lanes_apply = kLambertLanes && shading_lanes_apply(s, F);
+  // The kernels for any material shade a bounce's hits in lane_sort_key's order (wavefront.h): the hits by queue
+  // position, their keys, and the keys of the scene's first kKeyedMaterials materials, looked up once per batch.
+  constexpr bool kSortHits = kLambertLanes && kM == MaterialSet::Any;
+  constexpr int kSortKeys = static_cast<int>(LaneSortKey::Count);
+  constexpr int kSortBatch = kSortHits ? kWavefrontBatch : kLanes;
+  Hit hit_at[kSortBatch];
+  bool found_at[kSortBatch];
+  uint8_t key_at[kSortHits ? kWavefrontBatch : 1];
+  MaterialKeys material_keys;
+  if (kSortHits && lanes_apply) material_keys.look_up(s);
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
     int next_count = 0, shadow_count = 0;
@@ -54,7 +65,59 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
         SobolBatch::get_2d(samplers, live, live_count, bsdf_dim, bsdf_points);
       }
     }
-    // Closest hits kLanes at a time, then the vertices of those paths.
+    // Path i's sampler at queue position j.
+    const auto rng_at = [&](int j) -> VertexSampler {
+      const uint16_t i = live[j];
+      if constexpr (kBatchPoints) {
+        return {samplers[i], light_dim, light_points[j], bsdf_dim, bsdf_points[j]};
+      } else {
+        (void)light_dim, (void)bsdf_dim;
+        return samplers[i];
+      }
+    };
+    // The vertices of k ≤ kLanes paths: lane l is queue position position(l), path ids[l], its hit hits[l]
+    // (found[l]).
+    const auto shade_packet = [&](int k, const auto& position, const uint16_t* ids, const Hit* hits,
+                                  const bool* found) __attribute__((always_inline)) {
+      // The queues' lengths in locals, which no store through a pointer can change (shade_packet_outlined).
+      int n_next = next_count, n_shadow = shadow_count;
+      if constexpr (kLambertLanes)
+        if (lanes)
+          shade_lanes<kM, F>(s, o, [&](int l) { return rng_at(position(l)); }, ids, k, hits, found, paths, bounce,
+                              lane_shading, count);
+      for (int l = 0; l < k; ++l) {
+        const uint16_t i = ids[l];
+        PathState& p = paths[i];
+        if (!found[l]) {
+          add_escaped_radiance(s, o, p);
+          continue;
+        }
+        if (lanes && lane_shading.handled[l]) {
+          if (lane_shading.shadow[l]) {
+            shadows[n_shadow] = lane_shading.shadow_ray[l];
+            shadow_owner[n_shadow++] = i;
+          }
+          if (lane_shading.continues[l]) next[n_next++] = i;
+          continue;
+        }
+        const VertexSampler rng = rng_at(position(l));
+        const VertexResult v = shade_vertex<std::decay_t<VertexSampler>, F>(s, o, rng, hits[l], p,
+                                                                           shadows[n_shadow], count);
+        if (v.shadow_ray) shadow_owner[n_shadow++] = i;
+        if (v.continues) next[n_next++] = i;
+      }
+      next_count = n_next, shadow_count = n_shadow;
+    };
+    // The same as a call: in the kernels with spheres or sorted hits, the loops around it then compile to about 3 %
+    // fewer instructions per sample (`materials`, `sky`, `shadertoy`, `cornell-spheres`); in the others, inlined, it
+    // saves 0.7 % on `cornell` (docs/performance.md, session 45).
+    const auto shade_packet_outlined = [&](int k, const auto& position, const uint16_t* ids, const Hit* hits,
+                                           const bool* found) __attribute__((noinline)) {
+      shade_packet(k, position, ids, hits, found);
+    };
+    constexpr bool kInlinePacket = !kSortHits && (F & kFeatureSpheres) == 0;
+    // Closest hits kLanes at a time; then the vertices of those paths: at once, in the queue's order, or in the
+    // kernels for any material after all the hits, in lane_sort_key's order (wavefront.h) where the lanes shade.
     for (int first = 0; first < live_count; first += kLanes) {
       const int k = std::min(kLanes, live_count - first);
       Ray rays[kLanes];
@@ -66,44 +129,40 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
         t_max[l] = kInfinity;
         skip[l] = p.skip;
       }
-      Hit hits[kLanes];
-      bool found[kLanes];
+      Hit* hits = hit_at + (kSortHits ? first : 0);
+      bool* found = found_at + (kSortHits ? first : 0);
       intersect_scene_packet<F>(s, rays, t_max, skip, k, hits, found);
       count.rays += static_cast<uint64_t>(k);
-      // Path i's sampler at queue position j.
-      const auto rng_at = [&](int j) -> VertexSampler {
-        const uint16_t i = live[j];
-        if constexpr (kBatchPoints) {
-          return {samplers[i], light_dim, light_points[j], bsdf_dim, bsdf_points[j]};
-        } else {
-          (void)light_dim, (void)bsdf_dim;
-          return samplers[i];
+      const auto in_queue = [first](int l) { return first + l; };
+      if constexpr (kInlinePacket) shade_packet(k, in_queue, live + first, hits, found);
+      else if constexpr (!kSortHits) shade_packet_outlined(k, in_queue, live + first, hits, found);
+    }
+    if constexpr (kSortHits) {
+      uint16_t order[kWavefrontBatch];  // the queue positions in shading order
+      if (lanes && material_keys.mixed) {  // a counting sort by key
+        int start[kSortKeys + 1] = {};
+        for (int j = 0; j < live_count; ++j) {
+          key_at[j] = static_cast<uint8_t>(lane_sort_key(s, hit_at[j], found_at[j], material_keys));
+          ++start[key_at[j] + 1];
         }
-      };
-      if constexpr (kLambertLanes)
-        if (lanes)
-          shade_lanes<kM, F>(s, o, [&](int l) { return rng_at(first + l); }, live + first, k, hits, found, paths,
-                              bounce, lane_shading, count);
-      for (int l = 0; l < k; ++l) {
-        const uint16_t i = live[first + l];
-        PathState& p = paths[i];
-        if (!found[l]) {
-          add_escaped_radiance(s, o, p);
-          continue;
+        for (int key = 0; key < kSortKeys; ++key) start[key + 1] += start[key];
+        for (int j = 0; j < live_count; ++j) order[start[key_at[j]]++] = static_cast<uint16_t>(j);
+      } else {
+        for (int j = 0; j < live_count; ++j) order[j] = static_cast<uint16_t>(j);
+      }
+      for (int first = 0; first < live_count; first += kLanes) {
+        const int k = std::min(kLanes, live_count - first);
+        uint16_t ids[kLanes];
+        Hit hits[kLanes];
+        bool found[kLanes];
+        for (int l = 0; l < k; ++l) {
+          const int j = order[first + l];
+          ids[l] = live[j];
+          hits[l] = hit_at[j];
+          found[l] = found_at[j];
         }
-        if (lanes && lane_shading.handled[l]) {
-          if (lane_shading.shadow[l]) {
-            shadows[shadow_count] = lane_shading.shadow_ray[l];
-            shadow_owner[shadow_count++] = i;
-          }
-          if (lane_shading.continues[l]) next[next_count++] = i;
-          continue;
-        }
-        const VertexSampler rng = rng_at(first + l);
-        const VertexResult v = shade_vertex<std::decay_t<VertexSampler>, F>(s, o, rng, hits[l], p,
-                                                                           shadows[shadow_count], count);
-        if (v.shadow_ray) shadow_owner[shadow_count++] = i;
-        if (v.continues) next[next_count++] = i;
+        shade_packet_outlined(k, [&order, first](int l) { return static_cast<int>(order[first + l]); }, ids, hits,
+                              found);
       }
     }
     // Shadow rays kLanes at a time; an unblocked one adds its contribution (before the path's next vertex, as in
