@@ -1,9 +1,10 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
 // (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon or
-// sphere of a material written over the number type: the Lambert lobe, and (in the kernels for any material) the rough lobes of
-// lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the rough conductor),
-// lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only
-// sampled, as shade_vertex samples no light where a material has no other lobe. A parallelogram light sampled by area
+// sphere of a material written over the number type: the Lambert lobe, and (in the kernels for any material) the
+// rough lobes of lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the
+// rough conductor), lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth
+// glass), which are only sampled, as shade_vertex samples no light where a material has no other lobe (a packet of
+// Dirac lanes alone skips the light and rough samples' stages). A parallelogram light sampled by area
 // is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and weighed in the lanes.
 // The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every step runs on
 // std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both loops
@@ -26,9 +27,9 @@
 // and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
 // instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits, or has another material (a
 // smooth plastic or glTF layer over its base, rough glass, subsurface), or textures on a sphere or on a mesh without
-// texture coordinates, or when no light can reach it, or
-// where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the lanes only below
-// the bounce limit. What stays one lane at a time: the gathers, the texture lookups, the light choice, the other
+// texture coordinates, or when no light can reach it, or where shading_normal would bend its normal (a grazing view
+// of a smooth mesh); the caller uses the lanes only below the bounce limit. What stays one lane at a time: the
+// gathers (a sphere's hit point among them), the texture lookups, the light choice, the other
 // lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
 //
 // shade_lanes runs in stages, each a function of its own over the packet's arrays (lane_packet.h: LanePacket):
