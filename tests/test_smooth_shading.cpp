@@ -364,7 +364,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits, o
 
 // The lanes shade rough glTF metallic–roughness materials too (layered_value, written once over the number type):
 // the same scene with the sphere and the floor in such materials, metallic and not, rough and nearly smooth, and a
-// smooth one (its Dirac lobe goes to shade_vertex) on one of them in turn, flat and smooth-shaded.
+// smooth one (its layer's reflection a Dirac lobe over the base) on one of them in turn, flat and smooth-shaded.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on glTF metallic-roughness materials") {
   struct Lobe {
     float metallic, roughness;
@@ -384,7 +384,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 
 // And the plastic, the same coupled lobe with its coat's exact Fresnel (layered_lobe.h), alone and beside glTF's
 // lobe in one packet (the lanes then compute both Fresnels and pick one per lane): the sphere and the floor rough,
-// nearly smooth and smooth (the smooth coat's Dirac lobe goes to shade_vertex), flat and smooth-shaded.
+// nearly smooth and smooth (the smooth coat's reflection a Dirac lobe over the base), flat and smooth-shaded.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on plastic, beside glTF's lobe") {
   struct Case {
     MaterialType floor_type;
@@ -435,7 +435,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 
 // Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
 // albedo image on the Lambert, glTF and plastic lobes, glTF's metallic–roughness image (whose darkest texels make
-// the lobe smooth: those hits go back to shade_vertex), and a normal map, which tilts the shading normal (where
+// the lobe smooth: a Dirac reflection over the base there), and a normal map, which tilts the shading normal (where
 // that bends it too far for the view, the hit goes back to shade_vertex). The sphere has texture coordinates where
 // smooth (kind 2); the flat one (kind 1) has none, and its textured hits take shade_vertex. The floor's texture
 // coordinates are 0 (one texel).
@@ -528,7 +528,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
 // The lanes shade analytic spheres too (make_interaction's sphere_point in the gather; a ray leaving a sphere may
 // hit it again: a refraction into glass, a reflection off its inside). Four spheres in front of the mesh sphere,
 // one material each, every lane material in turn: the Lambert, plastic, glTF and rough conductor lobes, a mirror,
-// smooth glass and a smooth conductor, and, handed back to shade_vertex, a smooth plastic, rough glass and a
+// smooth glass, a smooth conductor and a smooth plastic, and, handed back to shade_vertex, rough glass and a
 // textured sphere (no texture coordinates); beside a flat (kind 1) and a smooth-shaded mesh (kind 2, whose vertex
 // normals the spheres' lanes must not read), six bounces, roulette from the first.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on analytic spheres of every material") {
@@ -546,7 +546,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       case 4: m.type = MaterialType::Mirror; break;
       case 5: m.type = MaterialType::Dielectric, m.ior = 1.5f; break;
       case 6: m.type = MaterialType::Conductor, m.roughness = 0.f; break;
-      case 7: m.type = MaterialType::Plastic, m.roughness = 0.f; break;  // its Dirac coat: shade_vertex
+      case 7: m.type = MaterialType::Plastic, m.roughness = 0.f; break;  // its coat's reflection: a Dirac lobe
       case 8: m.type = MaterialType::Dielectric, m.roughness = 0.3f; break;  // rough glass: shade_vertex
       default: m.albedo_map = colours; break;  // a textured sphere: shade_vertex
     }

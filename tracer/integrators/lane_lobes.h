@@ -1,6 +1,7 @@
 // The shading lanes' lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per lane, the
-// coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h) or the rough
-// conductor (materials/conductor.h), each written once over the number type, or a Dirac lobe: the mirror, the
+// coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h; a smooth layer's
+// reflection is a Dirac lobe over the base) or the rough conductor (materials/conductor.h), each written once over
+// the number type, or a Dirac lobe: the mirror, the
 // smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane rounds as
 // bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one lane at
 // a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a kind of
@@ -27,6 +28,9 @@ struct LaneLobes {
   // Per lane (0 or 1): the coupled lobe, the plastic's exact Fresnel in it, the rough conductor, a conductor's
   // complex index; a Dirac lobe, and which: smooth glass, or a mirror's constant tint (else a smooth conductor).
   alignas(64) float layered[N], coat[N], metal[N], complex[N], dirac[N], glass[N], tint[N];
+  // Per lane (0 or 1): a smooth layer over the coupled lobe's base (its reflection a Dirac lobe); and, after
+  // sample, whether the lane took that reflection.
+  alignas(64) float smooth_layer[N], layer_dirac[N];
   // The lobe's parameters: f0 (the conductor's albedo); the base colour (the layered lobe's diffuse colour, the
   // conductor's F_ms); the coat's index, the conductor's complex index and the glass's index (eta[0]); the base's
   // luminance; 1 − E_avg (layered) or E_avg (conductor); α. A Dirac lobe's f0 is its tint or Schlick's F0.
@@ -36,6 +40,7 @@ struct LaneLobes {
   bool any_layered = false, any_coat = false, any_metal = false, any_complex = false, any_dirac = false,
        any_glass = false;
   bool any_reflector = false, any_reflector_complex = false;  // a Dirac mirror or conductor; one with a complex index
+  bool any_smooth_layer = false;
 
   bool any() const { return any_rough() || any_dirac; }
   bool any_rough() const { return any_layered || any_metal; }
@@ -44,10 +49,10 @@ struct LaneLobes {
 
   // Before the first take: no lobe in any lane.
   void clear() {
-    for (float* a : {layered, coat, metal, complex, dirac, glass, tint}) st(a, vfloat(0.f));
+    for (float* a : {layered, coat, metal, complex, dirac, glass, tint, smooth_layer}) st(a, vfloat(0.f));
   }
 
-  // Lane l shades with m, a rough plastic, glTF or conductor material, or a mirror, smooth conductor or smooth
+  // Lane l shades with m, a plastic or glTF material, a rough conductor, or a mirror, smooth conductor or smooth
   // glass (wavefront.h: layered_lane_material, conductor_lane_material, dirac_lane_material), which outlives the
   // lanes.
   void take(int l, const Material& m) {
@@ -61,11 +66,12 @@ struct LaneLobes {
       avg[l] = g.e_avg, alpha[l] = g.alpha;
       any_metal = true;
       any_complex = any_complex || m.complex_ior;
-    } else if (m.type == MaterialType::Plastic || m.type == MaterialType::MetallicRoughness) {  // rough here
+    } else if (m.type == MaterialType::Plastic || m.type == MaterialType::MetallicRoughness) {
       const bool plastic = m.type == MaterialType::Plastic;
       const LayeredLobe<float> g = plastic ? plastic_lobe(m) : gltf_lobe(m, gltf_f0(m));
       layered[l] = 1.f;
       coat[l] = plastic ? 1.f : 0.f;
+      if (effectively_smooth(m.alpha)) smooth_layer[l] = 1.f, any_smooth_layer = true;
       store(l, g.f0, f0), store(l, g.diffuse, colour);
       eta[0][l] = g.eta, lum[l] = g.diffuse_lum, avg[l] = g.one_minus_avg, alpha[l] = g.alpha;
       any_layered = true;
@@ -127,9 +133,12 @@ struct LaneLobes {
 
   // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample): per lane with wo.z > 0, the
   // visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the same u), as the
-  // lobe choice u_lobe says; then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0.
+  // lobe choice u_lobe says; then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth
+  // layer's reflection (layer_dirac, set here) is its Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's
+  // Fresnel F at μ = wo.z, pdf = the layer's probability; `ok` is false there where F is black (the others' `ok` is
+  // the caller's).
   void sample(const float* u_lobe, const float* ux, const float* uy, const lanes::Vec3T<vfloat>& cosine,
-              lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf) const {
+              lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, M& layer_ok) {
     alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N];
     // The probability of the reflection's visible normal: the layer's share, or 1 − the conductor's cosine share.
     const vfloat eo = lanes_of(e_o), w_z = lanes_of(wo[2]);
@@ -140,6 +149,7 @@ struct LaneLobes {
     }
     st(p, p_vndf);
     st(cx, cosine.x), st(cy, cosine.y), st(cz, cosine.z);
+    if (any_smooth_layer) st(layer_dirac, vfloat(0.f));
     for (int l = 0; l < N; ++l) {
       gx[l] = gy[l] = 0.f;
       gz[l] = 1.f;
@@ -147,11 +157,26 @@ struct LaneLobes {
       // conductor_sample: the cosine lobe where u < p_ms; the layered lobes: the reflection where u < p_s.
       const bool vndf = metal[l] != 0.f ? !(u_lobe[l] < conductor_ms_prob(avg[l], e_o[l])) : u_lobe[l] < p[l];
       const Vec3 w(wo[0][l], wo[1][l], wo[2][l]);
-      const Vec3 d = vndf ? reflect(-w, ggx_sample_vndf(w, alpha[l], Vec2(ux[l], uy[l]))) : Vec3(cx[l], cy[l], cz[l]);
+      Vec3 d(cx[l], cy[l], cz[l]);
+      if (vndf && any_smooth_layer && smooth_layer[l] != 0.f) {
+        d = Vec3(-w.x, -w.y, w.z);
+        layer_dirac[l] = 1.f;
+      } else if (vndf) {
+        d = reflect(-w, ggx_sample_vndf(w, alpha[l], Vec2(ux[l], uy[l])));
+      }
       gx[l] = d.x, gy[l] = d.y, gz[l] = d.z;
     }
     wi = {lanes_of(gx), lanes_of(gy), lanes_of(gz)};
     value(wi, f, pdf);
+    layer_ok = M(true);
+    if (!any_smooth_layer) return;
+    const M D = lanes_of(layer_dirac) != 0.f;
+    const LayeredLobe<vfloat> g = layered_lobe();
+    const lanes::Vec3T<vfloat> F = any_coat ? layer_fresnel<LayerFresnel::Either>(g, w_z)
+                                            : layer_fresnel<LayerFresnel::Schlick>(g, w_z);
+    f = {select(D, F.x / wi.z, f.x), select(D, F.y / wi.z, f.y), select(D, F.z / wi.z, f.z)};
+    pdf = select(D, p_vndf, pdf);
+    layer_ok = !D || !(F.x == 0.f && F.y == 0.f && F.z == 0.f);
   }
 
   // The Dirac lobes' samples, as bsdf_sample<Any> takes them with wo mirrored to the front (`below`: wo was

@@ -149,7 +149,7 @@ struct LaneSamples {
   alignas(64) float specular[kPacket], transmits[kPacket], eta_t[kPacket], eta[kPacket];
 
   // In a packet of Dirac lobes alone, before lane_dirac_samples (which writes every lane of one).
-  void none() { fill_lanes(0.f, ok, wx, wy, wz, f_r, f_g, f_b, pdf); }
+  void none() { fill_lanes(0.f, ok, wx, wy, wz, f_r, f_g, f_b, pdf, specular); }
 };
 
 // The BSDF sample's continuation: the next ray and the path's new throughput.

@@ -4,7 +4,8 @@
 // rough lobes of lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the
 // rough conductor), lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth
 // glass), which are only sampled, as shade_vertex samples no light where a material has no other lobe (a packet of
-// Dirac lanes alone skips the light and rough samples' stages). A parallelogram light sampled by area
+// Dirac lanes alone skips the light and rough samples' stages); a smooth plastic's or glTF layer's reflection is a
+// Dirac lobe over a lit base. A parallelogram light sampled by area
 // is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and weighed in the lanes.
 // The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every step runs on
 // std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both loops
@@ -25,8 +26,8 @@
 // metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane at a time, over the
 // ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point in the gather
 // and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
-// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits, or has another material (a
-// smooth plastic or glTF layer over its base, rough glass, subsurface), or textures on a sphere or on a mesh without
+// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits, or has another material
+// (rough glass, subsurface), or textures on a sphere or on a mesh without
 // texture coordinates, or when no light can reach it, or where shading_normal would bend its normal (a grazing view
 // of a smooth mesh); the caller uses the lanes only below the bounce limit. What stays one lane at a time: the
 // gathers (a sphere's hit point among them), the texture lookups, the light choice, the other
@@ -252,8 +253,8 @@ template <MaterialSet kM, bool kSpheres>
 }
 
 // ---- A textured lane's material at its hit (one lane at a time): vertex_shading's texture coordinates, then
-// material_at over the ray cone shade_vertex filters with; a normal map bends the shading normal there. A
-// metallic–roughness image that makes the lobe smooth there sends the lane to the scalar path.
+// material_at over the ray cone shade_vertex filters with; a normal map bends the shading normal there (a
+// metallic–roughness image may make the lobe smooth there: its layer's reflection is then a Dirac lobe).
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void resolve_textured_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                           const Hit* hits, const PathState* paths, LanePacket& pk,
@@ -489,7 +490,7 @@ template <MaterialSet kM>
 }
 
 // ---- The BSDF sample (cosine-weighted, or the rough lobe's), in the shading frame mirrored to the front.
-[[gnu::always_inline]] inline void lane_bsdf_samples(const LanePacket& pk, const LaneLobes& lobes, bool any_rough,
+[[gnu::always_inline]] inline void lane_bsdf_samples(const LanePacket& pk, LaneLobes& lobes, bool any_rough,
                                                      const M& Gl, LaneSamples& out) {
   const LaneMaterials& mat = pk.material;
   const vfloat Wz = ld(pk.frame.wlz);
@@ -505,8 +506,9 @@ template <MaterialSet kM>
     // cosine direction, as each lane's lobe choice says; then f and pdf of the direction.
     Vec3T<vfloat> wi, fl;
     vfloat gpdf;
-    lobes.sample(pk.u.u_lobe, pk.u.bux, pk.u.buy, {dxs, dys, wz0}, wi, fl, gpdf);
-    const M g_ok = ld(lobes.wo[2]) > 0.f && wi.z > 0.f && gpdf > 0.f;
+    M layer_ok;
+    lobes.sample(pk.u.u_lobe, pk.u.bux, pk.u.buy, {dxs, dys, wz0}, wi, fl, gpdf, layer_ok);
+    const M g_ok = ld(lobes.wo[2]) > 0.f && wi.z > 0.f && gpdf > 0.f && layer_ok;
     ok = (Gl && g_ok) || (!Gl && ok);
     dxs = select(Gl, wi.x, dxs), dys = select(Gl, wi.y, dys), wz0 = select(Gl, wi.z, wz0);
     pdf = select(Gl, gpdf, pdf);
@@ -515,6 +517,10 @@ template <MaterialSet kM>
   st(out.ok, one_where(ok));
   st(out.wx, dxs), st(out.wy, dys), st(out.wz, wz0);
   st(out.f_r, f.x), st(out.f_g, f.y), st(out.f_b, f.z), st(out.pdf, pdf);
+  if (any_rough && lobes.any_smooth_layer) {  // a smooth layer's reflection is a Dirac sample, no refraction
+    st(out.specular, ld(lobes.layer_dirac)), st(out.transmits, vfloat(0.f)), st(out.eta_t, vfloat(1.f));
+    st(out.eta, ld(pk.ray.eta));
+  }
 }
 
 // ---- The Dirac lobes' samples (the mirror's, the smooth conductor's and smooth glass's), in place of the others
@@ -530,7 +536,9 @@ template <MaterialSet kM>
   st(s.wx, select(D, wi.x, ld(s.wx))), st(s.wy, select(D, wi.y, ld(s.wy))), st(s.wz, select(D, wi.z, ld(s.wz)));
   st(s.f_r, select(D, f.x, ld(s.f_r))), st(s.f_g, select(D, f.y, ld(s.f_g))), st(s.f_b, select(D, f.z, ld(s.f_b)));
   st(s.pdf, select(D, pdf, ld(s.pdf)));
-  st(s.specular, one_where(D)), st(s.transmits, one_where(transmits)), st(s.eta_t, eta_t);
+  // A smooth layer's reflection (lane_bsdf_samples) stays a Dirac sample.
+  st(s.specular, lobes.any_smooth_layer ? select(D, vfloat(1.f), ld(s.specular)) : one_where(D));
+  st(s.transmits, one_where(transmits)), st(s.eta_t, eta_t);
   const vfloat eta = ld(pk.ray.eta);
   st(s.eta, select(transmits, eta * (eta_t * eta_t), eta));
 }
@@ -577,13 +585,14 @@ template <MaterialSet kM>
 }
 
 // ---- Write back (scalar, lane order): the feature buffers at a first hit, the shadow ray, the next ray and the
-// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran); `any_sphere`: some lane's hit
-// is on a sphere.
+// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran); `any_specular`: some lane's
+// sample may be a Dirac lobe's (the Dirac lobes', a smooth layer's reflection); `any_sphere`: some lane's hit is on
+// a sphere.
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void write_back_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                     const Hit* hits, const LanePacket& pk, bool any_dirac,
-                                                    bool any_sphere, PathState* paths, LaneShading& out,
-                                                    RayCount& count) {
+                                                    bool any_specular, bool any_sphere, PathState* paths,
+                                                    LaneShading& out, RayCount& count) {
   const LaneHits& h = pk.hit;
   const LanePolygons& g = pk.polygon;
   const LaneShadows& sh = pk.shadow;
@@ -611,7 +620,7 @@ template <MaterialSet kM>
     out.continues[l] = true;
     p.beta = Rgb(next.beta_r[l], next.beta_g[l], next.beta_b[l]);
     if (any_dirac) p.eta_scale = sample.eta[l];
-    if (any_dirac && sample.specular[l] != 0.f) {
+    if (any_specular && sample.specular[l] != 0.f) {
       p.count_emission = true;  // no light sample covered the direction
       if (p.features.out) [[unlikely]] {
         const BsdfFlags side = sample.transmits[l] != 0.f ? BsdfFlags::Transmission : BsdfFlags::Reflection;
@@ -686,7 +695,8 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   }
   if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
   lane_continuations(c, pk, any_dirac, pk.next);
-  write_back_lanes(c, ids, k, hits, pk, any_dirac, any_sphere, paths, out, count);
+  const bool any_specular = any_dirac || (any_rough && lobes.any_smooth_layer);
+  write_back_lanes(c, ids, k, hits, pk, any_dirac, any_specular, any_sphere, paths, out, count);
 }
 PT_SIMD_SQRT_WARNINGS_ON
 

@@ -50,12 +50,11 @@ inline bool lane_textures(const Material& m) { return !m.emission_map.texture; }
 inline bool lambert_lane_material(const Material& m) {
   return is_lambertian(m) && lane_textures(m) && is_black(m.emission);
 }
-// The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough (a smooth layer's
-// Dirac lobe takes shade_vertex, and so does a hit where the metallic–roughness texture makes it smooth), not
-// emitting; only in the kernels for any material.
+// The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough or smooth (a smooth
+// layer's reflection is a Dirac lobe over the base), not emitting; only in the kernels for any material.
 inline bool layered_lane_material(const Material& m) {
-  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) &&
-         !effectively_smooth(m.alpha) && lane_textures(m) && is_black(m.emission);
+  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) && lane_textures(m) &&
+         is_black(m.emission);
 }
 // The rough conductor (materials/conductor.h: GGX with Kulla–Conty's compensation, Schlick's or the complex
 // index's Fresnel), not emitting; only in the kernels for any material.
