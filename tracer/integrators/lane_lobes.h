@@ -135,8 +135,8 @@ struct LaneLobes {
   // visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the same u), as the
   // lobe choice u_lobe says; then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth
   // layer's reflection (layer_dirac, set here) is its Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's
-  // Fresnel F at μ = wo.z, pdf = the layer's probability; `ok` is false there where F is black (the others' `ok` is
-  // the caller's).
+  // Fresnel F at μ = wo.z, pdf = the layer's probability; `layer_ok` is false there where F is black (true in the
+  // other lanes, whose validity the caller judges).
   void sample(const float* u_lobe, const float* ux, const float* uy, const lanes::Vec3T<vfloat>& cosine,
               lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, M& layer_ok) {
     alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N];
