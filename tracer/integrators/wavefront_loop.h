@@ -39,13 +39,11 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   LaneShading lane_shading;
   const bool lanes_apply = kLambertLanes && shading_lanes_apply(s, F);
   // The kernels for any material shade a bounce's hits in lane_sort_key's order (wavefront.h): the hits by queue
-  // position, their keys, and the keys of the scene's first kKeyedMaterials materials, looked up once per batch.
+  // position, and the keys of the scene's first kKeyedMaterials materials, looked up once per batch.
   constexpr bool kSortHits = kLambertLanes && kM == MaterialSet::Any;
-  constexpr int kSortKeys = static_cast<int>(LaneSortKey::Count);
   constexpr int kSortBatch = kSortHits ? kWavefrontBatch : kLanes;
   Hit hit_at[kSortBatch];
   bool found_at[kSortBatch];
-  uint8_t key_at[kSortHits ? kWavefrontBatch : 1];
   MaterialKeys material_keys;
   if (kSortHits && lanes_apply) material_keys.look_up(s);
   for (uint32_t bounce = 0; live_count > 0; ++bounce) {
@@ -140,6 +138,8 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
     if constexpr (kSortHits) {
       uint16_t order[kWavefrontBatch];  // the queue positions in shading order
       if (lanes && material_keys.mixed) {  // a counting sort by key
+        constexpr int kSortKeys = static_cast<int>(LaneSortKey::Count);
+        uint8_t key_at[kWavefrontBatch];
         int start[kSortKeys + 1] = {};
         for (int j = 0; j < live_count; ++j) {
           key_at[j] = static_cast<uint8_t>(lane_sort_key(s, hit_at[j], found_at[j], material_keys));
