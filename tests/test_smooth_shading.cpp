@@ -433,6 +433,29 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   check_lobe_cases(4, set_up, kAlwaysApply);
 }
 
+// The subsurface BRDF in the lanes (lane_lobes.h: subsurface_f, cosine-sampled) beside the Lambert, plastic and
+// rough conductor lobes: forward and backward scattering, a low and a high index (its Fresnel transmittance, the
+// refracted cosines), an albedo whose normalisation scales some channels (ss_norm < 1), a black one (no sample).
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on subsurface materials") {
+  const auto set_up = [](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    ball.type = MaterialType::Subsurface;
+    ball.albedo = Rgb(0.95f, 0.6f, 0.3f);
+    if (c == 0) {  // forward scattering wax on the Lambert floor
+      ball.g = 0.6f, ball.ior = 1.4f;
+    } else if (c == 1) {  // backward scattering, a low index, a non-absorbing channel (scaled by ss_norm)
+      ball.g = -0.8f, ball.ior = 1.1f, ball.albedo = Rgb(1.f, 0.9f, 0.5f);
+      floor.type = MaterialType::Plastic, floor.roughness = 0.4f;
+    } else if (c == 2) {  // a high index on a rough conductor floor
+      ball.g = 0.f, ball.ior = 2.2f;
+      floor.type = MaterialType::Conductor, floor.roughness = 0.3f, floor.metal = MetalPreset::Copper;
+    } else {  // black: no sample, beside a subsurface floor
+      ball.albedo = Rgb(0.f);
+      floor.type = MaterialType::Subsurface, floor.g = 0.3f, floor.ior = 1.5f;
+    }
+  };
+  check_lobe_cases(4, set_up, kAlwaysApply);
+}
+
 // Textured materials in the lanes (material_at at each textured hit, one lane at a time, then the lanes): an
 // albedo image on the Lambert, glTF and plastic lobes, glTF's metallic–roughness image (whose darkest texels make
 // the lobe smooth: a Dirac reflection over the base there), and a normal map, which tilts the shading normal (where
@@ -576,6 +599,66 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       REQUIRE((scene->kernel_features() & kFeatureSpheres) != 0);
       CHECK(scene->shading.empty() == (kind == 1));
       CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
+// Emitters in the lanes (shading_lanes.h: add_lane_emission): an emitting ball of each kind of lobe, on a floor that
+// emits too in some cases (two-sided, or through an emission map, which takes shade_vertex), and an emitting
+// analytic sphere: the emission counted whole after a camera ray or a Dirac bounce, MIS-weighted after a lit one,
+// exactly once where the lanes hand a hit back to shade_vertex after the gather (the smooth ball's silhouette, whose
+// normal shading_normal would bend; the lamp behind the ball, which no light sample reaches from its back). Flat
+// (kind 1) and smooth-shaded (kind 2) balls, four bounces, roulette from the first. A plain sphere keeps the lanes on
+// where everything else emits (lamps alone do not make them run).
+TEST_CASE("smooth shading: the SIMD shading lanes add an emitter's emission with the scalar loop's bits, once") {
+  const auto tiles = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
+                                  TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 4; ++c) {
+      SceneDesc d = sphere_on_floor(kind, 6);
+      d.width = d.height = 24;
+      d.render.max_bounces = 4;
+      d.render.russian_roulette_depth = 1;
+      MaterialDesc& ball = d.materials[0];
+      MaterialDesc& floor = d.materials.back();
+      ball.emission = Rgb(1.5f, 0.9f, 0.4f);
+      if (c == 1) {  // a glowing plastic ball over a floor that glows on both faces
+        ball.type = MaterialType::Plastic, ball.roughness = 0.3f;
+        floor.emission = Rgb(0.05f, 0.1f, 0.2f), floor.two_sided = true;
+      } else if (c == 2) {  // a glowing mirror (a Dirac lobe) on a glTF floor
+        ball.type = MaterialType::Mirror;
+        floor.type = MaterialType::MetallicRoughness, floor.roughness = 0.6f, floor.metallic = 0.5f;
+      } else if (c == 3) {  // a textured glowing ball; the floor's glow through an emission map: shade_vertex
+        ball.albedo_map = tiles;
+        floor.emission = Rgb(0.3f);
+        floor.emission_map.texture = tiles;
+      }
+      MaterialDesc glow;
+      glow.name = "glowing sphere";
+      glow.type = MaterialType::Conductor, glow.roughness = 0.4f;
+      glow.emission = Rgb(0.8f, 1.6f, 0.8f);
+      d.materials.push_back(glow);
+      ShapeDesc sphere;
+      sphere.type = ShapeType::Sphere;
+      sphere.center = DVec3(0.9, -0.6, 1.2);
+      sphere.radius = 0.35;
+      sphere.material = static_cast<int>(d.materials.size()) - 1;
+      d.shapes.push_back(sphere);
+      MaterialDesc plain;  // one material that does not emit: the lanes run only in scenes with one
+      plain.name = "plain";
+      d.materials.push_back(plain);
+      sphere.center = DVec3(-0.9, -0.7, 1.4), sphere.radius = 0.25;
+      sphere.material = static_cast<int>(d.materials.size()) - 1;
+      d.shapes.push_back(sphere);
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(c);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      REQUIRE(scene->materials.size() == 5);  // the ball, the lamp, the floor, the glowing sphere, the plain one
+      CHECK(lane_material(scene->materials[0]));
+      CHECK(lane_material(scene->materials[1]));
+      CHECK(lane_material(scene->materials[2]) == (c != 3));
+      CHECK(lane_material(scene->materials[3]));
       check_lanes_match_scalar_loop(d);
     }
 }

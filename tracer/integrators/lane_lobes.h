@@ -1,7 +1,8 @@
 // The shading lanes' lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per lane, the
 // coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h; a smooth layer's
-// reflection is a Dirac lobe over the base) or the rough conductor (materials/conductor.h), each written once over
-// the number type, or a Dirac lobe: the mirror, the
+// reflection is a Dirac lobe over the base), the rough conductor (materials/conductor.h) or the subsurface BRDF
+// (materials/subsurface.h, sampled as Lambert's), each written once over the number type, or a Dirac lobe: the
+// mirror, the
 // smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane rounds as
 // bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one lane at
 // a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a kind of
@@ -16,6 +17,7 @@
 #include "materials/fresnel.h"
 #include "materials/metallic_roughness.h"
 #include "materials/plastic.h"
+#include "materials/subsurface.h"
 
 namespace pt {
 namespace integrator_detail {
@@ -31,6 +33,9 @@ struct LaneLobes {
   // Per lane (0 or 1): a smooth layer over the coupled lobe's base (its reflection a Dirac lobe); and, after
   // sample, whether the lane took that reflection.
   alignas(64) float smooth_layer[N], layer_dirac[N];
+  // Per lane (0 or 1): the subsurface BRDF, whose α′ is `colour` and index eta[0]; its R_d, ss_norm and phase
+  // asymmetry g (written into every lane at the packet's first subsurface lane).
+  alignas(64) float sss[N], rd[3][N], norm[3][N], hg[N];
   // The lobe's parameters: f0 (the conductor's albedo); the base colour (the layered lobe's diffuse colour, the
   // conductor's F_ms); the coat's index, the conductor's complex index and the glass's index (eta[0]); the base's
   // luminance; 1 − E_avg (layered) or E_avg (conductor); α. A Dirac lobe's f0 is its tint or Schlick's F0.
@@ -41,20 +46,23 @@ struct LaneLobes {
        any_glass = false;
   bool any_reflector = false, any_reflector_complex = false;  // a Dirac mirror or conductor; one with a complex index
   bool any_smooth_layer = false;
+  bool any_sss = false;
 
   bool any() const { return any_rough() || any_dirac; }
-  bool any_rough() const { return any_layered || any_metal; }
-  M lobe_mask() const { return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f; }  // the rough lobes
+  bool any_rough() const { return any_layered || any_metal || any_sss; }  // a lobe with a light sample
+  M lobe_mask() const {  // the lanes of those lobes
+    return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f || lanes_of(sss) != 0.f;
+  }
   M dirac_mask() const { return lanes_of(dirac) != 0.f; }
 
   // Before the first take: no lobe in any lane.
   void clear() {
-    for (float* a : {layered, coat, metal, complex, dirac, glass, tint, smooth_layer}) st(a, vfloat(0.f));
+    for (float* a : {layered, coat, metal, complex, dirac, glass, tint, smooth_layer, sss}) st(a, vfloat(0.f));
   }
 
-  // Lane l shades with m, a plastic or glTF material, a rough conductor, or a mirror, smooth conductor or smooth
-  // glass (wavefront.h: layered_lane_material, conductor_lane_material, dirac_lane_material), which outlives the
-  // lanes.
+  // Lane l shades with m, a plastic or glTF material, a rough conductor, a subsurface material, or a mirror, smooth
+  // conductor or smooth glass (wavefront.h: layered_lane_material, conductor_lane_material, sss_lane_material,
+  // dirac_lane_material), which outlives the lanes.
   void take(int l, const Material& m) {
     if (!any()) defaults();
     material[l] = &m;
@@ -76,6 +84,8 @@ struct LaneLobes {
       eta[0][l] = g.eta, lum[l] = g.diffuse_lum, avg[l] = g.one_minus_avg, alpha[l] = g.alpha;
       any_layered = true;
       any_coat = any_coat || plastic;
+    } else if (m.type == MaterialType::Subsurface) {
+      take_sss(l, m);
     } else {
       take_dirac(l, m);
     }
@@ -119,6 +129,13 @@ struct LaneLobes {
       if (any_coat) layered_value<LayerFresnel::Either, true, true>(g, eo, ei, w, wi, f, pdf);
       else layered_value<LayerFresnel::Schlick, true, true>(g, eo, ei, w, wi, f, pdf);
     }
+    if (any_sss) {  // subsurface_eval and subsurface_pdf (the cosine's)
+      const SubsurfaceLobe<vfloat> b{vec(colour), vec(rd), vec(norm), lanes_of(hg), lanes_of(eta[0])};
+      const lanes::Vec3T<vfloat> fs = subsurface_f(b, w, wi);
+      const M on = lanes_of(sss) != 0.f;
+      f = {select(on, fs.x, f.x), select(on, fs.y, f.y), select(on, fs.z, f.z)};
+      pdf = select(on, cosine_hemisphere_pdf(wi.z), pdf);
+    }
     if (any_metal) {
       const ConductorLobe<vfloat> g = conductor_lobe_lanes();
       lanes::Vec3T<vfloat> fc;
@@ -131,9 +148,9 @@ struct LaneLobes {
     }
   }
 
-  // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample): per lane with wo.z > 0, the
-  // visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the same u), as the
-  // lobe choice u_lobe says; then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth
+  // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample, subsurface_sample): per lane
+  // with wo.z > 0, the visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the
+  // same u), as the lobe choice u_lobe says (the subsurface BRDF's: the cosine direction); then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth
   // layer's reflection (layer_dirac, set here) is its Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's
   // Fresnel F at μ = wo.z, pdf = the layer's probability; `layer_ok` is false there where F is black (true in the
   // other lanes, whose validity the caller judges).
@@ -153,9 +170,11 @@ struct LaneLobes {
     for (int l = 0; l < N; ++l) {
       gx[l] = gy[l] = 0.f;
       gz[l] = 1.f;
-      if ((layered[l] == 0.f && metal[l] == 0.f) || !(wo[2][l] > 0.f)) continue;
+      const bool subsurface = any_sss && sss[l] != 0.f;
+      if ((layered[l] == 0.f && metal[l] == 0.f && !subsurface) || !(wo[2][l] > 0.f)) continue;
       // conductor_sample: the cosine lobe where u < p_ms; the layered lobes: the reflection where u < p_s.
-      const bool vndf = metal[l] != 0.f ? !(u_lobe[l] < conductor_ms_prob(avg[l], e_o[l])) : u_lobe[l] < p[l];
+      const bool vndf = !subsurface &&
+                        (metal[l] != 0.f ? !(u_lobe[l] < conductor_ms_prob(avg[l], e_o[l])) : u_lobe[l] < p[l]);
       const Vec3 w(wo[0][l], wo[1][l], wo[2][l]);
       Vec3 d(cx[l], cy[l], cz[l]);
       if (vndf && any_smooth_layer && smooth_layer[l] != 0.f) {
@@ -226,6 +245,17 @@ struct LaneLobes {
   }
 
  private:
+  // The subsurface BRDF in lane l; at the packet's first, harmless R_d, ss_norm and g in every lane.
+  void take_sss(int l, const Material& m) {
+    if (!any_sss) {
+      for (int c = 0; c < 3; ++c) st(rd[c], vfloat(0.f)), st(norm[c], vfloat(1.f));
+      st(hg, vfloat(0.f));
+      any_sss = true;
+    }
+    sss[l] = 1.f;
+    store(l, lanes::of(m.albedo), colour), store(l, lanes::of(m.rd), rd), store(l, lanes::of(m.ss_norm), norm);
+    eta[0][l] = m.ior, hg[l] = m.g;
+  }
   // The mirror, the smooth conductor or smooth glass in lane l.
   void take_dirac(int l, const Material& m) {
     dirac[l] = 1.f;

@@ -1,12 +1,13 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
-// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a non-emitting polygon or
-// sphere of a material written over the number type: the Lambert lobe, and (in the kernels for any material) the
-// rough lobes of lane_lobes.h (the coupled lobe that glTF's metallic–roughness material and the plastic are, and the
-// rough conductor), lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth
-// glass), which are only sampled, as shade_vertex samples no light where a material has no other lobe (a packet of
-// Dirac lanes alone skips the light and rough samples' stages); a smooth plastic's or glTF layer's reflection is a
-// Dirac lobe over a lit base. A parallelogram light sampled by area
-// is sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and weighed in the lanes.
+// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a polygon or sphere (an
+// emitter's too: its emission is added one lane at a time) of a material written over the number type: the Lambert
+// lobe, and (in the kernels for any material) the lobes of lane_lobes.h (the coupled lobe that glTF's
+// metallic–roughness material and the plastic are, the rough conductor and the subsurface BRDF), lit by next-event
+// estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only sampled, as
+// shade_vertex samples no light where a material has no other lobe (a packet of Dirac lanes alone skips the light
+// and rough samples' stages); a smooth plastic's or glTF layer's reflection is a Dirac lobe over a lit base. A
+// parallelogram light of uniform emission sampled by area is sampled in the lanes; any other light's sample
+// (sample_li) is taken one lane at a time and weighed in the lanes.
 // The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every step runs on
 // std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both loops
 // share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading frame
@@ -26,12 +27,12 @@
 // metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane at a time, over the
 // ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point in the gather
 // and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
-// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits, or has another material
-// (rough glass, subsurface), or textures on a sphere or on a mesh without
-// texture coordinates, or when no light can reach it, or where shading_normal would bend its normal (a grazing view
-// of a smooth mesh); the caller uses the lanes only below the bounce limit. What stays one lane at a time: the
-// gathers (a sphere's hit point among them), the texture lookups, the light choice, the other
-// lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
+// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits through an emission map, or
+// has another material (rough glass), or textures on a sphere or on a mesh without texture coordinates,
+// or when no light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh);
+// the caller uses the lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit
+// point among them), an emitter's emission and MIS weight, the texture lookups, the light choice, the other lights'
+// samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
 //
 // shade_lanes runs in stages, each a function of its own over the packet's arrays (lane_packet.h: LanePacket):
 // gather_lanes, lane_hit_points, resolve_textured_lanes, lane_frames, choose_lane_lights, lane_light_samples,
@@ -108,13 +109,13 @@ template <MaterialSet kM>
 }
 
 // ---- Gather (scalar): which lanes the lanes shade, their rays, hit polygons or spheres and materials. A textured
-// material is marked for resolve_textured_lanes. Returns whether any lane is active; sets `any_textured` and
-// `any_sphere`. kSpheres: the kernel has spheres.
+// material is marked for resolve_textured_lanes, an emitting one for add_lane_emission. Returns whether any lane is
+// active; sets `any_textured`, `any_sphere` and `any_emitter`. kSpheres: the kernel has spheres.
 template <MaterialSet kM, bool kSpheres>
 [[gnu::always_inline]] inline bool gather_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                 const Hit* hits, const bool* found, const PathState* paths,
                                                 LanePacket& pk, LaneLobes& lobes, LaneShading& out,
-                                                bool& any_textured, bool& any_sphere) {
+                                                bool& any_textured, bool& any_sphere, bool& any_emitter) {
   constexpr int N = kLanes;
   const Scene& s = c.s;
   const PolygonSoA& P = s.polygons;
@@ -129,7 +130,7 @@ template <MaterialSet kM, bool kSpheres>
   pk.u.clear();
   if constexpr (kM == MaterialSet::Any) lobes.clear();
   bool any = false;
-  bool textured = false, spheres = false;  // locals: a bool& might alias the packet's byte arrays
+  bool textured = false, spheres = false, emitters = false;  // locals: a bool& might alias the packet's byte arrays
   for (int l = 0; l < k; ++l) {
     pk.material.textured[l] = 0;
     if (!found[l]) continue;
@@ -138,7 +139,9 @@ template <MaterialSet kM, bool kSpheres>
     if (prim >= s.sphere_begin() && !(sphere && s.is_sphere(prim))) continue;  // an instance's: the scalar path
     pk.material.index[l] = sphere ? s.spheres.material[prim - s.sphere_begin()] : P.material[prim];
     const Material& m = s.materials[pk.material.index[l]];
-    if (!is_black(m.emission)) continue;  // emission and its MIS weight: the scalar path
+    if (!lane_textures(m)) continue;  // an emission map: the scalar path
+    const bool emits = !is_black(m.emission);
+    pk.material.emits[l] = emits ? 1 : 0;
     if constexpr (kM == MaterialSet::Any) {
       if (!lane_material(m)) continue;
       if (has_textures(m)) {
@@ -163,6 +166,7 @@ template <MaterialSet kM, bool kSpheres>
       gather_sphere(s, c.smooth_scene, p.ray, hits[l], pk, l);
       pk.active[l] = 1;
       any = spheres = true;
+      emitters = emitters || emits;
       continue;
     }
     LanePolygons& g = pk.polygon;
@@ -186,8 +190,9 @@ template <MaterialSet kM, bool kSpheres>
     g.quad[l] = P.triangle[prim] ? 0.f : 1.f;
     pk.active[l] = 1;
     any = true;
+    emitters = emitters || emits;
   }
-  any_textured = textured, any_sphere = spheres;
+  any_textured = textured, any_sphere = spheres, any_emitter = emitters;
   return any;
 }
 
@@ -340,7 +345,7 @@ template <MaterialSet kM, uint32_t F, class RngOf>
         continue;
       }
       const Light& light = s.lights[li];
-      if (!parallelogram_by_area(P, light, ref)) {
+      if (!parallelogram_by_area(light, ref)) {
         // Any other light (spherical rectangles, triangles, spheres, punctual and infinite lights): sample_li's
         // own sample, as sample_lights and sample_direct take it; the lanes weigh it like the parallelogram's.
         L.general[l] = 1.f;
@@ -584,6 +589,30 @@ template <MaterialSet kM>
   st(out.dx, wwx), st(out.dy, wwy), st(out.dz, wwz);
 }
 
+// ---- The emission found at an emitting lane's hit (scalar, lane order), as shade_vertex adds it first: whole where
+// no light sample covered the ray (a camera ray, a Dirac bounce), else MIS-weighted against the light sample that
+// could have chosen this point from the previous vertex. Run after the last stage that may hand a lane back to
+// shade_vertex (choose_lane_lights), so that no path adds it twice.
+template <MaterialSet kM, uint32_t F>
+[[gnu::always_inline]] inline void add_lane_emission(const LaneContext<kM>& c, const uint16_t* ids, int k,
+                                                     const Hit* hits, const LanePacket& pk, PathState* paths) {
+  const LaneHits& h = pk.hit;
+  const LanePolygons& g = pk.polygon;
+  for (int l = 0; l < k; ++l) {
+    if (!pk.active[l] || !pk.material.emits[l]) continue;
+    PathState& p = paths[ids[l]];
+    const int li = c.s.light_of(hits[l].prim);
+    const Vec3 ng(g.ngx[l], g.ngy[l], g.ngz[l]);
+    const Rgb Le = area_light_emission(c.s.lights[li], ng, -p.ray.d);
+    if (p.count_emission) {
+      p.L += p.beta * Le;
+    } else if (c.o.mis && !is_black(Le)) {
+      const Vec3 at(h.px[l], h.py[l], h.pz[l]);
+      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(c.s, li, p.prev_p, p.prev_n, at, ng));
+    }
+  }
+}
+
 // ---- Write back (scalar, lane order): the feature buffers at a first hit, the shadow ray, the next ray and the
 // path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran); `any_specular`: some lane's
 // sample may be a Dirac lobe's (the Dirac lobes', a smooth layer's reflection); `any_sphere`: some lane's hit is on
@@ -665,8 +694,9 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   LanePacket pk;
   LaneLobes lobes;  // the rough lobes besides Lambert's (lane_lobes.h)
   constexpr bool kSpheres = (F & kFeatureSpheres) != 0;
-  bool any_textured = false, gathered_sphere = false;
-  if (!gather_lanes<kM, kSpheres>(c, ids, k, hits, found, paths, pk, lobes, out, any_textured, gathered_sphere))
+  bool any_textured = false, gathered_sphere = false, any_emitter = false;
+  if (!gather_lanes<kM, kSpheres>(c, ids, k, hits, found, paths, pk, lobes, out, any_textured, gathered_sphere,
+                                  any_emitter))
     return;  // nothing for the lanes: every path takes shade_vertex
   const bool any_sphere = kSpheres && gathered_sphere;  // false at compile time in a kernel without spheres
   lane_hit_points(pk.ray, pk.polygon, c.smooth_scene, any_textured, any_sphere, pk.hit);
@@ -696,6 +726,7 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
   lane_continuations(c, pk, any_dirac, pk.next);
   const bool any_specular = any_dirac || (any_rough && lobes.any_smooth_layer);
+  if (any_emitter) add_lane_emission<kM, F>(c, ids, k, hits, pk, paths);
   write_back_lanes(c, ids, k, hits, pk, any_dirac, any_specular, any_sphere, paths, out, count);
 }
 PT_SIMD_SQRT_WARNINGS_ON

@@ -9,8 +9,9 @@
 // bit-identical to the scalar loop's (tested). Why it is faster: tiny scenes are searched by brute force, where
 // sixteen rays against one polygon per SIMD step beat one ray against sixteen polygons (no dependency chain);
 // on every scene, the Sobol points of a bounce are computed for all its paths at once (sampling/sobol_batch.h),
-// Lambertian, glTF, plastic, conductor, mirror and smooth glass polygons and spheres, textured or not (polygons),
-// are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of work.
+// Lambertian, glTF, plastic, conductor, subsurface, mirror and smooth glass polygons and spheres, textured or not
+// (polygons), emitting or not, are shaded in SIMD lanes (shading_lanes.h), and each stage's loop runs one kind of
+// work.
 #pragma once
 #include <algorithm>
 #include <atomic>
@@ -38,41 +39,42 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 
 // Whether the batch kernel compiled for `features` shades this scene's hits on polygons and spheres in SIMD lanes
 // (shading_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
-// where some material is one the lanes take (a scene of others alone would only pay for their gathers).
+// where some material that does not emit is one the lanes take (a scene of others alone would only pay for their
+// gathers); where they run, they shade the emitters they take too.
 // Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
 //
 // The images the lanes read at a hit (through material_at, in the kernels for any material, on meshes with
 // texture coordinates): the albedo's, glTF's metallic–roughness and the normal map. An emission map sends the hit
-// to shade_vertex (with the emission's MIS weight).
+// to shade_vertex (its texel and the emission's MIS weight); an emission without one is the lanes' (a scalar step
+// per emitting lane: shading_lanes.h, add_lane_emission).
 inline bool lane_textures(const Material& m) { return !m.emission_map.texture; }
-// The Lambert lobe, not emitting.
-inline bool lambert_lane_material(const Material& m) {
-  return is_lambertian(m) && lane_textures(m) && is_black(m.emission);
-}
+// The Lambert lobe.
+inline bool lambert_lane_material(const Material& m) { return is_lambertian(m) && lane_textures(m); }
 // The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough or smooth (a smooth
-// layer's reflection is a Dirac lobe over the base), not emitting; only in the kernels for any material.
+// layer's reflection is a Dirac lobe over the base); only in the kernels for any material.
 inline bool layered_lane_material(const Material& m) {
-  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) && lane_textures(m) &&
-         is_black(m.emission);
+  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) && lane_textures(m);
 }
 // The rough conductor (materials/conductor.h: GGX with Kulla–Conty's compensation, Schlick's or the complex
-// index's Fresnel), not emitting; only in the kernels for any material.
+// index's Fresnel); only in the kernels for any material.
 inline bool conductor_lane_material(const Material& m) {
-  return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha) && lane_textures(m) &&
-         is_black(m.emission);
+  return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha) && lane_textures(m);
 }
-// A Dirac lobe alone, only sampled (no light sample there): the mirror, the smooth conductor and smooth glass, not
-// emitting; only in the kernels for any material.
+// The subsurface BRDF (materials/subsurface.h: Jensen et al.'s far-field approximation, cosine-sampled); only in the
+// kernels for any material.
+inline bool sss_lane_material(const Material& m) { return m.type == MaterialType::Subsurface && lane_textures(m); }
+// A Dirac lobe alone, only sampled (no light sample there): the mirror, the smooth conductor and smooth glass;
+// only in the kernels for any material.
 inline bool dirac_lane_material(const Material& m) {
   const bool smooth_kind = m.type == MaterialType::Conductor || m.type == MaterialType::Dielectric;
   const bool dirac = m.type == MaterialType::Mirror || (smooth_kind && effectively_smooth(m.alpha));
-  return dirac && lane_textures(m) && is_black(m.emission);
+  return dirac && lane_textures(m);
 }
 // Any material the lanes shade, in the kernels for any material.
 inline bool lane_material(const Material& m) {
   return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m) ||
-         dirac_lane_material(m);
+         sss_lane_material(m) || dirac_lane_material(m);
 }
 // The order the kernels for any material shade a bounce's hits in (trace_batch), in a scene whose materials the lanes
 // take are of several kinds (MaterialKeys::mixed): by this key, so that a packet of the shading lanes holds one kind
@@ -84,12 +86,13 @@ inline bool lane_material(const Material& m) {
 // path's arithmetic is its own, so the images stay the scalar loop's bits.
 enum class LaneSortKey : uint8_t {
   Missed,           // the ray left the scene
-  Scalar,           // shade_vertex: an emitter, an instance's triangle, a material the lanes do not take
+  Scalar,           // shade_vertex: an instance's triangle, an emission map, a material the lanes do not take
   Lambert,
   Plastic,          // the coupled lobe with the coat's exact Fresnel
   Gltf,             // the coupled lobe with Schlick's
   Conductor,        // rough, Schlick's Fresnel
   ComplexConductor, // rough, the complex index's
+  Subsurface,
   Mirror,
   SmoothConductor,
   Glass,
@@ -103,6 +106,7 @@ inline LaneSortKey material_sort_key(const Material& m) {
     case MaterialType::MetallicRoughness: return LaneSortKey::Gltf;
     case MaterialType::Mirror: return LaneSortKey::Mirror;
     case MaterialType::Dielectric: return LaneSortKey::Glass;
+    case MaterialType::Subsurface: return LaneSortKey::Subsurface;
     case MaterialType::Conductor:
       if (effectively_smooth(m.alpha)) return LaneSortKey::SmoothConductor;
       return m.complex_ior ? LaneSortKey::ComplexConductor : LaneSortKey::Conductor;
@@ -145,6 +149,7 @@ inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
   const bool any = (features & kFeatureGeneralMaterials) != 0;
   return std::any_of(scene.materials.begin(), scene.materials.end(), [&](const Material& m) {
     if (has_textures(m) && scene.shading.empty()) return false;  // no texture coordinates: shade_vertex
+    if (!is_black(m.emission)) return false;  // lamps alone, seldom hit, would not repay every packet's gather
     return any ? lane_material(m) : lambert_lane_material(m);
   });
 }

@@ -132,10 +132,11 @@ inline bool use_spherical_rect(const Light& l, Vec3 ref) {
 // A point uniform by area on polygon i (pbrt-v4 §6.5): parallelograms map u onto their area directly (keeping
 // its stratification); other polygons pick a half in proportion to its area (reusing u.x; a triangle is all
 // half 0), then a point in that triangle.
-// True when sample_li samples `l` from `ref` uniformly by area over a parallelogram: the case the SIMD Lambert
-// lanes (integrators/shading_lanes.h) compute themselves; every other light goes the scalar way.
-inline bool parallelogram_by_area(const PolygonSoA& P, const Light& l, Vec3 ref) {
-  return l.polygon() && P.parallelogram[l.prim] && !(l.kind == LightKind::Rectangle && use_spherical_rect(l, ref));
+// True when sample_li samples `l` from `ref` uniformly by area over a parallelogram of uniform emission: the case the
+// SIMD shading lanes (integrators/shading_lanes.h) compute themselves; every other light goes the scalar way (an
+// emission map's texel among them).
+inline bool parallelogram_by_area(const Light& l, Vec3 ref) {
+  return l.uniform_parallelogram && !(l.kind == LightKind::Rectangle && use_spherical_rect(l, ref));
 }
 
 inline Vec3 sample_polygon_area(const PolygonSoA& P, uint32_t i, Vec2 u) {

@@ -35,17 +35,22 @@
 // f is reciprocal. Sampling: cosine-weighted hemisphere. Reflection-only, two-sided: wo.z ≥ 0 on entry
 // (bsdf.h mirrors).
 #pragma once
+#include "core/lanes.h"
+#include "core/simd_sqrt_warnings.h"
 #include "materials/bsdf_sample.h"
 #include "materials/fresnel.h"
 #include "sampling/sampling.h"
 
 namespace pt {
 
-inline float henyey_greenstein(float cos_theta, float g) {
-  g = std::clamp(g, -0.99f, 0.99f);
-  const float denom = 1.f + g * g - 2.f * g * cos_theta;
-  return kInv4Pi * (1.f - g * g) / (denom * std::sqrt(denom));
+PT_SIMD_SQRT_WARNINGS_OFF  // it runs on SIMD lanes too (integrators/lane_lobes.h; every lane computed)
+template <class T>
+T henyey_greenstein(T cos_theta, T g) {
+  g = lanes::std_clamp(g, T(-0.99f), T(0.99f));
+  const T denom = T(1.f) + g * g - T(2.f) * g * cos_theta;
+  return T(kInv4Pi) * (T(1.f) - g * g) / (denom * lanes::sqrt(denom));
 }
+PT_SIMD_SQRT_WARNINGS_ON
 
 // Diffuse Fresnel reflectance F_dr (Egan & Hilgeman 1979 fit, Jensen et al. 2001 §2.4).
 inline float subsurface_fdr(float eta) { return -1.440f / (eta * eta) + 0.710f / eta + 0.668f + 0.0636f * eta; }
@@ -63,17 +68,42 @@ inline Rgb subsurface_rd(Rgb albedo, float eta) {
   return {subsurface_rd(albedo.x, eta), subsurface_rd(albedo.y, eta), subsurface_rd(albedo.z, eta)};
 }
 
+// The BRDF's parameters over the number type: one material's (T = float) or one per SIMD lane
+// (integrators/lane_lobes.h).
+template <class T>
+struct SubsurfaceLobe {
+  lanes::Vec3T<T> albedo, rd, norm;  // α′, R_d and ss_norm per channel
+  T g, eta;                          // the phase function's asymmetry, the relative index
+};
+inline SubsurfaceLobe<float> subsurface_lobe(const Material& m) {
+  return {lanes::of(m.albedo), lanes::of(m.rd), lanes::of(m.ss_norm), m.g, m.ior};
+}
+
+// f for wo.z > 0 and wi.z > 0 (the caller tests the sides), written once over the number type.
+PT_SIMD_SQRT_WARNINGS_OFF  // it runs on SIMD lanes too (every lane computed)
+template <class T>
+[[gnu::always_inline]] inline lanes::Vec3T<T> subsurface_f(const SubsurfaceLobe<T>& b, const lanes::Vec3T<T>& wo,
+                                                           const lanes::Vec3T<T>& wi) {
+  using lanes::std_clamp, lanes::std_max, lanes::sqrt;
+  const T eta = b.eta;
+  const T ft_o = T(1.f) - fresnel_dielectric(wo.z, eta), ft_i = T(1.f) - fresnel_dielectric(wi.z, eta);
+  const T inv_eta2 = T(1.f) / (eta * eta);
+  const T co = sqrt(std_max(T(0.f), T(1.f) - (wo.x * wo.x + wo.y * wo.y) * inv_eta2));  // |n·ωo′| (safe_sqrt)
+  const T ci = sqrt(std_max(T(0.f), T(1.f) - (wi.x * wi.x + wi.y * wi.y) * inv_eta2));  // |n·ωi′|
+  const T cos_theta = std_clamp(-(wi.x * wo.x + wi.y * wo.y) * inv_eta2 - ci * co, T(-1.f), T(1.f));
+  const T t = ft_o * ft_i;
+  const T sum = co + ci;
+  const T single = select(sum > T(0.f), t * henyey_greenstein(cos_theta, b.g) / sum, T(0.f));
+  const T diffuse = t * T(kInvPi);
+  return {b.norm.x * (b.albedo.x * single + b.rd.x * diffuse), b.norm.y * (b.albedo.y * single + b.rd.y * diffuse),
+          b.norm.z * (b.albedo.z * single + b.rd.z * diffuse)};
+}
+PT_SIMD_SQRT_WARNINGS_ON
+
 inline Rgb subsurface_eval(const Material& m, Vec3 wo, Vec3 wi) {
   if (!(wo.z > 0.f) || !(wi.z > 0.f)) return Rgb(0.f);
-  const float eta = m.ior;
-  const float ft_o = 1.f - fresnel_dielectric(wo.z, eta), ft_i = 1.f - fresnel_dielectric(wi.z, eta);
-  const float inv_eta2 = 1.f / (eta * eta);
-  const float co = safe_sqrt(1.f - (wo.x * wo.x + wo.y * wo.y) * inv_eta2);  // |n·ωo′|
-  const float ci = safe_sqrt(1.f - (wi.x * wi.x + wi.y * wi.y) * inv_eta2);  // |n·ωi′|
-  const float cos_theta = std::clamp(-(wi.x * wo.x + wi.y * wo.y) * inv_eta2 - ci * co, -1.f, 1.f);
-  const float t = ft_o * ft_i;
-  const float single = co + ci > 0.f ? t * henyey_greenstein(cos_theta, m.g) / (co + ci) : 0.f;
-  return m.ss_norm * (m.albedo * single + m.rd * (t * kInvPi));
+  const lanes::Vec3T<float> f = subsurface_f(subsurface_lobe(m), lanes::of(wo), lanes::of(wi));
+  return Rgb(f.x, f.y, f.z);
 }
 
 inline float subsurface_pdf(Vec3 wo, Vec3 wi) {

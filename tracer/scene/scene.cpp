@@ -820,7 +820,8 @@ void compile_lights(Scene& s) {
       l.area = s.polygons.area[prim];
       l.kind = LightKind::Polygon;
       const PolygonSoA& P = s.polygons;
-      if (P.parallelogram[prim] && !l.emission_map.texture) {
+      l.uniform_parallelogram = P.parallelogram[prim] && !l.emission_map.texture;
+      if (l.uniform_parallelogram) {
         // A rectangle (perpendicular edges) is sampled in solid angle: far less noise near the light.
         const Vec3 ex = P.v[1][prim] - P.v[0][prim], ey = P.v[3][prim] - P.v[0][prim];
         if (std::abs(glm::dot(ex, ey)) <= 1e-5f * glm::length(ex) * glm::length(ey)) {

@@ -49,6 +49,7 @@ struct Light {
   Vec3 position{0.f};            // Point, Spot (camera-relative)
   float cos_inner = 1.f, cos_outer = 0.f;  // Spot
   TextureSlot emission_map;      // a textured area light (its material's emission_map; kind Polygon): emission × it
+  bool uniform_parallelogram = false;  // a parallelogram without emission_map (light_sampling.h: parallelogram_by_area)
   bool infinite() const { return kind == LightKind::Environment || kind == LightKind::Sun; }
   bool delta() const { return kind == LightKind::Point || kind == LightKind::Spot || kind == LightKind::Directional; }
   bool polygon() const { return kind == LightKind::Polygon || kind == LightKind::Rectangle; }  // a triangle or quad
