@@ -312,6 +312,16 @@ void check_lanes_match_scalar_loop(SceneDesc d) {
     }
 }
 
+// The coarse sphere on its floor (sphere_on_floor, six rings) at 24 × 24 pixels for paths of `bounces` bounces,
+// Russian roulette from `rr_depth` (scene_desc.h: RenderSettings::russian_roulette_depth).
+SceneDesc small_sphere_on_floor(int kind, int bounces, int rr_depth = kRouletteDepthAuto) {
+  SceneDesc d = sphere_on_floor(kind, 6);
+  d.width = d.height = 24;
+  d.render.max_bounces = bounces;
+  d.render.russian_roulette_depth = rr_depth;
+  return d;
+}
+
 // check_lanes_match_scalar_loop on the sphere on its floor (24 × 24 pixels, three bounces), flat (kind 1) and
 // smooth-shaded (kind 2), for the cases c < n that set_up(ball, floor, c) makes of its two materials;
 // lanes_apply(kind, c) says whether the lanes must run there (shading_lanes_apply).
@@ -319,9 +329,7 @@ template <class SetUp, class LanesApply>
 void check_lobe_cases(int n, const SetUp& set_up, const LanesApply& lanes_apply) {
   for (const int kind : {1, 2})
     for (int c = 0; c < n; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 3;
+      SceneDesc d = small_sphere_on_floor(kind, 3);
       set_up(d.materials[0], d.materials.back(), c);
       const auto scene = compile_scene(d);
       CAPTURE(kind);
@@ -534,10 +542,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   };
   for (const int kind : {1, 2})
     for (int c = 0; c < 5; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 6;
-      d.render.russian_roulette_depth = 1;
+      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
       set_up(d.materials[0], d.materials.back(), c);
       const auto scene = compile_scene(d);
       CAPTURE(kind);
@@ -580,10 +585,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
   const double radii[4] = {0.4, 0.4, 0.25, 0.25};
   for (const int kind : {1, 2})
     for (int first = 0; first < 10; first += 4) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 6;
-      d.render.russian_roulette_depth = 1;
+      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
       for (int j = 0; j < 4; ++j) {
         d.materials.push_back(material((first + j) % 10));
         ShapeDesc ball;
@@ -615,10 +617,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes add an emitter's emission with
                                   TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
   for (const int kind : {1, 2})
     for (int c = 0; c < 4; ++c) {
-      SceneDesc d = sphere_on_floor(kind, 6);
-      d.width = d.height = 24;
-      d.render.max_bounces = 4;
-      d.render.russian_roulette_depth = 1;
+      SceneDesc d = small_sphere_on_floor(kind, 4, 1);
       MaterialDesc& ball = d.materials[0];
       MaterialDesc& floor = d.materials.back();
       ball.emission = Rgb(1.5f, 0.9f, 0.4f);
