@@ -2,12 +2,11 @@
 // coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h; a smooth layer's
 // reflection is a Dirac lobe over the base), the rough conductor (materials/conductor.h) or the subsurface BRDF
 // (materials/subsurface.h, sampled as Lambert's), each written once over the number type, or a Dirac lobe: the
-// mirror, the
-// smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane rounds as
-// bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one lane at
-// a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a kind of
-// lobe no lane holds costs nothing. What stays one lane at a time: the directional-albedo table lookups E(μ) and
-// the visible-normal sample (Heitz's sampler calls sin and cos).
+// mirror, the smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane
+// rounds as bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one
+// lane at a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a
+// kind of lobe no lane holds costs nothing. What stays one lane at a time: the directional-albedo table lookups
+// E(μ) and the visible-normal sample (Heitz's sampler calls sin and cos).
 #pragma once
 #include <cstdint>
 
@@ -150,10 +149,11 @@ struct LaneLobes {
 
   // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample, subsurface_sample): per lane
   // with wo.z > 0, the visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the
-  // same u), as the lobe choice u_lobe says (the subsurface BRDF's: the cosine direction); then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth
-  // layer's reflection (layer_dirac, set here) is its Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's
-  // Fresnel F at μ = wo.z, pdf = the layer's probability; `layer_ok` is false there where F is black (true in the
-  // other lanes, whose validity the caller judges).
+  // same u), as the lobe choice u_lobe says (the subsurface BRDF's: the cosine direction); then f and pdf there. wi
+  // is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth layer's reflection (layer_dirac, set here) is its
+  // Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's Fresnel F at μ = wo.z, pdf = the layer's
+  // probability; `layer_ok` is false there where F is black (true in the other lanes, whose validity the caller
+  // judges).
   void sample(const float* u_lobe, const float* ux, const float* uy, const lanes::Vec3T<vfloat>& cosine,
               lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, M& layer_ok) {
     alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N];
