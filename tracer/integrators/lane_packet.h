@@ -82,6 +82,7 @@ struct LaneHits {
   alignas(64) float px[kPacket], py[kPacket], pz[kPacket];  // the point, re-interpolated from the corners
   alignas(64) float ex[kPacket], ey[kPacket], ez[kPacket];  // its error bound (offset_ray_origin)
   alignas(64) float bary[3][kPacket];                       // its barycentrics (textured lanes only)
+  alignas(64) float u[kPacket], v[kPacket];                 // its texture coordinates (textured lanes only)
   alignas(64) float nsx[kPacket], nsy[kPacket], nsz[kPacket];  // the shading normal (a normal map's, if any)
   alignas(64) float lfx[kPacket], lfy[kPacket], lfz[kPacket];  // the terminator offset (it.lift)
   alignas(64) float lifted[kPacket];                        // 1 where rays leave the front from p + lift

@@ -22,13 +22,13 @@
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials they
-// take is wavefront.h's (lane_material, lane_textures). On a smooth-shaded mesh they shade as shade_vertex does: the
+// take is wavefront.h's (lane_material). On a smooth-shaded mesh they shade as shade_vertex does: the
 // frame about the interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
-// metallic–roughness and normal images) is resolved at the hit by the scalar material_at, one lane at a time, over the
+// metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at a time, over the
 // ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point in the gather
 // and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
-// instead (the caller runs shade_vertex for it) when its hit is on an instance, or emits through an emission map, or
-// has another material (rough glass), or textures on a sphere or on a mesh without texture coordinates,
+// instead (the caller runs shade_vertex for it) when its hit is on an instance, or has another material (rough
+// glass), or textures on a sphere or on a mesh without texture coordinates,
 // or when no light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh);
 // the caller uses the lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit
 // point among them), an emitter's emission and MIS weight, the texture lookups, the light choice, the other lights'
@@ -139,7 +139,6 @@ template <MaterialSet kM, bool kSpheres>
     if (prim >= s.sphere_begin() && !(sphere && s.is_sphere(prim))) continue;  // an instance's: the scalar path
     pk.material.index[l] = sphere ? s.spheres.material[prim - s.sphere_begin()] : P.material[prim];
     const Material& m = s.materials[pk.material.index[l]];
-    if (!lane_textures(m)) continue;  // an emission map: the scalar path
     const bool emits = !is_black(m.emission);
     pk.material.emits[l] = emits ? 1 : 0;
     if constexpr (kM == MaterialSet::Any) {
@@ -276,6 +275,7 @@ template <MaterialSet kM>
     it.ng = P.normal[prim];
     it.ns = Vec3(h.nsx[l], h.nsy[l], h.nsz[l]);
     surface_uv(c.s.shading.uv[prim], h.bary[0][l], h.bary[1][l], h.bary[2][l], P.dual[prim][0], it);
+    h.u[l] = it.uv.x, h.v[l] = it.uv.y;  // an emission map's texel (add_lane_emission)
     const Material& m = material_at<kM>(c.s, it, p.ray.d, p.cone_width + p.cone_spread * hits[l].t, resolved[l]);
     if (lane_material(m)) take_material<kM>(pk, lobes, l, m);
     else pk.active[l] = 0;
@@ -603,7 +603,10 @@ template <MaterialSet kM, uint32_t F>
     PathState& p = paths[ids[l]];
     const int li = c.s.light_of(hits[l].prim);
     const Vec3 ng(g.ngx[l], g.ngy[l], g.ngz[l]);
-    const Rgb Le = area_light_emission(c.s.lights[li], ng, -p.ray.d);
+    const Light& light = c.s.lights[li];
+    Rgb Le = area_light_emission(light, ng, -p.ray.d);
+    // An emission map is a textured material's (resolve_textured_lanes computed its lane's uv).
+    if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, Vec2(h.u[l], h.v[l]));
     if (p.count_emission) {
       p.L += p.beta * Le;
     } else if (c.o.mis && !is_black(Le)) {

@@ -45,31 +45,29 @@ BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSetting
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
 //
 // The images the lanes read at a hit (through material_at, in the kernels for any material, on meshes with
-// texture coordinates): the albedo's, glTF's metallic–roughness and the normal map. An emission map sends the hit
-// to shade_vertex (its texel and the emission's MIS weight); an emission without one is the lanes' (a scalar step
-// per emitting lane: shading_lanes.h, add_lane_emission).
-inline bool lane_textures(const Material& m) { return !m.emission_map.texture; }
+// texture coordinates): the albedo's, glTF's metallic–roughness, the normal map and the emission's (whose texel and
+// MIS weight a scalar step adds per emitting lane: shading_lanes.h, add_lane_emission).
 // The Lambert lobe.
-inline bool lambert_lane_material(const Material& m) { return is_lambertian(m) && lane_textures(m); }
+inline bool lambert_lane_material(const Material& m) { return is_lambertian(m); }
 // The coupled lobe of materials/layered_lobe.h, glTF's metallic–roughness or the plastic, rough or smooth (a smooth
 // layer's reflection is a Dirac lobe over the base); only in the kernels for any material.
 inline bool layered_lane_material(const Material& m) {
-  return (m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic) && lane_textures(m);
+  return m.type == MaterialType::MetallicRoughness || m.type == MaterialType::Plastic;
 }
 // The rough conductor (materials/conductor.h: GGX with Kulla–Conty's compensation, Schlick's or the complex
 // index's Fresnel); only in the kernels for any material.
 inline bool conductor_lane_material(const Material& m) {
-  return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha) && lane_textures(m);
+  return m.type == MaterialType::Conductor && !effectively_smooth(m.alpha);
 }
 // The subsurface BRDF (materials/subsurface.h: Jensen et al.'s far-field approximation, cosine-sampled); only in the
 // kernels for any material.
-inline bool sss_lane_material(const Material& m) { return m.type == MaterialType::Subsurface && lane_textures(m); }
+inline bool sss_lane_material(const Material& m) { return m.type == MaterialType::Subsurface; }
 // A Dirac lobe alone, only sampled (no light sample there): the mirror, the smooth conductor and smooth glass;
 // only in the kernels for any material.
 inline bool dirac_lane_material(const Material& m) {
   const bool smooth_kind = m.type == MaterialType::Conductor || m.type == MaterialType::Dielectric;
   const bool dirac = m.type == MaterialType::Mirror || (smooth_kind && effectively_smooth(m.alpha));
-  return dirac && lane_textures(m);
+  return dirac;
 }
 // Any material the lanes shade, in the kernels for any material.
 inline bool lane_material(const Material& m) {
@@ -86,7 +84,7 @@ inline bool lane_material(const Material& m) {
 // path's arithmetic is its own, so the images stay the scalar loop's bits.
 enum class LaneSortKey : uint8_t {
   Missed,           // the ray left the scene
-  Scalar,           // shade_vertex: an instance's triangle, an emission map, a material the lanes do not take
+  Scalar,           // shade_vertex: an instance's triangle, a material the lanes do not take
   Lambert,
   Plastic,          // the coupled lobe with the coat's exact Fresnel
   Gltf,             // the coupled lobe with Schlick's
