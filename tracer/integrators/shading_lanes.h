@@ -22,17 +22,17 @@
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials they
-// take is wavefront.h's (lane_material). On a smooth-shaded mesh they shade as shade_vertex does: the
-// frame about the interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
-// metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at a time, over the
-// ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point in the gather
-// and is flat (its normal is its shading normal); a ray leaving it may hit it again. A lane takes the scalar path
-// instead (the caller runs shade_vertex for it) when its hit is on an instance, or has another material (rough
-// glass), or textures on a sphere or on a mesh without texture coordinates,
-// or when no light can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh);
-// the caller uses the lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit
-// point among them), an emitter's emission and MIS weight, the texture lookups, the light choice, the other lights'
-// samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal samples.
+// take is wavefront.h's (lane_material). On a smooth-shaded mesh they shade as shade_vertex does: the frame about the
+// interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
+// metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at a
+// time, over the ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own
+// sphere_point in the gather and is flat (its normal is its shading normal); a ray leaving it may hit it again. A
+// lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit is on an instance, or has
+// another material (rough glass), or textures on a sphere or on a mesh without texture coordinates, or when no light
+// can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the
+// lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit point among them), an
+// emitter's emission and MIS weight, the texture lookups, the light choice, the other lights' samples, the 1D random
+// numbers, and lane_lobes.h's table lookups and visible-normal samples.
 //
 // shade_lanes runs in stages, each a function of its own over the packet's arrays (lane_packet.h: LanePacket):
 // gather_lanes, lane_hit_points, resolve_textured_lanes, lane_frames, choose_lane_lights, lane_light_samples,
