@@ -71,7 +71,7 @@ struct LaneMaterials {
   alignas(64) float alb_r[kPacket], alb_g[kPacket], alb_b[kPacket];  // the albedo (the Lambert lobe's ρ)
   alignas(64) uint32_t index[kPacket];   // the hit polygon's material in Scene::materials
   alignas(64) uint8_t textured[kPacket];  // 1: resolved at the hit by material_at (into the caller's scratch)
-  alignas(64) uint8_t emits[kPacket];     // 1: it emits (an area light without an emission map)
+  alignas(64) uint8_t emits[kPacket];     // 1: it emits (an area light)
   const Material* of[kPacket];            // the material (the scene's, or its resolved copy)
 
   void clear() { fill_lanes(1.f, alb_r, alb_g, alb_b); }

@@ -116,6 +116,25 @@ inline void add_escaped_radiance(const Scene& s, const PathOptions& o, PathState
     p.features.escaped(p.L);
 }
 
+// The emission a path finds where p.ray hits primitive `prim` of an area light (at point `at`, front normal ng,
+// texture coordinates uv): counted whole where no light sample covered the ray (a camera ray, a specular bounce, or
+// an estimator without light sampling), else MIS-weighted against the light sample that could have chosen this point
+// from the previous vertex. shade_vertex's first step, and the SIMD shading lanes' (shading_lanes.h), one lane at a
+// time.
+template <uint32_t F>
+[[gnu::always_inline]] inline void add_found_emission(const Scene& s, const PathOptions& o, PathState& p, uint32_t prim,
+                                                      Vec3 at, Vec3 ng, Vec2 uv) {
+  const int li = s.light_of(prim);
+  const Light& light = s.lights[li];
+  Rgb Le = area_light_emission(light, ng, -p.ray.d);
+  if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, uv);
+  if (!o.light_sampling || p.count_emission) {
+    p.L += p.beta * Le;
+  } else if (o.mis && !is_black(Le)) {
+    p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, p.prev_n, at, ng));
+  }
+}
+
 // One vertex of the path at hit `h` of p.ray: adds the emission found there, prepares the light sample's shadow
 // ray (`shadow`, when the result's `shadow_ray` is set; its contribution is the caller's to add if unoccluded),
 // and samples the next direction into p (when `continues`). F: what the kernel is compiled for (KernelFeature):
@@ -138,17 +157,7 @@ template <class Sampler, uint32_t F>
   const Material& m = material_at<kM>(s, it, p.ray.d, p.cone_width, scratch);
   const Vec3 wo = -p.ray.d;
 
-  if (!is_black(m.emission)) {
-    const int li = s.light_of(it.prim);
-    const Light& light = s.lights[li];
-    Rgb Le = area_light_emission(light, it.ng, wo);
-    if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, it.uv);
-    if (!o.light_sampling || p.count_emission) {
-      p.L += p.beta * Le;
-    } else if (o.mis && !is_black(Le)) {
-      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(s, li, p.prev_p, p.prev_n, it.p, it.ng));
-    }
-  }
+  if (!is_black(m.emission)) add_found_emission<F>(s, o, p, it.prim, it.p, it.ng, it.uv);
   if (p.features.out) [[unlikely]]
     p.features.at_vertex<kM>(depth, p.ray.o, it, wo, m, depth >= o.max_bounces, p.L);
   if (depth >= o.max_bounces) return result;

@@ -589,10 +589,9 @@ template <MaterialSet kM>
   st(out.dx, wwx), st(out.dy, wwy), st(out.dz, wwz);
 }
 
-// ---- The emission found at an emitting lane's hit (scalar, lane order), as shade_vertex adds it first: whole where
-// no light sample covered the ray (a camera ray, a Dirac bounce), else MIS-weighted against the light sample that
-// could have chosen this point from the previous vertex. Run after the last stage that may hand a lane back to
-// shade_vertex (choose_lane_lights), so that no path adds it twice.
+// ---- The emission found at an emitting lane's hit (scalar, lane order), as shade_vertex adds it first
+// (add_found_emission). Run after the last stage that may hand a lane back to shade_vertex (choose_lane_lights), so
+// that no path adds it twice. An emission map is a textured material's: resolve_textured_lanes computed its uv.
 template <MaterialSet kM, uint32_t F>
 [[gnu::always_inline]] inline void add_lane_emission(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                      const Hit* hits, const LanePacket& pk, PathState* paths) {
@@ -600,19 +599,9 @@ template <MaterialSet kM, uint32_t F>
   const LanePolygons& g = pk.polygon;
   for (int l = 0; l < k; ++l) {
     if (!pk.active[l] || !pk.material.emits[l]) continue;
-    PathState& p = paths[ids[l]];
-    const int li = c.s.light_of(hits[l].prim);
-    const Vec3 ng(g.ngx[l], g.ngy[l], g.ngz[l]);
-    const Light& light = c.s.lights[li];
-    Rgb Le = area_light_emission(light, ng, -p.ray.d);
-    // An emission map is a textured material's (resolve_textured_lanes computed its lane's uv).
-    if (light.emission_map.texture) [[unlikely]] Le *= emission_texel(light, Vec2(h.u[l], h.v[l]));
-    if (p.count_emission) {
-      p.L += p.beta * Le;
-    } else if (c.o.mis && !is_black(Le)) {
-      const Vec3 at(h.px[l], h.py[l], h.pz[l]);
-      p.L += p.beta * Le * power_heuristic(p.prev_bsdf_pdf, lights_pdf_area<F>(c.s, li, p.prev_p, p.prev_n, at, ng));
-    }
+    const Vec2 uv = pk.material.textured[l] ? Vec2(h.u[l], h.v[l]) : Vec2(0.f);  // written for textured lanes only
+    add_found_emission<F>(c.s, c.o, paths[ids[l]], hits[l].prim, Vec3(h.px[l], h.py[l], h.pz[l]),
+                          Vec3(g.ngx[l], g.ngy[l], g.ngz[l]), uv);
   }
 }
 

@@ -66,8 +66,7 @@ inline bool sss_lane_material(const Material& m) { return m.type == MaterialType
 // only in the kernels for any material.
 inline bool dirac_lane_material(const Material& m) {
   const bool smooth_kind = m.type == MaterialType::Conductor || m.type == MaterialType::Dielectric;
-  const bool dirac = m.type == MaterialType::Mirror || (smooth_kind && effectively_smooth(m.alpha));
-  return dirac;
+  return m.type == MaterialType::Mirror || (smooth_kind && effectively_smooth(m.alpha));
 }
 // Any material the lanes shade, in the kernels for any material.
 inline bool lane_material(const Material& m) {
