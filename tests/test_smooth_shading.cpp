@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -553,11 +554,48 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
     }
 }
 
+// Rough glass in the lanes (lane_lobes.h: dielectric_lobe_value and dielectric_lobe_sample, written once over the
+// number type): its light sample on either side of the surface, its reflection or refraction about a visible normal,
+// the index inverted inside the ball, total internal reflection, and the η² of each refraction in the roulette's
+// worth (six bounces, roulette from the first). Beside the Lambert floor, a smooth glass floor (Dirac lanes in the same
+// packet, whose refractions must not overwrite rough glass's), a smooth plastic floor (a smooth layer's Dirac
+// reflection), a rough conductor floor, and as the floor itself under a Lambert ball; nearly smooth to very rough,
+// indices 1.33 to 2.4, flat and smooth-shaded.
+TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on rough glass") {
+  const auto set_up = [](MaterialDesc& ball, MaterialDesc& floor, int c) {
+    MaterialDesc& glass = c == 3 ? floor : ball;
+    glass.type = MaterialType::Dielectric;
+    glass.roughness = c == 0 ? 0.3f : c == 1 ? 0.05f : c == 2 ? 0.8f : c == 3 ? 0.4f : 0.2f;
+    glass.ior = c == 1 ? 1.33f : c == 2 ? 2.4f : 1.5f;
+    if (c == 1) {  // on smooth glass
+      floor.type = MaterialType::Dielectric;
+    } else if (c == 2) {  // on a smooth plastic
+      floor.type = MaterialType::Plastic;
+      floor.roughness = 0.f;
+    } else if (c == 4) {  // on a rough gold floor
+      floor.type = MaterialType::Conductor;
+      floor.metal = MetalPreset::Gold;
+      floor.roughness = 0.3f;
+    }
+  };
+  for (const int kind : {1, 2})
+    for (int c = 0; c < 5; ++c) {
+      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
+      set_up(d.materials[0], d.materials.back(), c);
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(c);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      CHECK(std::any_of(scene->materials.begin(), scene->materials.end(), rough_glass_lane_material));
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
 // The lanes shade analytic spheres too (make_interaction's sphere_point in the gather; a ray leaving a sphere may
 // hit it again: a refraction into glass, a reflection off its inside). Four spheres in front of the mesh sphere,
 // one material each, every lane material in turn: the Lambert, plastic, glTF and rough conductor lobes, a mirror,
-// smooth glass, a smooth conductor and a smooth plastic, and, handed back to shade_vertex, rough glass and a
-// textured sphere (no texture coordinates); beside a flat (kind 1) and a smooth-shaded mesh (kind 2, whose vertex
+// smooth glass, a smooth conductor, a smooth plastic and rough glass, and, handed back to shade_vertex, a textured
+// sphere (no texture coordinates); beside a flat (kind 1) and a smooth-shaded mesh (kind 2, whose vertex
 // normals the spheres' lanes must not read), six bounces, roulette from the first.
 TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on analytic spheres of every material") {
   const auto colours = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
@@ -575,7 +613,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       case 5: m.type = MaterialType::Dielectric, m.ior = 1.5f; break;
       case 6: m.type = MaterialType::Conductor, m.roughness = 0.f; break;
       case 7: m.type = MaterialType::Plastic, m.roughness = 0.f; break;  // its coat's reflection: a Dirac lobe
-      case 8: m.type = MaterialType::Dielectric, m.roughness = 0.3f; break;  // rough glass: shade_vertex
+      case 8: m.type = MaterialType::Dielectric, m.roughness = 0.3f; break;  // rough glass
       default: m.albedo_map = colours; break;  // a textured sphere: shade_vertex
     }
     return m;

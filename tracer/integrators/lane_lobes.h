@@ -1,7 +1,8 @@
 // The shading lanes' lobes (shading_lanes.h), besides the Lambert lobe the lanes shade themselves: per lane, the
 // coupled lobe the plastic and glTF's metallic–roughness material share (materials/layered_lobe.h; a smooth layer's
 // reflection is a Dirac lobe over the base), the rough conductor (materials/conductor.h) or the subsurface BRDF
-// (materials/subsurface.h, sampled as Lambert's), each written once over the number type, or a Dirac lobe: the
+// (materials/subsurface.h, sampled as Lambert's) or rough glass (materials/dielectric.h: reflection and refraction,
+// its light sample on either side), each written once over the number type, or a Dirac lobe: the
 // mirror, the smooth conductor or smooth glass (materials/dielectric.h), which are only sampled; so that a lane
 // rounds as bsdf_value<Any> and bsdf_sample<Any> do for one path. Structure of arrays: a lane's material is read one
 // lane at a time (take), then each step runs on all lanes at once, every lane selecting its own lobe's result; a
@@ -13,6 +14,7 @@
 #include "core/lanes.h"
 #include "core/simd_sqrt_warnings.h"
 #include "materials/conductor.h"
+#include "materials/dielectric.h"
 #include "materials/fresnel.h"
 #include "materials/metallic_roughness.h"
 #include "materials/plastic.h"
@@ -35,6 +37,9 @@ struct LaneLobes {
   // Per lane (0 or 1): the subsurface BRDF, whose α′ is `colour` and index eta[0]; its R_d, ss_norm and phase
   // asymmetry g (written into every lane at the packet's first subsurface lane).
   alignas(64) float sss[N], rd[3][N], norm[3][N], hg[N];
+  // Per lane (0 or 1): rough glass, whose index is eta[0] and roughness α; the relative index η for wo's side (at:
+  // the index entering from the front, its inverse leaving from the back).
+  alignas(64) float rough_glass[N], glass_eta[N];
   // The lobe's parameters: f0 (the conductor's albedo); the base colour (the layered lobe's diffuse colour, the
   // conductor's F_ms); the coat's index, the conductor's complex index and the glass's index (eta[0]); the base's
   // luminance; 1 − E_avg (layered) or E_avg (conductor); α. A Dirac lobe's f0 is its tint or Schlick's F0.
@@ -46,22 +51,25 @@ struct LaneLobes {
   bool any_reflector = false, any_reflector_complex = false;  // a Dirac mirror or conductor; one with a complex index
   bool any_smooth_layer = false;
   bool any_sss = false;
+  bool any_rough_glass = false;
 
   bool any() const { return any_rough() || any_dirac; }
-  bool any_rough() const { return any_layered || any_metal || any_sss; }  // a lobe with a light sample
+  bool any_rough() const { return any_layered || any_metal || any_sss || any_rough_glass; }  // with a light sample
   M lobe_mask() const {  // the lanes of those lobes
-    return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f || lanes_of(sss) != 0.f;
+    return lanes_of(layered) != 0.f || lanes_of(metal) != 0.f || lanes_of(sss) != 0.f || lanes_of(rough_glass) != 0.f;
   }
   M dirac_mask() const { return lanes_of(dirac) != 0.f; }
+  M rough_glass_mask() const { return lanes_of(rough_glass) != 0.f; }
 
   // Before the first take: no lobe in any lane.
   void clear() {
-    for (float* a : {layered, coat, metal, complex, dirac, glass, tint, smooth_layer, sss}) st(a, vfloat(0.f));
+    for (float* a : {layered, coat, metal, complex, dirac, glass, tint, smooth_layer, sss, rough_glass})
+      st(a, vfloat(0.f));
   }
 
-  // Lane l shades with m, a plastic or glTF material, a rough conductor, a subsurface material, or a mirror, smooth
-  // conductor or smooth glass (wavefront.h: layered_lane_material, conductor_lane_material, sss_lane_material,
-  // dirac_lane_material), which outlives the lanes.
+  // Lane l shades with m, a plastic or glTF material, a rough conductor, a subsurface material, rough glass, or a
+  // mirror, smooth conductor or smooth glass (wavefront.h: layered_lane_material, conductor_lane_material,
+  // sss_lane_material, rough_glass_lane_material, dirac_lane_material), which outlives the lanes.
   void take(int l, const Material& m) {
     if (!any()) defaults();
     material[l] = &m;
@@ -85,6 +93,10 @@ struct LaneLobes {
       any_coat = any_coat || plastic;
     } else if (m.type == MaterialType::Subsurface) {
       take_sss(l, m);
+    } else if (m.type == MaterialType::Dielectric && !effectively_smooth(m.alpha)) {
+      rough_glass[l] = 1.f;
+      eta[0][l] = m.ior, alpha[l] = m.alpha;
+      any_rough_glass = true;
     } else {
       take_dirac(l, m);
     }
@@ -107,15 +119,18 @@ struct LaneLobes {
     return coat[l] != 0.f ? plastic_coat_albedo(m, mu) : gltf_layer_albedo(m, mu);
   }
 
-  // The lobes at wo (the shading frame's, mirrored to the front): E(μo), one lane at a time.
-  void at(const lanes::Vec3T<vfloat>& w) {
+  // The lobes at wo (the shading frame's, mirrored to the front; `below`: wo was under the surface): E(μo), one
+  // lane at a time, and rough glass's η for wo's side (dielectric_eta).
+  void at(const lanes::Vec3T<vfloat>& w, const M& below) {
     st(wo[0], w.x), st(wo[1], w.y), st(wo[2], w.z);
     for (int l = 0; l < N; ++l) e_o[l] = layered[l] != 0.f || metal[l] != 0.f ? albedo_at(l, wo[2][l]) : 0.f;
+    if (any_rough_glass) st(glass_eta, select(below, 1.f / lanes_of(eta[0]), lanes_of(eta[0])));
   }
 
-  // f and pdf of each lane's lobe towards wi (the shading frame's, on wo's side), as bsdf_value<Any> evaluates it
-  // for wo.z > 0 and wi.z > 0 (the caller masks the rest). Lanes without a lobe get 0.
-  void value(const lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf) const {
+  // f and pdf of each lane's lobe towards wi (the shading frame's, mirrored as wo is), as bsdf_value<Any> evaluates it
+  // for wo.z > 0 and wi.z > 0 (the caller masks the rest), and for rough glass on either side. Lanes without a lobe
+  // get 0. `glass`: evaluate rough glass (sample has its own f and pdf).
+  void value(const lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, bool glass = true) const {
     alignas(64) float wz[N], e_i[N];
     st(wz, wi.z);
     for (int l = 0; l < N; ++l) e_i[l] = layered[l] != 0.f || metal[l] != 0.f ? albedo_at(l, wz[l]) : 0.f;
@@ -145,18 +160,27 @@ struct LaneLobes {
       f = {select(on, fc.x, f.x), select(on, fc.y, f.y), select(on, fc.z, f.z)};
       pdf = select(on, pc, pdf);
     }
+    if (glass && any_rough_glass) {  // dielectric_value
+      vfloat fg, pg;
+      dielectric_lobe_value<true, true>(w, wi, lanes_of(alpha), lanes_of(glass_eta), fg, pg);
+      const M on = rough_glass_mask();
+      f = {select(on, fg, f.x), select(on, fg, f.y), select(on, fg, f.z)};
+      pdf = select(on, pg, pdf);
+    }
   }
 
-  // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample, subsurface_sample): per lane
-  // with wo.z > 0, the visible-normal reflection or the cosine direction `cosine` (sample_cosine_hemisphere of the
-  // same u), as the lobe choice u_lobe says (the subsurface BRDF's: the cosine direction); then f and pdf there. wi
-  // is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth layer's reflection (layer_dirac, set here) is its
-  // Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's Fresnel F at μ = wo.z, pdf = the layer's
-  // probability; `layer_ok` is false there where F is black (true in the other lanes, whose validity the caller
-  // judges).
+  // The lobes' samples (metallic_roughness_sample, plastic_sample, conductor_sample, subsurface_sample,
+  // dielectric_sample): per lane with wo.z > 0, the visible-normal reflection or the cosine direction `cosine`
+  // (sample_cosine_hemisphere of the same u), as the lobe choice u_lobe says (the subsurface BRDF's: the cosine
+  // direction); then f and pdf there. wi is (0, 0, 1) where a lane has no lobe or wo.z ≤ 0. A smooth layer's
+  // reflection (layer_dirac, set here) is its Dirac lobe: wi = (−wo.x, −wo.y, wo.z), f = F/μ with the layer's
+  // Fresnel F at μ = wo.z, pdf = the layer's probability. Rough glass reflects about its visible normal or refracts
+  // through it (`refracts`), its f and pdf from that normal (dielectric_lobe_sample). `ok`: the lanes of these lobes
+  // with a sample, as their scalar functions return one for wo.z > 0 (wi on its lobe's side, pdf > 0, a smooth
+  // layer's F not black, glass's f and pdf finite).
   void sample(const float* u_lobe, const float* ux, const float* uy, const lanes::Vec3T<vfloat>& cosine,
-              lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, M& layer_ok) {
-    alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N];
+              lanes::Vec3T<vfloat>& wi, lanes::Vec3T<vfloat>& f, vfloat& pdf, M& ok, M& refracts) {
+    alignas(64) float p[N], cx[N], cy[N], cz[N], gx[N], gy[N], gz[N], mx[N], my[N], mz[N];
     // The probability of the reflection's visible normal: the layer's share, or 1 − the conductor's cosine share.
     const vfloat eo = lanes_of(e_o), w_z = lanes_of(wo[2]);
     vfloat p_vndf(0.f);
@@ -168,8 +192,14 @@ struct LaneLobes {
     st(cx, cosine.x), st(cy, cosine.y), st(cz, cosine.z);
     if (any_smooth_layer) st(layer_dirac, vfloat(0.f));
     for (int l = 0; l < N; ++l) {
-      gx[l] = gy[l] = 0.f;
-      gz[l] = 1.f;
+      gx[l] = gy[l] = mx[l] = my[l] = 0.f;
+      gz[l] = mz[l] = 1.f;
+      if (any_rough_glass && rough_glass[l] != 0.f) {  // its visible normal (dielectric_sample_up)
+        if (!(wo[2][l] > 0.f)) continue;
+        const Vec3 m = ggx_sample_vndf(Vec3(wo[0][l], wo[1][l], wo[2][l]), alpha[l], Vec2(ux[l], uy[l]));
+        mx[l] = m.x, my[l] = m.y, mz[l] = m.z;
+        continue;
+      }
       const bool subsurface = any_sss && sss[l] != 0.f;
       if ((layered[l] == 0.f && metal[l] == 0.f && !subsurface) || !(wo[2][l] > 0.f)) continue;
       // conductor_sample: the cosine lobe where u < p_ms; the layered lobes: the reflection where u < p_s.
@@ -186,16 +216,31 @@ struct LaneLobes {
       gx[l] = d.x, gy[l] = d.y, gz[l] = d.z;
     }
     wi = {lanes_of(gx), lanes_of(gy), lanes_of(gz)};
-    value(wi, f, pdf);
-    layer_ok = M(true);
-    if (!any_smooth_layer) return;
-    const M D = lanes_of(layer_dirac) != 0.f;
-    const LayeredLobe<vfloat> g = layered_lobe();
-    const lanes::Vec3T<vfloat> F = any_coat ? layer_fresnel<LayerFresnel::Either>(g, w_z)
-                                            : layer_fresnel<LayerFresnel::Schlick>(g, w_z);
-    f = {select(D, F.x / wi.z, f.x), select(D, F.y / wi.z, f.y), select(D, F.z / wi.z, f.z)};
-    pdf = select(D, p_vndf, pdf);
-    layer_ok = !D || !(F.x == 0.f && F.y == 0.f && F.z == 0.f);
+    value(wi, f, pdf, false);
+    ok = w_z > 0.f && wi.z > 0.f && pdf > 0.f;
+    refracts = M(false);
+    if (any_smooth_layer) {
+      const M D = lanes_of(layer_dirac) != 0.f;
+      const LayeredLobe<vfloat> g = layered_lobe();
+      const lanes::Vec3T<vfloat> F = any_coat ? layer_fresnel<LayerFresnel::Either>(g, w_z)
+                                              : layer_fresnel<LayerFresnel::Schlick>(g, w_z);
+      f = {select(D, F.x / wi.z, f.x), select(D, F.y / wi.z, f.y), select(D, F.z / wi.z, f.z)};
+      pdf = select(D, p_vndf, pdf);
+      ok = w_z > 0.f && wi.z > 0.f && pdf > 0.f && (!D || !(F.x == 0.f && F.y == 0.f && F.z == 0.f));
+    }
+    if (!any_rough_glass) return;
+    const M RG = rough_glass_mask();
+    const lanes::Vec3T<vfloat> w{lanes_of(wo[0]), lanes_of(wo[1]), w_z};
+    lanes::Vec3T<vfloat> wg;
+    vfloat fg, pg;
+    M through;
+    const M g_ok = dielectric_lobe_sample(w, {lanes_of(mx), lanes_of(my), lanes_of(mz)}, lanes_of(u_lobe),
+                                          lanes_of(alpha), lanes_of(glass_eta), true, wg, fg, pg, through);
+    wi = {select(RG, wg.x, wi.x), select(RG, wg.y, wi.y), select(RG, wg.z, wi.z)};
+    f = {select(RG, fg, f.x), select(RG, fg, f.y), select(RG, fg, f.z)};
+    pdf = select(RG, pg, pdf);
+    ok = (RG && w_z > 0.f && g_ok) || (!RG && ok);
+    refracts = RG && through;
   }
 
   // The Dirac lobes' samples, as bsdf_sample<Any> takes them with wo mirrored to the front (`below`: wo was

@@ -2,8 +2,8 @@
 // (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a polygon or sphere (an
 // emitter's too: its emission is added one lane at a time) of a material written over the number type: the Lambert
 // lobe, and (in the kernels for any material) the lobes of lane_lobes.h (the coupled lobe that glTF's
-// metallic–roughness material and the plastic are, the rough conductor and the subsurface BRDF), lit by next-event
-// estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only sampled, as
+// metallic–roughness material and the plastic are, the rough conductor, the subsurface BRDF and rough glass, whose
+// light sample may lie behind the surface), lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only sampled, as
 // shade_vertex samples no light where a material has no other lobe (a packet of Dirac lanes alone skips the light
 // and rough samples' stages); a smooth plastic's or glTF layer's reflection is a Dirac lobe over a lit base. A
 // parallelogram light of uniform emission sampled by area is sampled in the lanes; any other light's sample
@@ -21,14 +21,14 @@
 // and the code ran 40 % slower than the scalar path; docs/performance.md.)
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
-// bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side); which materials they
-// take is wavefront.h's (lane_material). On a smooth-shaded mesh they shade as shade_vertex does: the frame about the
+// bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side but for glass); which
+// materials they take is wavefront.h's (lane_material: every kind). On a smooth-shaded mesh they shade as shade_vertex does: the frame about the
 // interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
 // metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at a
 // time, over the ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own
 // sphere_point in the gather and is flat (its normal is its shading normal); a ray leaving it may hit it again. A
 // lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit is on an instance, or has
-// another material (rough glass), or textures on a sphere or on a mesh without texture coordinates, or when no light
+// textures on a sphere or on a mesh without texture coordinates, or when no light
 // can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the
 // lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit point among them), an
 // emitter's emission and MIS weight, the texture lookups, the light choice, the other lights' samples, the 1D random
@@ -380,7 +380,8 @@ template <MaterialSet kM, uint32_t F, class RngOf>
     }
     const Vec2 bu = rng.get_2d(dir_dim);
     pk.u.bux[l] = bu.x, pk.u.buy[l] = bu.y;
-    if (any_rough && (lobes.layered[l] != 0.f || lobes.metal[l] != 0.f)) pk.u.u_lobe[l] = rng.get_1d(lobe_dim);
+    if (any_rough && (lobes.layered[l] != 0.f || lobes.metal[l] != 0.f || lobes.rough_glass[l] != 0.f))
+      pk.u.u_lobe[l] = rng.get_1d(lobe_dim);
     if (c.roulette) pk.u.u_rr[l] = rng.get_1d(rr_dim);
   }
 }
@@ -456,6 +457,9 @@ template <MaterialSet kM>
   M same_side;
   if constexpr (kM == MaterialSet::Lambert) same_side = Wz * wil_z > 0.f;
   else same_side = (Wz > 0.f && wil_z > 0.f) || (Wz < 0.f && wil_z < 0.f);
+  // The lanes whose lobe sees the light there: rough glass's on either side (dielectric_value), the others' on wo's.
+  M seen = same_side;
+  if (kM == MaterialSet::Any && any_rough && lobes.any_rough_glass) seen = same_side || lobes.rough_glass_mask();
   // The BSDF towards wi: ρ/π, or the other lobe's f and pdf (lane_lobes.h, as bsdf_value<Any> evaluates it).
   const vfloat cos_abs = stdx::abs(wil_z);
   Vec3T<vfloat> nf = lambert_lanes(pk.material);
@@ -467,11 +471,11 @@ template <MaterialSet kM>
     vfloat gpdf;
     lobes.value(wi_l, f, gpdf);
     const vfloat zero(0.f);
-    nf = {select(Gl, select(same_side, f.x, zero), nf.x), select(Gl, select(same_side, f.y, zero), nf.y),
-          select(Gl, select(same_side, f.z, zero), nf.z)};
-    bpdf = select(Gl, select(same_side, gpdf, zero), bpdf);
+    nf = {select(Gl, select(seen, f.x, zero), nf.x), select(Gl, select(seen, f.y, zero), nf.y),
+          select(Gl, select(seen, f.z, zero), nf.z)};
+    bpdf = select(Gl, select(seen, gpdf, zero), bpdf);
   }
-  ok = ok && same_side && !(nf.x == 0.f && nf.y == 0.f && nf.z == 0.f);
+  ok = ok && seen && !(nf.x == 0.f && nf.y == 0.f && nf.z == 0.f);
   st(out.traced, one_where(ok));
   // shadow_segment leaves on the side of the shading frame wi is on (sample_direct).
   const Vec3T<vfloat> origin = lane_spawn_origin(pk.hit, pk.polygon, c.smooth_scene, wil_z < 0.f);
@@ -506,14 +510,15 @@ template <MaterialSet kM>
   ok = ok && wz0 > 0.f;
   vfloat pdf = cosine_hemisphere_pdf(wz0);
   Vec3T<vfloat> f = lambert_lanes(mat);
+  M refracts(false);  // rough glass's refraction
   if (any_rough) {
-    // metallic_roughness_sample, plastic_sample and conductor_sample: the visible normal's reflection or the
-    // cosine direction, as each lane's lobe choice says; then f and pdf of the direction.
+    // metallic_roughness_sample, plastic_sample, conductor_sample, subsurface_sample and dielectric_sample: the
+    // visible normal's reflection (or refraction) or the cosine direction, as each lane's lobe choice says; then f
+    // and pdf of the direction.
     Vec3T<vfloat> wi, fl;
     vfloat gpdf;
-    M layer_ok;
-    lobes.sample(pk.u.u_lobe, pk.u.bux, pk.u.buy, {dxs, dys, wz0}, wi, fl, gpdf, layer_ok);
-    const M g_ok = ld(lobes.wo[2]) > 0.f && wi.z > 0.f && gpdf > 0.f && layer_ok;
+    M g_ok;
+    lobes.sample(pk.u.u_lobe, pk.u.bux, pk.u.buy, {dxs, dys, wz0}, wi, fl, gpdf, g_ok, refracts);
     ok = (Gl && g_ok) || (!Gl && ok);
     dxs = select(Gl, wi.x, dxs), dys = select(Gl, wi.y, dys), wz0 = select(Gl, wi.z, wz0);
     pdf = select(Gl, gpdf, pdf);
@@ -522,16 +527,23 @@ template <MaterialSet kM>
   st(out.ok, one_where(ok));
   st(out.wx, dxs), st(out.wy, dys), st(out.wz, wz0);
   st(out.f_r, f.x), st(out.f_g, f.y), st(out.f_b, f.z), st(out.pdf, pdf);
-  if (any_rough && lobes.any_smooth_layer) {  // a smooth layer's reflection is a Dirac sample, no refraction
-    st(out.specular, ld(lobes.layer_dirac)), st(out.transmits, vfloat(0.f)), st(out.eta_t, vfloat(1.f));
-    st(out.eta, ld(pk.ray.eta));
+  // A smooth layer's reflection is a Dirac sample; rough glass's refraction scales the path's η scale by η² before
+  // the roulette judges it (shade_vertex).
+  if (any_rough && lobes.any_smooth_layer) st(out.specular, ld(lobes.layer_dirac));
+  if (any_rough && (lobes.any_smooth_layer || lobes.any_rough_glass)) {
+    const vfloat eta_t = lobes.any_rough_glass ? select(refracts, ld(lobes.glass_eta), vfloat(1.f)) : vfloat(1.f);
+    const vfloat eta = ld(pk.ray.eta);
+    st(out.transmits, one_where(refracts)), st(out.eta_t, eta_t);
+    st(out.eta, select(refracts, eta * (eta_t * eta_t), eta));
   }
 }
 
 // ---- The Dirac lobes' samples (the mirror's, the smooth conductor's and smooth glass's), in place of the others
 // in their lanes; a refraction scales the path's η scale by η² before the roulette judges it (shade_vertex). Run
-// only where some lane has one, so that the other packets pay nothing for them.
-[[gnu::always_inline]] inline void lane_dirac_samples(const LanePacket& pk, const LaneLobes& lobes, LaneSamples& s) {
+// only where some lane has one, so that the other packets pay nothing for them. `merge`: lane_bsdf_samples wrote the
+// other lanes' refractions and η scales (rough glass's), which stay.
+[[gnu::always_inline]] inline void lane_dirac_samples(const LanePacket& pk, const LaneLobes& lobes, bool merge,
+                                                      LaneSamples& s) {
   const M D = lobes.dirac_mask();
   Vec3T<vfloat> wi, f;
   vfloat pdf, eta_t;
@@ -543,15 +555,19 @@ template <MaterialSet kM>
   st(s.pdf, select(D, pdf, ld(s.pdf)));
   // A smooth layer's reflection (lane_bsdf_samples) stays a Dirac sample.
   st(s.specular, lobes.any_smooth_layer ? select(D, vfloat(1.f), ld(s.specular)) : one_where(D));
-  st(s.transmits, one_where(transmits)), st(s.eta_t, eta_t);
-  const vfloat eta = ld(pk.ray.eta);
-  st(s.eta, select(transmits, eta * (eta_t * eta_t), eta));
+  const vfloat eta = ld(pk.ray.eta), eta_after = select(transmits, eta * (eta_t * eta_t), eta);
+  if (merge) {
+    st(s.transmits, select(D, one_where(transmits), ld(s.transmits))), st(s.eta_t, select(D, eta_t, ld(s.eta_t)));
+    st(s.eta, select(D, eta_after, ld(s.eta)));
+  } else {
+    st(s.transmits, one_where(transmits)), st(s.eta_t, eta_t), st(s.eta, eta_after);
+  }
 }
 
 // ---- The path takes the sample (mirrored back to wo's side): the throughput, roulette, the next ray.
-// `any_dirac`: lane_dirac_samples ran (the η scale is then its).
+// `eta_known`: the samples hold the path's η scale after them (LaneSamples::eta).
 template <MaterialSet kM>
-[[gnu::always_inline]] inline void lane_continuations(const LaneContext<kM>& c, const LanePacket& pk, bool any_dirac,
+[[gnu::always_inline]] inline void lane_continuations(const LaneContext<kM>& c, const LanePacket& pk, bool eta_known,
                                                       LaneContinuations& out) {
   using lanes::std_max;
   const LaneFrames& fr = pk.frame;
@@ -568,7 +584,7 @@ template <MaterialSet kM>
   const vfloat wwy = (ld(fr.sy) * dxs + ld(fr.ty) * dys) + ld(fr.fny) * wz;
   const vfloat wwz = (ld(fr.sz) * dxs + ld(fr.tz) * dys) + ld(fr.fnz) * wz;
   if (c.roulette) {
-    const vfloat eta = ld(any_dirac ? s.eta : r.eta);
+    const vfloat eta = ld(eta_known ? s.eta : r.eta);
     const vfloat q = roulette_survival(std_max(nbr, std_max(nbg, nbb)) * eta);
     ok = ok && ld(pk.u.u_rr) < q;
     nbr = nbr / q, nbg = nbg / q, nbb = nbb / q;
@@ -606,12 +622,12 @@ template <MaterialSet kM, uint32_t F>
 }
 
 // ---- Write back (scalar, lane order): the feature buffers at a first hit, the shadow ray, the next ray and the
-// path's new state. `any_dirac`: some lane has a Dirac lobe (lane_dirac_samples ran); `any_specular`: some lane's
+// path's new state. `eta_known`: the samples hold the path's η scale after them; `any_specular`: some lane's
 // sample may be a Dirac lobe's (the Dirac lobes', a smooth layer's reflection); `any_sphere`: some lane's hit is on
 // a sphere.
 template <MaterialSet kM>
 [[gnu::always_inline]] inline void write_back_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
-                                                    const Hit* hits, const LanePacket& pk, bool any_dirac,
+                                                    const Hit* hits, const LanePacket& pk, bool eta_known,
                                                     bool any_specular, bool any_sphere, PathState* paths,
                                                     LaneShading& out, RayCount& count) {
   const LaneHits& h = pk.hit;
@@ -640,7 +656,7 @@ template <MaterialSet kM>
     if (next.goes_on[l] == 0.f) continue;
     out.continues[l] = true;
     p.beta = Rgb(next.beta_r[l], next.beta_g[l], next.beta_b[l]);
-    if (any_dirac) p.eta_scale = sample.eta[l];
+    if (eta_known) p.eta_scale = sample.eta[l];
     if (any_specular && sample.specular[l] != 0.f) {
       p.count_emission = true;  // no light sample covered the direction
       if (p.features.out) [[unlikely]] {
@@ -697,11 +713,11 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
   if (kM == MaterialSet::Any && any_textured) resolve_textured_lanes(c, ids, k, hits, paths, pk, lobes, resolved);
   lane_frames(pk.ray, pk.polygon, pk.hit, c.smooth_scene, pk.active, pk.frame);
   choose_lane_lights<kM, F>(c, rng_of, k, hits, lobes, pk);
-  // The lanes with another lobe: wo, and E(μo) of the rough ones (Gl) there (lane_lobes.h).
+  // The lanes with another lobe: wo, and E(μo) of the rough ones (Gl) there, rough glass's η (lane_lobes.h).
   const bool any_lobe = kM == MaterialSet::Any && lobes.any();
   const bool any_rough = any_lobe && lobes.any_rough();
   const M Gl = any_rough ? lobes.lobe_mask() : M(false);
-  if (any_lobe) lobes.at(lane_wo_local(pk.ray, pk.frame));
+  if (any_lobe) lobes.at(lane_wo_local(pk.ray, pk.frame), ld(pk.frame.wlz) < 0.f);
   const bool any_dirac = kM == MaterialSet::Any && lobes.any_dirac;
   // A packet whose lanes all have a Dirac lobe (a mirror's or glass's, hits lane_sort_key grouped) has no light
   // sample and no other BSDF sample to compute.
@@ -715,11 +731,15 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
     lane_light_samples(c, pk, lobes, any_rough, Gl, pk.shadow);
     lane_bsdf_samples(pk, lobes, any_rough, Gl, pk.sample);
   }
-  if (any_dirac) lane_dirac_samples(pk, lobes, pk.sample);
-  lane_continuations(c, pk, any_dirac, pk.next);
+  // lane_bsdf_samples wrote refractions and η scales (LaneSamples::eta) where a lane has rough glass or a smooth
+  // layer; lane_dirac_samples writes them where one has a Dirac lobe.
+  const bool bsdf_eta = !only_dirac && any_rough && (lobes.any_rough_glass || lobes.any_smooth_layer);
+  if (any_dirac) lane_dirac_samples(pk, lobes, bsdf_eta, pk.sample);
+  const bool eta_known = any_dirac || bsdf_eta;
+  lane_continuations(c, pk, eta_known, pk.next);
   const bool any_specular = any_dirac || (any_rough && lobes.any_smooth_layer);
   if (any_emitter) add_lane_emission<kM, F>(c, ids, k, hits, pk, paths);
-  write_back_lanes(c, ids, k, hits, pk, any_dirac, any_specular, any_sphere, paths, out, count);
+  write_back_lanes(c, ids, k, hits, pk, eta_known, any_specular, any_sphere, paths, out, count);
 }
 PT_SIMD_SQRT_WARNINGS_ON
 

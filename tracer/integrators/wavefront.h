@@ -62,6 +62,11 @@ inline bool conductor_lane_material(const Material& m) {
 // The subsurface BRDF (materials/subsurface.h: Jensen et al.'s far-field approximation, cosine-sampled); only in the
 // kernels for any material.
 inline bool sss_lane_material(const Material& m) { return m.type == MaterialType::Subsurface; }
+// Rough glass (materials/dielectric.h: Walter et al.'s GGX reflection and refraction); its light sample may lie on
+// either side. Only in the kernels for any material.
+inline bool rough_glass_lane_material(const Material& m) {
+  return m.type == MaterialType::Dielectric && !effectively_smooth(m.alpha);
+}
 // A Dirac lobe alone, only sampled (no light sample there): the mirror, the smooth conductor and smooth glass;
 // only in the kernels for any material.
 inline bool dirac_lane_material(const Material& m) {
@@ -71,7 +76,7 @@ inline bool dirac_lane_material(const Material& m) {
 // Any material the lanes shade, in the kernels for any material.
 inline bool lane_material(const Material& m) {
   return lambert_lane_material(m) || layered_lane_material(m) || conductor_lane_material(m) ||
-         sss_lane_material(m) || dirac_lane_material(m);
+         sss_lane_material(m) || rough_glass_lane_material(m) || dirac_lane_material(m);
 }
 // The order the kernels for any material shade a bounce's hits in (trace_batch), in a scene whose materials the lanes
 // take are of several kinds (MaterialKeys::mixed): by this key, so that a packet of the shading lanes holds one kind
@@ -93,6 +98,7 @@ enum class LaneSortKey : uint8_t {
   Mirror,
   SmoothConductor,
   Glass,
+  RoughGlass,
   Count
 };
 inline LaneSortKey material_sort_key(const Material& m) {
@@ -102,7 +108,7 @@ inline LaneSortKey material_sort_key(const Material& m) {
     case MaterialType::Plastic: return LaneSortKey::Plastic;
     case MaterialType::MetallicRoughness: return LaneSortKey::Gltf;
     case MaterialType::Mirror: return LaneSortKey::Mirror;
-    case MaterialType::Dielectric: return LaneSortKey::Glass;
+    case MaterialType::Dielectric: return effectively_smooth(m.alpha) ? LaneSortKey::Glass : LaneSortKey::RoughGlass;
     case MaterialType::Subsurface: return LaneSortKey::Subsurface;
     case MaterialType::Conductor:
       if (effectively_smooth(m.alpha)) return LaneSortKey::SmoothConductor;

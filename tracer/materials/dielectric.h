@@ -19,55 +19,103 @@
 // dot products with the mirrored wm, so the formulas above apply unchanged. BsdfSample::eta = η on
 // transmission. Dielectrics are colourless (the albedo is not used).
 #pragma once
+#include "core/lanes.h"
+#include "core/simd_sqrt_warnings.h"
 #include "materials/bsdf_sample.h"
+#include "materials/fresnel.h"
 #include "materials/microfacet.h"
 
 namespace pt {
 
 inline Vec3 flip_z(Vec3 v) { return {v.x, v.y, -v.z}; }
 
-// Generalized half vector of (wo, wi) for wo.z > 0 and relative index eta, facing +z; false when degenerate or
-// back-facing. etap is η for transmission, 1 for reflection.
-inline bool dielectric_half_vector(Vec3 wo, Vec3 wi, float eta, Vec3& wm, float& etap) {
-  const bool reflect = wi.z > 0.f;
-  etap = reflect ? 1.f : eta;
-  const Vec3 h = wi * etap + wo;
-  const float len2 = glm::dot(h, h);
-  if (!(len2 > 0.f)) return false;
-  wm = h / std::sqrt(len2);
-  if (wm.z < 0.f) wm = -wm;
-  // Discard back-facing microfacets (pbrt-v4 DielectricBxDF::f).
-  return glm::dot(wm, wi) * wi.z >= 0.f && glm::dot(wm, wo) > 0.f;
+PT_SIMD_SQRT_WARNINGS_OFF  // the templates below run on SIMD lanes too (every lane computed)
+// The rough lobe's f (kF; colourless, radiance) and pdf (kPdf) at (wo, wi) for wo.z > 0 and the relative index eta,
+// over T = float (one path) or vfloat (the SIMD shading lanes, integrators/lane_lobes.h, one material per lane):
+// written once, so that both round alike. Every lane computes both sides and selects its own. The generalized half
+// vector wm = ±normalize(etap wi + wo) (etap = 1 on reflection, η on transmission) faces +z; a lane gets 0 where
+// wi.z = 0, the half vector is degenerate or back-facing (pbrt-v4 DielectricBxDF::f), the transmission's
+// denominator vanishes or its terms are not finite.
+template <bool kF, bool kPdf, class T>
+[[gnu::always_inline]] inline void dielectric_lobe_value(const lanes::Vec3T<T>& wo, const lanes::Vec3T<T>& wi,
+                                                         const T& alpha, const T& eta, T& f, T& pdf) {
+  using lanes::abs;
+  const lanes::Mask<T> reflects = wi.z > 0.f;
+  const T etap = select(reflects, T(1.f), eta);
+  const lanes::Vec3T<T> h{wi.x * etap + wo.x, wi.y * etap + wo.y, wi.z * etap + wo.z};
+  const T len2 = lanes::dot(h, h);
+  const T len = lanes::sqrt(len2);
+  lanes::Vec3T<T> wm{h.x / len, h.y / len, h.z / len};
+  const lanes::Mask<T> down = wm.z < 0.f;
+  wm = {select(down, -wm.x, wm.x), select(down, -wm.y, wm.y), select(down, -wm.z, wm.z)};
+  const T cos_om = lanes::dot(wo, wm), cos_im = lanes::dot(wi, wm);
+  const T denom = (cos_im + cos_om / etap) * (cos_im + cos_om / etap);
+  const lanes::Mask<T> ok = wo.z > 0.f && wi.z != 0.f && len2 > 0.f && cos_im * wi.z >= 0.f && cos_om > 0.f &&
+                            (reflects || denom > 0.f);
+  const T F = fresnel_dielectric(cos_om, eta);
+  const T d = ggx_d(wm.x, wm.y, wm.z, alpha);
+  if constexpr (kF) {
+    const T dg = d * ggx_g2_over_cos2(wo.x, wo.y, wo.z, wi.x, wi.y, wi.z, alpha);
+    const T fr = 0.25f * dg * F;
+    const T ft = dg * (1.f - F) * abs(cos_im * cos_om) / (denom * etap * etap);
+    f = select(ok, select(reflects, fr, select(lanes::isfinite(ft), ft, T(0.f))), T(0.f));
+  }
+  if constexpr (kPdf) {  // ggx_vndf_pdf: G1(wo)/|wo.z| · max(0, wo·wm) · D
+    const T vndf = ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * lanes::std_max(T(0.f), cos_om) * d;
+    const T pr = vndf * F / (4.f * cos_om);
+    const T pt = vndf * (1.f - F) * abs(cos_im) / denom;
+    pdf = select(ok, select(reflects, pr, select(lanes::isfinite(pt), pt, T(0.f))), T(0.f));
+  }
 }
 
-// f (kF) and pdf (kPdf) of the rough lobe for wo.z > 0 (BsdfValue): the half vector, F and D computed once.
+// The rough lobe's sample at the visible normal wm = ggx_sample_vndf(wo, α, u) for wo.z > 0: the reflection about
+// wm where uc < F(wo·wm), else the refraction through it (`refracts`); its f (colourless; `radiance`: with the 1/η²
+// of the formulas above) and pdf, from the sampled wm itself (pbrt-v4 DielectricBxDF::Sample_f). Over T as above.
+// The mask: a sample (wi on its lobe's side, a positive finite pdf, a finite f).
+template <class T>
+[[gnu::always_inline]] inline lanes::Mask<T> dielectric_lobe_sample(const lanes::Vec3T<T>& wo,
+                                                                    const lanes::Vec3T<T>& wm, const T& uc,
+                                                                    const T& alpha, const T& eta, bool radiance,
+                                                                    lanes::Vec3T<T>& wi, T& f, T& pdf,
+                                                                    lanes::Mask<T>& refracts) {
+  using lanes::abs;
+  const T cos_om = lanes::dot(wo, wm);
+  const T F = fresnel_dielectric(cos_om, eta);
+  const T d = ggx_d(wm.x, wm.y, wm.z, alpha);
+  const T d_wo = ggx_g1_over_cos(wo.x, wo.y, wo.z, alpha) * lanes::std_max(T(0.f), cos_om) * d;  // ggx_vndf_pdf
+  const lanes::Mask<T> reflects = uc < F;
+  // reflect(−wo, wm) = −wo − 2(−wo·wm) wm, as glm evaluates it.
+  const lanes::Vec3T<T> v{-wo.x, -wo.y, -wo.z};
+  const T twice = 2.f * lanes::dot(v, wm);
+  wi = {v.x - twice * wm.x, v.y - twice * wm.y, v.z - twice * wm.z};
+  lanes::Vec3T<T> wt = wi;
+  const lanes::Mask<T> through = refract_t(wo, wm, eta, wt);
+  refracts = !reflects;
+  wi = {select(reflects, wi.x, wt.x), select(reflects, wi.y, wt.y), select(reflects, wi.z, wt.z)};
+  const T g2 = ggx_g2_over_cos2(wo.x, wo.y, wo.z, wi.x, wi.y, wi.z, alpha);
+  const T cos_im = lanes::dot(wi, wm);
+  const T denom = (cos_im + cos_om / eta) * (cos_im + cos_om / eta);
+  const T pr = d_wo * F / (4.f * cos_om);
+  const T pt = d_wo * (1.f - F) * abs(cos_im) / denom;
+  const T fr = 0.25f * d * g2 * F;
+  const T ft = d * g2 * (1.f - F) * abs(cos_im * cos_om) / (radiance ? denom * eta * eta : denom);
+  f = select(reflects, fr, ft);
+  pdf = select(reflects, pr, pt);
+  const lanes::Mask<T> ok_r = wi.z > 0.f && pr > 0.f;
+  const lanes::Mask<T> ok_t = through && wi.z < 0.f && denom > 0.f && pt > 0.f && lanes::isfinite(pt) &&
+                              lanes::isfinite(ft);
+  return cos_om > 0.f && ((reflects && ok_r) || (!reflects && ok_t));
+}
+PT_SIMD_SQRT_WARNINGS_ON
+
+// f (kF) and pdf (kPdf) of the rough lobe for wo.z > 0 (BsdfValue).
 template <bool kF, bool kPdf>
 inline BsdfValue dielectric_value_up(Vec3 wo, Vec3 wi, float alpha, float eta) {
   BsdfValue r;
-  if (!(wo.z > 0.f) || wi.z == 0.f) return r;
-  Vec3 wm;
-  float etap;
-  if (!dielectric_half_vector(wo, wi, eta, wm, etap)) return r;
-  const float cos_om = glm::dot(wo, wm);
-  const float F = fresnel_dielectric(cos_om, eta);
-  const float d = ggx_d(wm, alpha);
-  if (wi.z > 0.f) {
-    if constexpr (kF) r.f = Rgb(0.25f * (d * ggx_g2_over_cos2(wo, wi, alpha)) * F);
-    if constexpr (kPdf) r.pdf = ggx_vndf_pdf(wo, wm, d, alpha) * F / (4.f * cos_om);
-    return r;
-  }
-  const float cos_im = glm::dot(wi, wm);
-  const float denom = sqr(cos_im + cos_om / etap);
-  if (!(denom > 0.f)) return r;
-  if constexpr (kF) {
-    const float dg = d * ggx_g2_over_cos2(wo, wi, alpha);
-    const float f = dg * (1.f - F) * std::abs(cos_im * cos_om) / (denom * etap * etap);
-    r.f = Rgb(std::isfinite(f) ? f : 0.f);
-  }
-  if constexpr (kPdf) {
-    const float pdf = ggx_vndf_pdf(wo, wm, d, alpha) * (1.f - F) * std::abs(cos_im) / denom;
-    r.pdf = std::isfinite(pdf) ? pdf : 0.f;
-  }
+  float f = 0.f, pdf = 0.f;
+  dielectric_lobe_value<kF, kPdf>(lanes::of(wo), lanes::of(wi), alpha, eta, f, pdf);
+  if constexpr (kF) r.f = Rgb(f);
+  if constexpr (kPdf) r.pdf = pdf;
   return r;
 }
 
@@ -89,28 +137,14 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
     out = {wt, Rgb((1.f - F) / denom), 1.f - F, BsdfFlags::Transmission | BsdfFlags::Specular, eta};
     return true;
   }
-  const Vec3 wm = ggx_sample_vndf(wo, alpha, u);
-  const float cos_om = glm::dot(wo, wm);
-  if (!(cos_om > 0.f)) return false;
-  const float F = fresnel_dielectric(cos_om, eta);
-  const float d_wo = ggx_vndf_pdf(wo, wm, alpha);
-  if (uc < F) {
-    const Vec3 wi = reflect(-wo, wm);
-    if (!(wi.z > 0.f)) return false;
-    const float f = 0.25f * ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha) * F;
-    out = {wi, Rgb(f), d_wo * F / (4.f * cos_om), BsdfFlags::Reflection | BsdfFlags::Glossy, 1.f};
-    return out.pdf > 0.f;
-  }
-  Vec3 wi;
-  if (!refract(wo, wm, eta, wi) || !(wi.z < 0.f)) return false;
-  const float cos_im = glm::dot(wi, wm);
-  const float denom = sqr(cos_im + cos_om / eta);
-  if (!(denom > 0.f)) return false;
-  const float pdf = d_wo * (1.f - F) * std::abs(cos_im) / denom;
-  const float f = ggx_d(wm, alpha) * ggx_g2_over_cos2(wo, wi, alpha) * (1.f - F) * std::abs(cos_im * cos_om) /
-                  (radiance ? denom * eta * eta : denom);
-  if (!(pdf > 0.f) || !std::isfinite(pdf) || !std::isfinite(f)) return false;
-  out = {wi, Rgb(f), pdf, BsdfFlags::Transmission | BsdfFlags::Glossy, eta};
+  lanes::Vec3T<float> wi;
+  float f = 0.f, pdf = 0.f;
+  bool refracts = false;
+  if (!dielectric_lobe_sample(lanes::of(wo), lanes::of(ggx_sample_vndf(wo, alpha, u)), uc, alpha, eta, radiance, wi,
+                              f, pdf, refracts))
+    return false;
+  out = {lanes::to_vec3(wi), Rgb(f), pdf, (refracts ? BsdfFlags::Transmission : BsdfFlags::Reflection) | BsdfFlags::Glossy,
+         refracts ? eta : 1.f};
   return true;
 }
 
