@@ -188,16 +188,20 @@ TEST_CASE("invariance: cornell and cornell-spheres translated by 1e6 or scaled b
 
 TEST_CASE("invariance: the transform helper moves camera and geometry together") {
   const SceneDesc base = builtin_at("cornell-spheres", 8, 8);
-  const SceneDesc t = transformed(base, 1e-3, DVec3(5, -7, 1e6));
-  CHECK(t.camera.position == base.camera.position * 1e-3 + DVec3(5, -7, 1e6));
-  CHECK(t.camera.look_at == base.camera.look_at * 1e-3 + DVec3(5, -7, 1e6));
+  // A power-of-two scale: p · scale is then exact, so p · scale + offset rounds once however the compiler evaluates
+  // it. (With 1e-3, GCC 12 at -O3 -march=native on an Intel Xeon fused the test's own p · 1e-3 + offset into one
+  // FMA despite -ffp-contract=off, and the expected eye point differed from the helper's in its last bit.)
+  constexpr double kScale = 0x1p-10;
+  const SceneDesc t = transformed(base, kScale, DVec3(5, -7, 1e6));
+  CHECK(t.camera.position == base.camera.position * kScale + DVec3(5, -7, 1e6));
+  CHECK(t.camera.look_at == base.camera.look_at * kScale + DVec3(5, -7, 1e6));
   CHECK(t.camera.up == base.camera.up);
   for (size_t i = 0; i < base.shapes.size(); ++i) {
     if (base.shapes[i].type == ShapeType::Sphere) {
-      CHECK(t.shapes[i].radius == base.shapes[i].radius * 1e-3);
-      CHECK(t.shapes[i].center == base.shapes[i].center * 1e-3 + DVec3(5, -7, 1e6));
+      CHECK(t.shapes[i].radius == base.shapes[i].radius * kScale);
+      CHECK(t.shapes[i].center == base.shapes[i].center * kScale + DVec3(5, -7, 1e6));
     } else {
-      CHECK(t.shapes[i].vertices[2] == base.shapes[i].vertices[2] * 1e-3 + DVec3(5, -7, 1e6));
+      CHECK(t.shapes[i].vertices[2] == base.shapes[i].vertices[2] * kScale + DVec3(5, -7, 1e6));
     }
   }
 }
