@@ -341,6 +341,23 @@ void check_lobe_cases(int n, const SetUp& set_up, const LanesApply& lanes_apply)
 }
 const auto kAlwaysApply = [](int, int) { return true; };
 
+// The same for long paths (six bounces, roulette from the first), where the lanes always run: holds(scene) says
+// that the compiled scene has the lobe a case is about.
+template <class SetUp, class Holds>
+void check_long_path_cases(int n, const SetUp& set_up, const Holds& holds) {
+  for (const int kind : {1, 2})
+    for (int c = 0; c < n; ++c) {
+      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
+      set_up(d.materials[0], d.materials.back(), c);
+      const auto scene = compile_scene(d);
+      CAPTURE(kind);
+      CAPTURE(c);
+      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+      CHECK(holds(*scene));
+      check_lanes_match_scalar_loop(d);
+    }
+}
+
 }  // namespace
 
 // The SIMD shading lanes (integrators/shading_lanes.h) shade the Lambertian hits on a smooth mesh with
@@ -541,17 +558,7 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       ball.albedo = Rgb(0.f);
     }
   };
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 5; ++c) {
-      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
-      set_up(d.materials[0], d.materials.back(), c);
-      const auto scene = compile_scene(d);
-      CAPTURE(kind);
-      CAPTURE(c);
-      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
-      CHECK(dirac_lane_material(scene->materials[0]));  // the ball
-      check_lanes_match_scalar_loop(d);
-    }
+  check_long_path_cases(5, set_up, [](const Scene& scene) { return dirac_lane_material(scene.materials[0]); });
 }
 
 // Rough glass in the lanes (lane_lobes.h: dielectric_lobe_value and dielectric_lobe_sample, written once over the
@@ -578,17 +585,9 @@ TEST_CASE("smooth shading: the SIMD shading lanes give the scalar loop's bits on
       floor.roughness = 0.3f;
     }
   };
-  for (const int kind : {1, 2})
-    for (int c = 0; c < 5; ++c) {
-      SceneDesc d = small_sphere_on_floor(kind, 6, 1);
-      set_up(d.materials[0], d.materials.back(), c);
-      const auto scene = compile_scene(d);
-      CAPTURE(kind);
-      CAPTURE(c);
-      CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
-      CHECK(std::any_of(scene->materials.begin(), scene->materials.end(), rough_glass_lane_material));
-      check_lanes_match_scalar_loop(d);
-    }
+  check_long_path_cases(5, set_up, [](const Scene& scene) {
+    return std::any_of(scene.materials.begin(), scene.materials.end(), rough_glass_lane_material);
+  });
 }
 
 // The lanes shade analytic spheres too (make_interaction's sphere_point in the gather; a ray leaving a sphere may
