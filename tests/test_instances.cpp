@@ -6,11 +6,14 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstddef>
+#include <string>
 
 #include "core/rng.h"
 #include "geometry/alpha_mask.h"
 #include "io/texture_io.h"
 #include "geometry/interaction.h"
+#include "integrators/wavefront.h"
 #include "scene/gltf_import.h"
 #include "scene/scene_identity.h"
 #include "scene/scene_json.h"
@@ -367,6 +370,68 @@ TEST_CASE("instances: the image matches the flattened scene's, estimator by esti
       CHECK(std::abs(ma.mean[c] - mb.mean[c]) <= 4.0 * se);
       CHECK(se <= 0.01 * mb.mean[c]);  // tight enough that a missing or misplaced instance fails
     }
+  }
+}
+
+// The SIMD shading lanes (integrators/shading_lanes.h) take a kept instance's hits too: the gather locates them with
+// make_interaction (the triangle placed in double, its vertex shading there), and the lanes shade them as any
+// polygon's. Under the wavefront loop the image and the feature buffers must be the scalar loop's bits: the four
+// placements (one mirrored) of the smooth sphere with texture coordinates, its two material slots in Lambert,
+// plastic, rough gold, rough and smooth glass, a textured albedo and a normal map; the floor and a wall leaning back
+// flat (a scene whose only vertex normals are the instances': the flat polygons' lanes must keep their own normal),
+// then beside a placed smooth sphere (the flattening of one placement); nee and mis, Sobol and independent points,
+// four bounces, roulette from the first.
+TEST_CASE("instances: the SIMD shading lanes shade kept instances with the scalar loop's bits") {
+  const auto tiles = make_texture(2, 2, {0.9f, 0.6f, 0.3f, 0.4f, 0.8f, 0.9f, 0.95f, 0.95f, 0.9f, 0.2f, 0.3f, 0.5f},
+                                  TextureWrap::Repeat, TextureWrap::Repeat, "tiles");
+  const auto tilt = make_texture(1, 1, {0.7f, 0.55f, 0.9f}, TextureWrap::Repeat, TextureWrap::Repeat, "tilt");
+  for (int c = 0; c < 4; ++c) {
+    SceneDesc d = instanced_scene();
+    d.render.max_bounces = 4;
+    d.render.russian_roulette_depth = 1;
+    ShapeDesc wall = d.shapes[0];  // the floor's material; its normal (0, 0.2, 1) up to length, near the lanes' +z
+    wall.vertices = {DVec3(-10, -2, -4), DVec3(10, -2, -4), DVec3(10, 8, -6), DVec3(-10, 8, -6)};
+    d.shapes.push_back(wall);
+    MaterialDesc &a = d.materials[0], &b = d.materials[1], &floor = d.materials[2];
+    if (c == 1) {
+      a.type = MaterialType::Plastic, a.roughness = 0.3f;
+      b.type = MaterialType::Conductor, b.metal = MetalPreset::Gold, b.roughness = 0.35f;
+    } else if (c == 2) {
+      a.type = MaterialType::Dielectric, a.roughness = 0.2f;
+      b.type = MaterialType::Dielectric;
+      floor.type = MaterialType::Plastic, floor.roughness = 0.f;
+    } else if (c == 3) {
+      a.albedo_map = tiles;
+      b.type = MaterialType::MetallicRoughness, b.roughness = 0.5f, b.metallic = 0.3f;
+      b.normal_map.texture = tilt;
+      SceneDesc one = d;
+      one.instances = {d.instances[1]};
+      one.instances[0].transform = placement({0.5, 1.5, -3}, 10, {0, 1, 0}, DVec3(0.8));
+      const SceneDesc placed = flattened(one);
+      // Its floor and wall are d's.
+      d.shapes.insert(d.shapes.end(), placed.shapes.begin() + static_cast<std::ptrdiff_t>(one.shapes.size()),
+                      placed.shapes.end());
+      d.shading = placed.shading;
+    }
+    const auto scene = compile_scene(d);
+    CAPTURE(c);
+    REQUIRE_FALSE(scene->instances.empty());
+    CHECK(scene->shading.empty() == (c != 3));
+    CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
+    for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
+      for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
+        d.render.sampler = sampler;
+        d.render.estimator = est;
+        CAPTURE(std::string(to_string(sampler)));
+        CAPTURE(std::string(to_string(est)));
+        d.render.path_loop = PathLoop::Scalar;
+        const Film scalar = test::render_film(d, 4, 2, true);
+        d.render.path_loop = PathLoop::Wavefront;
+        const Film wavefront = test::render_film(d, 4, 2, true);
+        CHECK(scalar.mean_image() == wavefront.mean_image());
+        CHECK(scalar.normal_image() == wavefront.normal_image());
+        CHECK(scalar.albedo_image() == wavefront.albedo_image());
+      }
   }
 }
 

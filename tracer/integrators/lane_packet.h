@@ -37,8 +37,10 @@ struct LaneRays {
 };
 
 // The hit polygon (PolygonSoA): what make_interaction and vertex_shading read of it. A lane whose hit is on a
-// sphere has its normal here (and as its three vertex normals, so vertex_shading leaves it flat), `sphere` set,
-// and its point and error bound (make_interaction's sphere_point, in the gather), which lane_hit_points copies.
+// sphere or on a kept instance's triangle has its geometric normal here (and as its three vertex normals, so that
+// vertex_shading's lanes leave it flat), `sphere` or `instance` set, and its point and error bound (make_interaction's,
+// in the gather), which lane_hit_points copies; an instance's shading normal and terminator offset too
+// (instance_point's vertex_shading, in double-placed vertices).
 struct LanePolygons {
   // Its corners a, v1, v2 and v3 (a triangle's v3 is unused).
   alignas(64) float ax[kPacket], ay[kPacket], az[kPacket], v1x[kPacket], v1y[kPacket], v1z[kPacket];
@@ -52,7 +54,11 @@ struct LanePolygons {
   alignas(64) float quad[kPacket];                             // 1 for a parallelogram, 0 for a triangle
   alignas(64) float vn[3][3][kPacket];  // on a smooth-shaded scene, its vertex normals: [vertex][axis][lane]
   alignas(64) float sphere[kPacket];    // 1 for a sphere's hit (no polygon); set where the packet holds one
+  alignas(64) float instance[kPacket];  // 1 for a kept instance's hit; set where the packet holds a sphere or one
   alignas(64) float spx[kPacket], spy[kPacket], spz[kPacket], sex[kPacket], sey[kPacket], sez[kPacket];  // its p, bound
+  // An instance's hit on a smooth-shaded scene: its shading normal, terminator offset and whether rays leave from it.
+  alignas(64) float insx[kPacket], insy[kPacket], insz[kPacket], ilfx[kPacket], ilfy[kPacket], ilfz[kPacket];
+  alignas(64) float ilifted[kPacket];
 
   void clear(bool smooth_scene) {
     fill_lanes(0.f, ax, ay, az, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z);
@@ -62,8 +68,11 @@ struct LanePolygons {
     if (smooth_scene)
       for (auto& n : vn) fill_lanes(0.f, n[0], n[1]), fill_lanes(1.f, n[2]);
   }
-  // Before the first sphere's lane (the sphere arrays are read only in packets holding one).
-  void clear_spheres() { fill_lanes(0.f, sphere, spx, spy, spz, sex, sey, sez); }
+  // Before the first sphere's or instance's lane (these arrays are read only in packets holding one).
+  void clear_given_points(bool smooth_scene) {
+    fill_lanes(0.f, sphere, instance, spx, spy, spz, sex, sey, sez);
+    if (smooth_scene) fill_lanes(0.f, insx, insy, ilfx, ilfy, ilfz, ilifted), fill_lanes(1.f, insz);
+  }
 };
 
 // The material each lane shades with (the rough lobes' parameters are lane_lobes.h's LaneLobes).
@@ -146,8 +155,9 @@ struct LaneSamples {
   alignas(64) float ok[kPacket];                           // 1: there is a sample
   alignas(64) float wx[kPacket], wy[kPacket], wz[kPacket];  // its direction
   alignas(64) float f_r[kPacket], f_g[kPacket], f_b[kPacket], pdf[kPacket];
-  // Written where some lane has a Dirac lobe (lane_dirac_samples): whether the sample is a Dirac lobe's, whether
-  // it refracted (0 or 1), the refraction's η (1 elsewhere), and the path's η scale after it (times η²).
+  // Written where some lane has a Dirac lobe (lane_dirac_samples), rough glass or a smooth layer (lane_bsdf_samples):
+  // whether the sample is a Dirac lobe's, whether it refracted (0 or 1), the refraction's η (1 elsewhere), and the
+  // path's η scale after it (times η²).
   alignas(64) float specular[kPacket], transmits[kPacket], eta_t[kPacket], eta[kPacket];
 
   // In a packet of Dirac lobes alone, before lane_dirac_samples (which writes every lane of one).

@@ -1,13 +1,13 @@
 // The shading lanes: shade_vertex (path_tracer.h), with its sample_direct (direct_light.h) and roulette
-// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a polygon or sphere (an
-// emitter's too: its emission is added one lane at a time) of a material written over the number type: the Lambert
-// lobe, and (in the kernels for any material) the lobes of lane_lobes.h (the coupled lobe that glTF's
-// metallic–roughness material and the plastic are, the rough conductor, the subsurface BRDF and rough glass, whose
-// light sample may lie behind the surface), lit by next-event estimation, and its Dirac lobes (the mirror, the smooth conductor and smooth glass), which are only sampled, as
-// shade_vertex samples no light where a material has no other lobe (a packet of Dirac lanes alone skips the light
-// and rough samples' stages); a smooth plastic's or glTF layer's reflection is a Dirac lobe over a lit base. A
-// parallelogram light of uniform emission sampled by area is sampled in the lanes; any other light's sample
-// (sample_li) is taken one lane at a time and weighed in the lanes.
+// (russian_roulette.h), for a packet's worth of paths at once, where a path's hit is on a polygon, a sphere or a kept
+// instance's triangle (an emitter's too: its emission is added one lane at a time) of a material written over the
+// number type: the Lambert lobe, and (in the kernels for any material) the lobes of lane_lobes.h (the coupled lobe that
+// glTF's metallic–roughness material and the plastic are, the rough conductor, the subsurface BRDF and rough glass,
+// whose light sample may lie behind the surface), lit by next-event estimation, and its Dirac lobes (the mirror, the
+// smooth conductor and smooth glass), which are only sampled, as shade_vertex samples no light where a material has no
+// other lobe (a packet of Dirac lanes alone skips the light and rough samples' stages); a smooth plastic's or glTF
+// layer's reflection is a Dirac lobe over a lit base. A parallelogram light of uniform emission sampled by area is
+// sampled in the lanes; any other light's sample (sample_li) is taken one lane at a time and weighed in the lanes.
 // The scene data of the kLanes paths is gathered into arrays (structure of arrays), then every step runs on
 // std::experimental::native_simd<float> lanes (one vector per quantity: kLanes = its width). The formulas both loops
 // share are written once over the number type (core/lanes.h) and instantiated here for vfloat: the shading frame
@@ -22,17 +22,18 @@
 //
 // kM is the kernel's material set (materials/bsdf.h). Under MaterialSet::Any the lanes evaluate the lobes as
 // bsdf_value<Any> and bsdf_sample<Any> do (wo and wi mirrored to the front, strictly on one side but for glass); which
-// materials they take is wavefront.h's (lane_material: every kind). On a smooth-shaded mesh they shade as shade_vertex does: the frame about the
-// interpolated normal, rays leaving from the lifted point. A textured material (its albedo's, glTF's
-// metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at a
-// time, over the ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own
-// sphere_point in the gather and is flat (its normal is its shading normal); a ray leaving it may hit it again. A
-// lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit is on an instance, or has
-// textures on a sphere or on a mesh without texture coordinates, or when no light
-// can reach it, or where shading_normal would bend its normal (a grazing view of a smooth mesh); the caller uses the
-// lanes only below the bounce limit. What stays one lane at a time: the gathers (a sphere's hit point among them), an
-// emitter's emission and MIS weight, the texture lookups, the light choice, the other lights' samples, the 1D random
-// numbers, and lane_lobes.h's table lookups and visible-normal samples.
+// materials they take is wavefront.h's (lane_material: every kind). On a smooth-shaded mesh they shade as shade_vertex
+// does: the frame about the interpolated normal, rays leaving from the lifted point. A textured material (its albedo's,
+// glTF's metallic–roughness, normal and emission images) is resolved at the hit by the scalar material_at, one lane at
+// a time, over the ray cone shade_vertex filters with. A sphere's hit is located by make_interaction's own sphere_point
+// in the gather and is flat (its normal is its shading normal); a ray leaving it may hit it again. A kept instance's
+// hit is located by make_interaction in the gather too (its triangle placed in double, its vertex shading there). A
+// lane takes the scalar path instead (the caller runs shade_vertex for it) when its hit has textures on a sphere or on
+// a mesh without texture coordinates, or when no light can reach it, or where shading_normal would bend its normal (a
+// grazing view of a smooth mesh); the caller uses the lanes only below the bounce limit. What stays one lane at a time:
+// the gathers (a sphere's hit point among them), an emitter's emission and MIS weight, the texture lookups, the light
+// choice, the other lights' samples, the 1D random numbers, and lane_lobes.h's table lookups and visible-normal
+// samples.
 //
 // shade_lanes runs in stages, each a function of its own over the packet's arrays (lane_packet.h: LanePacket):
 // gather_lanes, lane_hit_points, resolve_textured_lanes, lane_frames, choose_lane_lights, lane_light_samples,
@@ -77,10 +78,12 @@ struct LaneContext {
   const Scene& s;
   const PathOptions& o;
   uint32_t depth;
-  // The general-material kernels of a scene with vertex normals shade with them (make_interaction<F>); the
-  // Lambert kernels never see such a scene (Scene::kernel_features).
+  // The general-material kernels of a scene with vertex normals shade with them (make_interaction<F>), its
+  // polygons' (Scene::shading) or its kept instances' meshes'; the Lambert kernels never see such a scene
+  // (Scene::kernel_features).
   bool smooth_scene;
-  bool roulette;  // roulette_applies at this depth
+  bool polygon_shading;  // the polygons have vertex normals and texture coordinates (Scene::shading)
+  bool roulette;         // roulette_applies at this depth
 };
 
 PT_SIMD_SQRT_WARNINGS_OFF  // every lane is computed here
@@ -93,29 +96,45 @@ template <MaterialSet kM>
   if (kM == MaterialSet::Any && m.type != MaterialType::Diffuse) lobes.take(l, m);
 }
 
-// A sphere's hit in lane l (kSpheres: the kernel has spheres): make_interaction's point, error bound and normal,
-// which vertex_shading keeps (three vertex normals equal to it).
-[[gnu::always_inline]] inline void gather_sphere(const Scene& s, bool smooth_scene, const Ray& ray, const Hit& hit,
-                                                 LanePacket& pk, int l) {
-  Interaction it;
-  sphere_point(s, ray, hit, it);
-  LanePolygons& g = pk.polygon;
+// A hit located by make_interaction in lane l, a sphere's or a kept instance's: its point, error bound and
+// geometric normal (also as three vertex normals, so that lane_hit_points' vertex_shading keeps it flat there); an
+// instance's shading normal and terminator offset, which lane_hit_points takes instead.
+[[gnu::always_inline]] inline void gather_given_point(const Interaction& it, bool smooth_scene, LanePolygons& g,
+                                                      int l) {
   g.spx[l] = it.p.x, g.spy[l] = it.p.y, g.spz[l] = it.p.z;
   g.sex[l] = it.p_error.x, g.sey[l] = it.p_error.y, g.sez[l] = it.p_error.z;
   g.ngx[l] = it.ng.x, g.ngy[l] = it.ng.y, g.ngz[l] = it.ng.z;
-  if (smooth_scene)
-    for (int v = 0; v < 3; ++v) g.vn[v][0][l] = it.ng.x, g.vn[v][1][l] = it.ng.y, g.vn[v][2][l] = it.ng.z;
-  g.sphere[l] = 1.f;
+  if (!smooth_scene) return;
+  for (int v = 0; v < 3; ++v) g.vn[v][0][l] = it.ng.x, g.vn[v][1][l] = it.ng.y, g.vn[v][2][l] = it.ng.z;
+  g.insx[l] = it.ns.x, g.insy[l] = it.ns.y, g.insz[l] = it.ns.z;
+  g.ilfx[l] = it.lift.x, g.ilfy[l] = it.lift.y, g.ilfz[l] = it.lift.z;
+  g.ilifted[l] = it.lifted ? 1.f : 0.f;
+}
+// A kept instance's hit in lane l; out of line, so that the gather's loop compiles about as it did without it
+// (inlined, it cost `cornell` 0.2 % more instructions; docs/performance.md, session 47).
+template <uint32_t F>
+[[gnu::noinline]] void gather_instance_point(const Scene& s, bool smooth_scene, const Ray& ray, const Hit& hit,
+                                             LanePolygons& g, int l) {
+  gather_given_point(make_interaction<F>(s, ray, hit), smooth_scene, g, l);
+  g.instance[l] = 1.f;
+}
+// Its material, and whether it has texture coordinates (its mesh's).
+inline uint32_t instance_material(const Scene& s, uint32_t prim) { return s.material_of(prim); }
+inline bool instance_has_uv(const Scene& s, uint32_t prim) {
+  return !s.instances.instance_of(prim).geometry->mesh->uv.empty();
 }
 
-// ---- Gather (scalar): which lanes the lanes shade, their rays, hit polygons or spheres and materials. A textured
-// material is marked for resolve_textured_lanes, an emitting one for add_lane_emission. Returns whether any lane is
-// active; sets `any_textured`, `any_sphere` and `any_emitter`. kSpheres: the kernel has spheres.
-template <MaterialSet kM, bool kSpheres>
+// ---- Gather (scalar): which lanes the lanes shade, their rays, hit polygons, spheres or kept instances' triangles
+// (located here by make_interaction: the triangle placed in double) and materials. A textured material is marked for
+// resolve_textured_lanes, an emitting one for add_lane_emission. Returns whether any lane is active; sets
+// `any_textured`, `any_sphere`, `any_instance` and `any_emitter`.
+template <MaterialSet kM, uint32_t F>
 [[gnu::always_inline]] inline bool gather_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
                                                 const Hit* hits, const bool* found, const PathState* paths,
                                                 LanePacket& pk, LaneLobes& lobes, LaneShading& out,
-                                                bool& any_textured, bool& any_sphere, bool& any_emitter) {
+                                                bool& any_textured, bool& any_sphere, bool& any_instance,
+                                                bool& any_emitter) {
+  constexpr bool kSpheres = (F & kFeatureSpheres) != 0;
   constexpr int N = kLanes;
   const Scene& s = c.s;
   const PolygonSoA& P = s.polygons;
@@ -130,21 +149,26 @@ template <MaterialSet kM, bool kSpheres>
   pk.u.clear();
   if constexpr (kM == MaterialSet::Any) lobes.clear();
   bool any = false;
-  bool textured = false, spheres = false, emitters = false;  // locals: a bool& might alias the packet's byte arrays
+  // Locals: a bool& might alias the packet's byte arrays.
+  bool textured = false, spheres = false, instances = false, emitters = false;
   for (int l = 0; l < k; ++l) {
     pk.material.textured[l] = 0;
     if (!found[l]) continue;
     const uint32_t prim = hits[l].prim;
-    const bool sphere = kSpheres && prim >= s.sphere_begin();
-    if (prim >= s.sphere_begin() && !(sphere && s.is_sphere(prim))) continue;  // an instance's: the scalar path
-    pk.material.index[l] = sphere ? s.spheres.material[prim - s.sphere_begin()] : P.material[prim];
+    const bool beyond = prim >= s.sphere_begin();  // a sphere's or a kept instance's triangle
+    const bool sphere = kSpheres && beyond && s.is_sphere(prim);
+    const bool instance = beyond && !sphere;
+    pk.material.index[l] = sphere     ? s.spheres.material[prim - s.sphere_begin()]
+                           : instance ? instance_material(s, prim)
+                                      : P.material[prim];
     const Material& m = s.materials[pk.material.index[l]];
     const bool emits = !is_black(m.emission);
     pk.material.emits[l] = emits ? 1 : 0;
     if constexpr (kM == MaterialSet::Any) {
       if (!lane_material(m)) continue;
       if (has_textures(m)) {
-        if (sphere || !c.smooth_scene) continue;  // no texture coordinates: the scalar path
+        // No texture coordinates: the scalar path.
+        if (sphere || (instance ? !instance_has_uv(s, prim) : !c.polygon_shading)) continue;
         pk.material.textured[l] = 1;  // its material once the hit is known
         textured = true;
       } else {
@@ -160,11 +184,20 @@ template <MaterialSet kM, bool kSpheres>
     r.t[l] = hits[l].t;
     r.beta_r[l] = p.beta.x, r.beta_g[l] = p.beta.y, r.beta_b[l] = p.beta.z;
     r.eta[l] = p.eta_scale;
-    if (sphere) {
-      if (!spheres) pk.polygon.clear_spheres();
-      gather_sphere(s, c.smooth_scene, p.ray, hits[l], pk, l);
+    if (sphere || instance) {
+      if (!spheres && !instances) pk.polygon.clear_given_points(c.smooth_scene);
+      if (sphere) {
+        Interaction it;
+        sphere_point(s, p.ray, hits[l], it);
+        gather_given_point(it, c.smooth_scene, pk.polygon, l);
+        pk.polygon.sphere[l] = 1.f;
+        spheres = true;
+      } else {
+        gather_instance_point<F>(s, c.smooth_scene, p.ray, hits[l], pk.polygon, l);
+        instances = true;
+      }
       pk.active[l] = 1;
-      any = spheres = true;
+      any = true;
       emitters = emitters || emits;
       continue;
     }
@@ -182,24 +215,27 @@ template <MaterialSet kM, bool kSpheres>
     g.m1x[l] = margin[1].x, g.m1y[l] = margin[1].y, g.m1z[l] = margin[1].z;
     const Vec3 ng = P.normal[prim];
     g.ngx[l] = ng.x, g.ngy[l] = ng.y, g.ngz[l] = ng.z;
-    if (c.smooth_scene) {
+    if (c.polygon_shading) {
       const std::array<Vec3, 3>& vns = s.shading.normal[prim];
       for (int v = 0; v < 3; ++v) g.vn[v][0][l] = vns[v].x, g.vn[v][1][l] = vns[v].y, g.vn[v][2][l] = vns[v].z;
+    } else if (c.smooth_scene) {  // a flat polygon in a scene whose instances are smooth-shaded
+      for (int v = 0; v < 3; ++v) g.vn[v][0][l] = ng.x, g.vn[v][1][l] = ng.y, g.vn[v][2][l] = ng.z;
     }
     g.quad[l] = P.triangle[prim] ? 0.f : 1.f;
     pk.active[l] = 1;
     any = true;
     emitters = emitters || emits;
   }
-  any_textured = textured, any_sphere = spheres, any_emitter = emitters;
+  any_textured = textured, any_sphere = spheres, any_instance = instances, any_emitter = emitters;
   return any;
 }
 
 // ---- make_interaction (polygons): barycentrics from the dual vectors, margins, the re-interpolated point; on a
-// smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted). A sphere's lane
-// (any_sphere) keeps the point and error bound the gather wrote.
+// smooth-shaded scene, vertex_shading's normal and terminator offset (it.ns, it.lift, it.lifted). A sphere's or an
+// instance's lane (any_given) keeps the point and error bound the gather wrote, an instance's (any_instance) its
+// shading normal and terminator offset too.
 [[gnu::always_inline]] inline void lane_hit_points(const LaneRays& r, const LanePolygons& g, bool smooth_scene,
-                                                   bool any_textured, bool any_sphere, LaneHits& h) {
+                                                   bool any_textured, bool any_given, bool any_instance, LaneHits& h) {
   using lanes::std_max;
   const vfloat T = ld(r.t), Ax = ld(g.ax), Ay = ld(g.ay), Az = ld(g.az);
   const vfloat qx = (ld(r.ox) + T * ld(r.dx)) - Ax, qy = (ld(r.oy) + T * ld(r.dy)) - Ay,
@@ -229,8 +265,8 @@ template <MaterialSet kM, bool kSpheres>
   st(h.ex, g7 * ((stdx::abs(b0 * Ax) + stdx::abs(b1 * Bx)) + stdx::abs(b2 * Cx)));
   st(h.ey, g7 * ((stdx::abs(b0 * Ay) + stdx::abs(b1 * By)) + stdx::abs(b2 * Cy)));
   st(h.ez, g7 * ((stdx::abs(b0 * Az) + stdx::abs(b1 * Bz)) + stdx::abs(b2 * Cz)));
-  if (any_sphere) {  // the spheres' lanes: the gather's point and bound
-    const M S = ld(g.sphere) != 0.f;
+  if (any_given) {  // the spheres' and instances' lanes: the gather's point and bound
+    const M S = ld(g.sphere) != 0.f || ld(g.instance) != 0.f;
     for (auto [to, from] : {std::pair{h.px, g.spx}, {h.py, g.spy}, {h.pz, g.spz}, {h.ex, g.sex}, {h.ey, g.sey},
                             {h.ez, g.sez}})
       st(to, select(S, ld(from), ld(to)));
@@ -254,15 +290,21 @@ template <MaterialSet kM, bool kSpheres>
   const M up = !flat && lanes::dot(lift, ng) > 0.f;
   st(h.lfx, lift.x), st(h.lfy, lift.y), st(h.lfz, lift.z);
   st(h.lifted, one_where(up));
+  if (!any_instance) return;
+  const M I = ld(g.instance) != 0.f;  // instance_point's own vertex_shading
+  for (auto [to, from] : {std::pair{h.nsx, g.insx}, {h.nsy, g.insy}, {h.nsz, g.insz}, {h.lfx, g.ilfx}, {h.lfy, g.ilfy},
+                          {h.lfz, g.ilfz}, {h.lifted, g.ilifted}})
+    st(to, select(I, ld(from), ld(to)));
 }
 
-// ---- A textured lane's material at its hit (one lane at a time): vertex_shading's texture coordinates, then
-// material_at over the ray cone shade_vertex filters with; a normal map bends the shading normal there (a
-// metallic–roughness image may make the lobe smooth there: its layer's reflection is then a Dirac lobe).
-template <MaterialSet kM>
+// ---- A textured lane's material at its hit (one lane at a time): vertex_shading's texture coordinates (on a kept
+// instance, make_interaction's again, its tangents included), then material_at over the ray cone shade_vertex filters
+// with; a normal map bends the shading normal there (a metallic–roughness image may make the lobe smooth there: its
+// layer's reflection is then a Dirac lobe). `any_instance`: some lane's hit is on an instance.
+template <MaterialSet kM, uint32_t F>
 [[gnu::always_inline]] inline void resolve_textured_lanes(const LaneContext<kM>& c, const uint16_t* ids, int k,
-                                                          const Hit* hits, const PathState* paths, LanePacket& pk,
-                                                          LaneLobes& lobes, MaterialScratch* resolved) {
+                                                          const Hit* hits, const PathState* paths, bool any_instance,
+                                                          LanePacket& pk, LaneLobes& lobes, MaterialScratch* resolved) {
   const PolygonSoA& P = c.s.polygons;
   LaneHits& h = pk.hit;
   for (int l = 0; l < k; ++l) {
@@ -270,11 +312,15 @@ template <MaterialSet kM>
     const uint32_t prim = hits[l].prim;
     const PathState& p = paths[ids[l]];
     Interaction it;
-    it.prim = prim;
-    it.material = pk.material.index[l];
-    it.ng = P.normal[prim];
-    it.ns = Vec3(h.nsx[l], h.nsy[l], h.nsz[l]);
-    surface_uv(c.s.shading.uv[prim], h.bary[0][l], h.bary[1][l], h.bary[2][l], P.dual[prim][0], it);
+    if (any_instance && pk.polygon.instance[l] != 0.f) {
+      it = make_interaction<F>(c.s, p.ray, hits[l]);
+    } else {
+      it.prim = prim;
+      it.material = pk.material.index[l];
+      it.ng = P.normal[prim];
+      it.ns = Vec3(h.nsx[l], h.nsy[l], h.nsz[l]);
+      surface_uv(c.s.shading.uv[prim], h.bary[0][l], h.bary[1][l], h.bary[2][l], P.dual[prim][0], it);
+    }
     h.u[l] = it.uv.x, h.v[l] = it.uv.y;  // an emission map's texel (add_lane_emission)
     const Material& m = material_at<kM>(c.s, it, p.ray.d, p.cone_width + p.cone_spread * hits[l].t, resolved[l]);
     if (lane_material(m)) take_material<kM>(pk, lobes, l, m);
@@ -697,20 +743,22 @@ void shade_lanes(const Scene& s, const PathOptions& o, const RngOf& rng_of, cons
                  const Hit* hits, const bool* found, PathState* paths, uint32_t depth, LaneShading& out,
                  RayCount& count) {
   using namespace lane_detail;
-  const LaneContext<kM> c{s, o, depth, kM == MaterialSet::Any && !s.shading.empty(),
-                          roulette_applies(static_cast<int>(depth), o.rr_depth)};
+  const bool polygon_shading = kM == MaterialSet::Any && !s.shading.empty();
+  const LaneContext<kM> c{s, o, depth, polygon_shading || (kM == MaterialSet::Any && s.features.smooth_shading),
+                          polygon_shading, roulette_applies(static_cast<int>(depth), o.rr_depth)};
   LanePacket pk;
   LaneLobes lobes;  // the rough lobes besides Lambert's (lane_lobes.h)
   constexpr bool kSpheres = (F & kFeatureSpheres) != 0;
-  bool any_textured = false, gathered_sphere = false, any_emitter = false;
-  if (!gather_lanes<kM, kSpheres>(c, ids, k, hits, found, paths, pk, lobes, out, any_textured, gathered_sphere,
-                                  any_emitter))
+  bool any_textured = false, gathered_sphere = false, any_instance = false, any_emitter = false;
+  if (!gather_lanes<kM, F>(c, ids, k, hits, found, paths, pk, lobes, out, any_textured, gathered_sphere, any_instance,
+                           any_emitter))
     return;  // nothing for the lanes: every path takes shade_vertex
   const bool any_sphere = kSpheres && gathered_sphere;  // false at compile time in a kernel without spheres
-  lane_hit_points(pk.ray, pk.polygon, c.smooth_scene, any_textured, any_sphere, pk.hit);
+  lane_hit_points(pk.ray, pk.polygon, c.smooth_scene, any_textured, any_sphere || any_instance, any_instance, pk.hit);
   // A textured lane's material with what its images say at the hit (material_at's copy, held here).
   MaterialScratch resolved[kLanes];
-  if (kM == MaterialSet::Any && any_textured) resolve_textured_lanes(c, ids, k, hits, paths, pk, lobes, resolved);
+  if (kM == MaterialSet::Any && any_textured)
+    resolve_textured_lanes<kM, F>(c, ids, k, hits, paths, any_instance, pk, lobes, resolved);
   lane_frames(pk.ray, pk.polygon, pk.hit, c.smooth_scene, pk.active, pk.frame);
   choose_lane_lights<kM, F>(c, rng_of, k, hits, lobes, pk);
   // The lanes with another lobe: wo, and E(μo) of the rough ones (Gl) there, rough glass's η (lane_lobes.h).

@@ -88,7 +88,7 @@ inline bool lane_material(const Material& m) {
 // path's arithmetic is its own, so the images stay the scalar loop's bits.
 enum class LaneSortKey : uint8_t {
   Missed,           // the ray left the scene
-  Scalar,           // shade_vertex: an instance's triangle, a material the lanes do not take
+  Scalar,           // shade_vertex: a material the lanes do not take
   Lambert,
   Plastic,          // the coupled lobe with the coat's exact Fresnel
   Gltf,             // the coupled lobe with Schlick's
@@ -136,10 +136,15 @@ struct MaterialKeys {
     }
   }
 };
+// A kept instance's triangle's key (out of line: the instance's material is found by a search).
+[[gnu::noinline]] inline LaneSortKey instance_sort_key(const Scene& s, uint32_t prim, const MaterialKeys& keys) {
+  const uint32_t material = s.material_of(prim);
+  return material < MaterialKeys::kKeyedMaterials ? keys.key[material] : material_sort_key(s.materials[material]);
+}
 [[gnu::always_inline]] inline LaneSortKey lane_sort_key(const Scene& s, const Hit& h, bool found,
                                                         const MaterialKeys& keys) {
   if (!found) return LaneSortKey::Missed;
-  if (h.prim >= s.primitive_count()) return LaneSortKey::Scalar;  // an instance's triangle
+  if (h.prim >= s.primitive_count()) [[unlikely]] return instance_sort_key(s, h.prim, keys);
   // SceneGeometry::material_of without its instance branch (GCC called that out of line here: 3 M instructions on
   // `materials`' callgrind).
   const uint32_t material = h.prim < s.sphere_begin() ? s.polygons.material[h.prim]

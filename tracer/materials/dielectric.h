@@ -143,8 +143,8 @@ inline bool dielectric_sample_up(Vec3 wo, float uc, Vec2 u, float alpha, float e
   if (!dielectric_lobe_sample(lanes::of(wo), lanes::of(ggx_sample_vndf(wo, alpha, u)), uc, alpha, eta, radiance, wi,
                               f, pdf, refracts))
     return false;
-  out = {lanes::to_vec3(wi), Rgb(f), pdf, (refracts ? BsdfFlags::Transmission : BsdfFlags::Reflection) | BsdfFlags::Glossy,
-         refracts ? eta : 1.f};
+  const BsdfFlags side = refracts ? BsdfFlags::Transmission : BsdfFlags::Reflection;
+  out = {lanes::to_vec3(wi), Rgb(f), pdf, side | BsdfFlags::Glossy, refracts ? eta : 1.f};
   return true;
 }
 
