@@ -77,6 +77,26 @@ inline Film render_film(const SceneDesc& desc, int spp, int threads = 0, bool fe
   return film;
 }
 
+// Renders `d` (4 spp, 2 threads, with feature buffers) through the scalar and the wavefront loop under nee and mis,
+// Sobol and independent points: the images and the feature buffers must agree byte for byte (the SIMD shading lanes
+// give the scalar loop's bits).
+inline void check_lanes_match_scalar_loop(SceneDesc d) {
+  for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
+    for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
+      d.render.sampler = sampler;
+      d.render.estimator = est;
+      CAPTURE(std::string(to_string(sampler)));
+      CAPTURE(std::string(to_string(est)));
+      d.render.path_loop = PathLoop::Scalar;
+      const Film scalar = render_film(d, 4, 2, true);
+      d.render.path_loop = PathLoop::Wavefront;
+      const Film wavefront = render_film(d, 4, 2, true);
+      CHECK(scalar.mean_image() == wavefront.mean_image());
+      CHECK(scalar.normal_image() == wavefront.normal_image());
+      CHECK(scalar.albedo_image() == wavefront.albedo_image());
+    }
+}
+
 // The scene under estimator `e` with `seed` (for bdpt, only strategy (only_s, only_t) when they are ≥ 0, unweighted),
 // on 2 threads.
 inline Film render_estimator(SceneDesc d, Estimator e, int spp, uint64_t seed, int only_s = -1, int only_t = -1) {

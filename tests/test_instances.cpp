@@ -418,20 +418,7 @@ TEST_CASE("instances: the SIMD shading lanes shade kept instances with the scala
     REQUIRE_FALSE(scene->instances.empty());
     CHECK(scene->shading.empty() == (c != 3));
     CHECK(shading_lanes_apply(*scene, scene->kernel_features()));
-    for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
-      for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
-        d.render.sampler = sampler;
-        d.render.estimator = est;
-        CAPTURE(std::string(to_string(sampler)));
-        CAPTURE(std::string(to_string(est)));
-        d.render.path_loop = PathLoop::Scalar;
-        const Film scalar = test::render_film(d, 4, 2, true);
-        d.render.path_loop = PathLoop::Wavefront;
-        const Film wavefront = test::render_film(d, 4, 2, true);
-        CHECK(scalar.mean_image() == wavefront.mean_image());
-        CHECK(scalar.normal_image() == wavefront.normal_image());
-        CHECK(scalar.albedo_image() == wavefront.albedo_image());
-      }
+    test::check_lanes_match_scalar_loop(d);
   }
 }
 

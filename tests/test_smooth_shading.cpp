@@ -294,24 +294,7 @@ SceneDesc sphere_on_floor(int kind, int rings = 12) {
 
 namespace {
 
-// Renders `d` (4 spp, with feature buffers) through the scalar and the wavefront loop under nee and mis, Sobol and
-// independent points: the images and the feature buffers must agree byte for byte.
-void check_lanes_match_scalar_loop(SceneDesc d) {
-  for (const SamplerType sampler : {SamplerType::Sobol, SamplerType::Independent})
-    for (const Estimator est : {Estimator::Nee, Estimator::Mis}) {
-      d.render.sampler = sampler;
-      d.render.estimator = est;
-      CAPTURE(std::string(to_string(sampler)));
-      CAPTURE(std::string(to_string(est)));
-      d.render.path_loop = PathLoop::Scalar;
-      const Film scalar = test::render_film(d, 4, 2, true);
-      d.render.path_loop = PathLoop::Wavefront;
-      const Film wavefront = test::render_film(d, 4, 2, true);
-      CHECK(scalar.mean_image() == wavefront.mean_image());
-      CHECK(scalar.normal_image() == wavefront.normal_image());
-      CHECK(scalar.albedo_image() == wavefront.albedo_image());
-    }
-}
+using test::check_lanes_match_scalar_loop;
 
 // The coarse sphere on its floor (sphere_on_floor, six rings) at 24 × 24 pixels for paths of `bounces` bounces,
 // Russian roulette from `rr_depth` (scene_desc.h: RenderSettings::russian_roulette_depth).
