@@ -217,8 +217,7 @@ struct LaneLobes {
     }
     wi = {lanes_of(gx), lanes_of(gy), lanes_of(gz)};
     value(wi, f, pdf, false);
-    ok = w_z > 0.f && wi.z > 0.f && pdf > 0.f;
-    refracts = M(false);
+    M layer_ok(true);
     if (any_smooth_layer) {
       const M D = lanes_of(layer_dirac) != 0.f;
       const LayeredLobe<vfloat> g = layered_lobe();
@@ -226,8 +225,10 @@ struct LaneLobes {
                                               : layer_fresnel<LayerFresnel::Schlick>(g, w_z);
       f = {select(D, F.x / wi.z, f.x), select(D, F.y / wi.z, f.y), select(D, F.z / wi.z, f.z)};
       pdf = select(D, p_vndf, pdf);
-      ok = w_z > 0.f && wi.z > 0.f && pdf > 0.f && (!D || !(F.x == 0.f && F.y == 0.f && F.z == 0.f));
+      layer_ok = !D || !(F.x == 0.f && F.y == 0.f && F.z == 0.f);
     }
+    ok = w_z > 0.f && wi.z > 0.f && pdf > 0.f && layer_ok;
+    refracts = M(false);
     if (!any_rough_glass) return;
     const M RG = rough_glass_mask();
     const lanes::Vec3T<vfloat> w{lanes_of(wo[0]), lanes_of(wo[1]), w_z};

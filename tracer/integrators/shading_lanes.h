@@ -118,8 +118,7 @@ template <uint32_t F>
   gather_given_point(make_interaction<F>(s, ray, hit), smooth_scene, g, l);
   g.instance[l] = 1.f;
 }
-// Its material, and whether it has texture coordinates (its mesh's).
-inline uint32_t instance_material(const Scene& s, uint32_t prim) { return s.material_of(prim); }
+// Whether a kept instance's hit has texture coordinates (its mesh's).
 inline bool instance_has_uv(const Scene& s, uint32_t prim) {
   return !s.instances.instance_of(prim).geometry->mesh->uv.empty();
 }
@@ -159,7 +158,7 @@ template <MaterialSet kM, uint32_t F>
     const bool sphere = kSpheres && beyond && s.is_sphere(prim);
     const bool instance = beyond && !sphere;
     pk.material.index[l] = sphere     ? s.spheres.material[prim - s.sphere_begin()]
-                           : instance ? instance_material(s, prim)
+                           : instance ? s.material_of(prim)
                                       : P.material[prim];
     const Material& m = s.materials[pk.material.index[l]];
     const bool emits = !is_black(m.emission);

@@ -135,11 +135,14 @@ struct MaterialKeys {
       mixed = mixed || key[i] != first;
     }
   }
+  // The key of material m of scene s (the table's, or found now beyond it).
+  LaneSortKey of(const Scene& s, uint32_t m) const {
+    return m < kKeyedMaterials ? key[m] : material_sort_key(s.materials[m]);
+  }
 };
 // A kept instance's triangle's key (out of line: the instance's material is found by a search).
 [[gnu::noinline]] inline LaneSortKey instance_sort_key(const Scene& s, uint32_t prim, const MaterialKeys& keys) {
-  const uint32_t material = s.material_of(prim);
-  return material < MaterialKeys::kKeyedMaterials ? keys.key[material] : material_sort_key(s.materials[material]);
+  return keys.of(s, s.material_of(prim));
 }
 [[gnu::always_inline]] inline LaneSortKey lane_sort_key(const Scene& s, const Hit& h, bool found,
                                                         const MaterialKeys& keys) {
@@ -147,9 +150,8 @@ struct MaterialKeys {
   if (h.prim >= s.primitive_count()) [[unlikely]] return instance_sort_key(s, h.prim, keys);
   // SceneGeometry::material_of without its instance branch (GCC called that out of line here: 3 M instructions on
   // `materials`' callgrind).
-  const uint32_t material = h.prim < s.sphere_begin() ? s.polygons.material[h.prim]
-                                                      : s.spheres.material[h.prim - s.sphere_begin()];
-  return material < MaterialKeys::kKeyedMaterials ? keys.key[material] : material_sort_key(s.materials[material]);
+  return keys.of(s, h.prim < s.sphere_begin() ? s.polygons.material[h.prim]
+                                              : s.spheres.material[h.prim - s.sphere_begin()]);
 }
 
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {

@@ -19,6 +19,8 @@
 // dot products with the mirrored wm, so the formulas above apply unchanged. BsdfSample::eta = η on
 // transmission. Dielectrics are colourless (the albedo is not used).
 #pragma once
+#include <type_traits>
+
 #include "core/lanes.h"
 #include "core/simd_sqrt_warnings.h"
 #include "materials/bsdf_sample.h"
@@ -89,7 +91,12 @@ template <class T>
   const T twice = 2.f * lanes::dot(v, wm);
   wi = {v.x - twice * wm.x, v.y - twice * wm.y, v.z - twice * wm.z};
   lanes::Vec3T<T> wt = wi;
-  const lanes::Mask<T> through = refract_t(wo, wm, eta, wt);
+  lanes::Mask<T> through(false);
+  if constexpr (std::is_same_v<T, float>) {
+    if (!reflects) through = refract_t(wo, wm, eta, wt);  // one path refracts only where it does not reflect
+  } else {
+    through = refract_t(wo, wm, eta, wt);
+  }
   refracts = !reflects;
   wi = {select(reflects, wi.x, wt.x), select(reflects, wi.y, wt.y), select(reflects, wi.z, wt.z)};
   const T g2 = ggx_g2_over_cos2(wo.x, wo.y, wo.z, wi.x, wi.y, wi.z, alpha);
