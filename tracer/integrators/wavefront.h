@@ -38,9 +38,9 @@ template <class Sampler>
 BatchKernel<Sampler> select_batch_kernel(const Scene& scene, const RenderSettings& settings);
 
 // Whether the batch kernel compiled for `features` shades this scene's hits on polygons and spheres in SIMD lanes
-// (shading_lanes.h; at the bounces where lights are sampled): every kernel with polygons, flat or smooth-shaded,
-// where some material that does not emit is one the lanes take (a scene of others alone would only pay for their
-// gathers); where they run, they shade the emitters they take too.
+// (shading_lanes.h; at the bounces where lights are sampled): every kernel with polygons (flat or smooth-shaded)
+// or spheres, scenes of spheres alone included, where some material that does not emit is one the lanes take (a
+// scene of others alone would only pay for their gathers); where they run, they shade the emitters they take too.
 // Asked per batch, so a material edited live is seen at once. Every kind of light is sampled there
 // (parallelograms by area in the lanes, the others by the scalar sample_li).
 //
@@ -155,7 +155,7 @@ struct MaterialKeys {
 }
 
 inline bool shading_lanes_apply(const Scene& scene, uint32_t features) {
-  if ((features & kFeaturePolygons) == 0) return false;
+  if ((features & (kFeaturePolygons | kFeatureSpheres)) == 0) return false;
   const bool any = (features & kFeatureGeneralMaterials) != 0;
   return std::any_of(scene.materials.begin(), scene.materials.end(), [&](const Material& m) {
     if (has_textures(m) && scene.shading.empty()) return false;  // no texture coordinates: shade_vertex

@@ -32,15 +32,15 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
   using VertexSampler = std::conditional_t<kBatchPoints, SamplerWithPoints<Sampler>, const Sampler&>;
   // Zeroed: GCC cannot see that a queue position read through the sorted order was written.
   Vec2 light_points[kBatchPoints ? kWavefrontBatch : 1]{}, bsdf_points[kBatchPoints ? kWavefrontBatch : 1]{};
-  // Polygons and spheres of the lanes' materials shade in lanes in every kernel with polygons (shading_lanes.h),
-  // where shading_lanes_apply (wavefront.h) says so.
-  constexpr bool kLambertLanes = (F & kFeaturePolygons) != 0;
+  // Polygons and spheres of the lanes' materials shade in lanes in every kernel with polygons or spheres
+  // (shading_lanes.h), where shading_lanes_apply (wavefront.h) says so.
+  constexpr bool kShadingLanes = (F & (kFeaturePolygons | kFeatureSpheres)) != 0;
   constexpr MaterialSet kM = (F & kFeatureGeneralMaterials) != 0 ? MaterialSet::Any : MaterialSet::Lambert;
   LaneShading lane_shading;
-  const bool lanes_apply = kLambertLanes && shading_lanes_apply(s, F);
+  const bool lanes_apply = kShadingLanes && shading_lanes_apply(s, F);
   // The kernels for any material shade a bounce's hits in lane_sort_key's order (wavefront.h): the hits by queue
   // position, and the keys of the scene's first kKeyedMaterials materials, looked up once per batch.
-  constexpr bool kSortHits = kLambertLanes && kM == MaterialSet::Any;
+  constexpr bool kSortHits = kShadingLanes && kM == MaterialSet::Any;
   constexpr int kSortBatch = kSortHits ? kWavefrontBatch : kLanes;
   Hit hit_at[kSortBatch];
   bool found_at[kSortBatch];
@@ -79,7 +79,7 @@ bool trace_batch(const Scene& s, const RenderSettings& settings, const Sampler* 
                                   const bool* found) __attribute__((always_inline)) {
       // The queues' lengths in locals, which no store through a pointer can change (shade_packet_outlined).
       int n_next = next_count, n_shadow = shadow_count;
-      if constexpr (kLambertLanes)
+      if constexpr (kShadingLanes)
         if (lanes)
           shade_lanes<kM, F>(s, o, [&](int l) { return rng_at(position(l)); }, ids, k, hits, found, paths, bounce,
                               lane_shading, count);
