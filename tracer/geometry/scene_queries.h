@@ -128,14 +128,12 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
   return found;
 }
 
-// Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays.
+// Any hit in (0, t_max) ignoring primitives skip_a and skip_b: for shadow rays. The spheres are asked first: any
+// order gives the same answer (each test is exact), and in a room that holds spheres (cornell-spheres, materials)
+// they are what blocks bdpt's connections: a convex room's walls never block a segment between two points inside
+// it (instructions per sample under bdpt 0.6-0.9 % fewer, docs/performance.md, session 48).
 template <uint32_t F>
 inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
-  if constexpr ((F & kFeaturePolygons) != 0) {
-    if (s.polygons.size() != 0 && query_detail::any_own_polygon(s, ray, t_max, skip_a, skip_b)) return true;
-    if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b))
-      return true;
-  }
   if constexpr ((F & kFeatureSpheres) != 0) {
     const uint32_t sb = s.sphere_begin();
     for (size_t i = 0; i < s.spheres.size(); ++i) {
@@ -145,6 +143,11 @@ inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, 
           intersect_sphere(s.spheres.center[i], s.spheres.radius[i], ray.o, ray.d, t_max, t))
         return true;
     }
+  }
+  if constexpr ((F & kFeaturePolygons) != 0) {
+    if (s.polygons.size() != 0 && query_detail::any_own_polygon(s, ray, t_max, skip_a, skip_b)) return true;
+    if (!s.instances.empty() && query_detail::occluded_instance(s, ray, t_max, skip_a, skip_b))
+      return true;
   }
   return false;
 }
