@@ -1,6 +1,7 @@
 // Ray–primitive intersection: hits, misses, watertight shared edges and vertices, back faces, rays from inside
 // spheres, parallel rays, huge and tiny radii, and the scene-level closest/any-hit queries.
 #include <array>
+#include <bit>
 #include <doctest/doctest.h>
 
 #include "geometry/geometry.h"
@@ -191,6 +192,98 @@ TEST_CASE("sphere: huge and tiny radii and distant spheres keep float-level accu
   CHECK(t == doctest::Approx(1e6 - 1.0).epsilon(1e-7));
   // A ray just missing a tiny distant sphere, just outside its silhouette.
   CHECK_FALSE(intersect_sphere(DVec3(0, 0, -1e3), 1e-3, Vec3(1.001e-3f, 0, 0), Vec3(0, 0, -1), kInfinity, t));
+}
+
+// The spheres' SIMD step (geometry/sphere_lanes.h) passes on only the spheres whose discriminant is not negative;
+// it must never drop one that intersect_sphere would hit, so that a scene's sphere queries answer as a loop over
+// every sphere does, bit for bit. 21 spheres (full blocks of lanes and a partial one), radii from 1e-3 to 1e5;
+// random rays, rays from inside, and rays along each sphere's silhouette jittered by a few ulps (discriminants
+// within rounding of 0: about half of them hit).
+TEST_CASE("spheres: the lanes drop only spheres the ray misses, so the scene's queries answer as a loop over all") {
+  SceneDesc desc;
+  desc.camera.position = {0, 0, 0};
+  desc.camera.look_at = {0, 0, -1};
+  desc.materials.push_back(test::diffuse_material("m", Rgb(0.5f), Rgb(0.f), false));
+  Pcg32 rng(48, 3);
+  const auto uniform = [&](float lo, float hi) { return lo + (hi - lo) * rng.next_float(); };
+  for (int i = 0; i < 21; ++i) {
+    ShapeDesc ball;
+    ball.type = ShapeType::Sphere;
+    ball.center = {uniform(-200.f, 200.f), uniform(-200.f, 200.f), uniform(-200.f, 200.f)};
+    ball.radius = i == 0 ? 1e5 : i == 1 ? 1e-3 : double(uniform(0.5f, 40.f));
+    if (i == 0) ball.center = {0, -1e5 - 250, 0};  // a huge floor below all the others
+    desc.shapes.push_back(ball);
+  }
+  const auto scene = compile_scene(desc);
+  const SphereSoA& S = scene->spheres;
+  REQUIRE(S.size() == 21);
+  REQUIRE(S.size() >= kSphereLanesFrom);  // the lanes' path
+  REQUIRE(S.lanes.blocks() == (21 + kSphereLanes - 1) / kSphereLanes);
+  const auto unit = [&] {
+    for (;;) {
+      const Vec3 v(uniform(-1.f, 1.f), uniform(-1.f, 1.f), uniform(-1.f, 1.f));
+      if (glm::dot(v, v) > 1e-4f && glm::dot(v, v) <= 1.f) return glm::normalize(v);
+    }
+  };
+  std::vector<Ray> rays;
+  std::vector<uint32_t> grazed;  // per ray: the sphere whose silhouette it follows, or ~0u
+  for (int k = 0; k < 3000; ++k) rays.push_back({Vec3(uniform(-300.f, 300.f), uniform(-300.f, 300.f), uniform(-300.f, 300.f)), unit()});
+  for (size_t i = 1; i < S.size(); ++i) {
+    for (int k = 0; k < 150; ++k) {
+      // Along the silhouette: the tangent direction at angle asin(r / D) from the centre's, jittered.
+      const Vec3 o = Vec3(S.center[i]) + unit() * float(S.radius[i] * uniform(1.5f, 20.f));
+      const DVec3 w = S.center[i] - DVec3(o);
+      const double D = glm::length(w);
+      const DVec3 axis = w / D;
+      DVec3 side = glm::cross(axis, DVec3(unit()));
+      side = glm::normalize(side);
+      const double sin_t = S.radius[i] / D * (1.0 + 1e-7 * uniform(-4.f, 4.f));
+      rays.push_back({o, Vec3(glm::normalize(std::sqrt(1.0 - sin_t * sin_t) * axis + sin_t * side))});
+      grazed.resize(rays.size(), ~0u);
+      grazed.back() = static_cast<uint32_t>(i);
+    }
+    for (int k = 0; k < 20; ++k)  // from inside
+      rays.push_back({Vec3(S.center[i]) + unit() * float(S.radius[i] * uniform(0.f, 0.9f)), unit()});
+  }
+  grazed.resize(rays.size(), ~0u);
+  size_t candidates = 0, hits = 0, grazing = 0, graze_hits = 0;
+  for (size_t r = 0; r < rays.size(); ++r) {
+    const Ray& ray = rays[r];
+    CAPTURE(r);
+    std::vector<uint8_t> candidate(S.size(), 0);
+    visit_sphere_candidates(S.lanes, ray.o, ray.d, [&](uint32_t i) {
+      candidate[i] = 1;
+      return false;
+    });
+    // The plain loop: the nearest hit and a shadow query skipping sphere `skip`, then the same through the scene.
+    float t_near = kInfinity, t;
+    uint32_t id = ~0u;
+    const uint32_t skip = r % 3 == 0 ? static_cast<uint32_t>(r % S.size()) : ~0u;
+    bool blocked = false;
+    for (uint32_t i = 0; i < S.size(); ++i) {
+      const bool hit = intersect_sphere(S.center[i], S.radius[i], ray.o, ray.d, kInfinity, t);
+      CHECK((!hit || candidate[i] != 0));  // never a hit the lanes dropped
+      candidates += candidate[i];
+      hits += hit;
+      if (grazed[r] == i) ++grazing, graze_hits += hit;
+      if (intersect_sphere(S.center[i], S.radius[i], ray.o, ray.d, t_near, t)) t_near = t, id = i;
+      blocked = blocked || (i != skip && intersect_sphere(S.center[i], S.radius[i], ray.o, ray.d, 1e4f, t));
+    }
+    Hit h;
+    const bool found = scene->intersect(ray, kInfinity, ~0u, h);
+    CHECK(found == (id != ~0u));
+    if (found && id != ~0u) {
+      CHECK(h.prim == id);
+      CHECK(std::bit_cast<uint32_t>(h.t) == std::bit_cast<uint32_t>(t_near));
+    }
+    CHECK(scene->occluded(ray, 1e4f, skip, ~0u) == blocked);
+  }
+  MESSAGE(rays.size() << " rays, " << candidates << " candidates of " << rays.size() * S.size() << " tests, " << hits
+                      << " hits; " << graze_hits << " of " << grazing << " grazing rays hit their sphere");
+  CHECK(candidates < rays.size() * S.size() / 2);  // the lanes drop most spheres, or they would not pay
+  // The silhouette rays straddle it: both outcomes occur often.
+  CHECK(graze_hits > grazing / 5);
+  CHECK(graze_hits < grazing * 4 / 5);
 }
 
 TEST_CASE("scene queries: closest hit, skip, occlusion") {

@@ -15,6 +15,7 @@
 #include "geometry/instances.h"
 #include "geometry/polygon_bvh.h"
 #include "geometry/simd_polygons.h"
+#include "geometry/sphere_lanes.h"
 
 namespace pt {
 
@@ -48,7 +49,14 @@ struct SphereSoA {
   std::vector<DVec3> center;  // camera-relative, double: the stable intersection runs in double
   std::vector<double> radius;
   std::vector<uint32_t> material;
+  SphereLanes lanes;  // centres and squared radii again, in SIMD lanes (sphere_lanes.h)
   size_t size() const { return center.size(); }
+  void add(DVec3 c, double r, uint32_t m) {
+    lanes.add(c, r);
+    center.push_back(c);
+    radius.push_back(r);
+    material.push_back(m);
+  }
 };
 
 // Smooth shading: per polygon, its vertices' normals and texture coordinates, in the order of its vertices

@@ -116,14 +116,16 @@ inline bool intersect_scene(const SceneGeometry& s, const Ray& ray, float t_max,
   }
   if constexpr ((F & kFeatureSpheres) != 0) {
     const uint32_t sb = s.sphere_begin();
-    for (size_t i = 0; i < s.spheres.size(); ++i) {
+    // The spheres the ray may hit (sphere_lanes.h), nearest hit kept: intersect_sphere's answers, in index order.
+    visit_sphere_candidates(s.spheres.lanes, ray.o, ray.d, [&](uint32_t i) {
       float t;
       if (intersect_sphere(s.spheres.center[i], s.spheres.radius[i], ray.o, ray.d, t_max, t)) {
         t_max = t;
-        hit = {t, sb + static_cast<uint32_t>(i)};
+        hit = {t, sb + i};
         found = true;
       }
-    }
+      return false;
+    });
   }
   return found;
 }
@@ -136,13 +138,13 @@ template <uint32_t F>
 inline bool occluded_scene(const SceneGeometry& s, const Ray& ray, float t_max, uint32_t skip_a, uint32_t skip_b) {
   if constexpr ((F & kFeatureSpheres) != 0) {
     const uint32_t sb = s.sphere_begin();
-    for (size_t i = 0; i < s.spheres.size(); ++i) {
-      const uint32_t id = sb + static_cast<uint32_t>(i);
-      float t;
-      if (id != skip_a && id != skip_b &&
-          intersect_sphere(s.spheres.center[i], s.spheres.radius[i], ray.o, ray.d, t_max, t))
-        return true;
-    }
+    if (visit_sphere_candidates(s.spheres.lanes, ray.o, ray.d, [&](uint32_t i) {
+          const uint32_t id = sb + i;
+          float t;
+          return id != skip_a && id != skip_b &&
+                 intersect_sphere(s.spheres.center[i], s.spheres.radius[i], ray.o, ray.d, t_max, t);
+        }))
+      return true;
   }
   if constexpr ((F & kFeaturePolygons) != 0) {
     if (s.polygons.size() != 0 && query_detail::any_own_polygon(s, ray, t_max, skip_a, skip_b)) return true;

@@ -918,9 +918,7 @@ std::shared_ptr<Scene> compile_scene(const SceneDesc& desc) {
         add_polygon<3>(s.polygons, {v[0], v[2], v[3]}, o, mat);
       }
     } else {
-      s.spheres.center.push_back(sh.center - o);
-      s.spheres.radius.push_back(sh.radius);
-      s.spheres.material.push_back(mat);
+      s.spheres.add(sh.center - o, sh.radius, mat);
     }
     if (shading.active()) shading.add(desc, shape, s.polygons, polygons_before, s.shading);
   }
