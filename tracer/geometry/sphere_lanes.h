@@ -70,9 +70,10 @@ using vdouble = stdx::fixed_size_simd<double, kSphereLanes>;
   return bits;
 }
 
-// visit_sphere_candidates' lanes, out of line: the visitor comes back through a plain function pointer, once per
-// candidate. (Inlined into the kernels' per-ray loops, the lanes cost the scenes of a few spheres, which never
-// take them, 3 % more instructions per sample: `cornell-spheres`, `shadertoy`; session 48.)
+// visit_sphere_candidates' lanes, out of line, the visitor called back through a plain function pointer once per
+// candidate: the kernels' per-ray loops, into which the queries are inlined, then carry one call for the lanes
+// instead of their code and a second copy of the visitor's (inlined, they cost the scenes of a few spheres, which
+// never take them, 2-4 % more instructions per sample; docs/performance.md, session 48).
 using Visitor = bool (*)(const void* visit, uint32_t sphere);
 [[gnu::noinline]] inline bool visit_lanes(const SphereLanes& L, Vec3 o, Vec3 d, Visitor f, const void* visit) {
   const DVec3 O(o), dd(d);
