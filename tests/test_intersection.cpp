@@ -805,3 +805,42 @@ TEST_CASE("packet: shared corners and packets of one axis permutation give the s
   CHECK(uniform > 450);
   CHECK(hits > 2000);
 }
+
+namespace {
+// Every second count passes no second skip list (closest-hit queries skip one primitive).
+const uint32_t* second_skips_or_none(int m, const uint32_t* skip_b) { return m % 2 == 0 ? skip_b : nullptr; }
+}  // namespace
+
+TEST_CASE("packet: a loaded packet holds each ray's shear set-up in its lane and missing lanes copy lane 0") {
+  // RayPacket::load transposes the rays with fixed permutations of their floats: each lane must hold exactly its
+  // own ray's RayShear constants and permuted origin, its t_max and skips (−1 for none), whatever the count.
+  Pcg32 rng(2026, 12);
+  for (int m = 1; m <= kLanes; ++m) {
+    Ray rays[kLanes];
+    float t_max[kLanes];
+    uint32_t skip_a[kLanes], skip_b[kLanes];
+    for (int l = 0; l < m; ++l) {
+      rays[l] = {random_in(rng, -50, 50), glm::normalize(random_in(rng, -1, 1))};
+      t_max[l] = 1.f + static_cast<float>(l);
+      skip_a[l] = l % 3 == 0 ? ~0u : static_cast<uint32_t>(7 * l + m);
+      skip_b[l] = l % 2 == 0 ? ~0u : static_cast<uint32_t>(1000 + l);
+    }
+    RayPacket P;
+    P.load(rays, t_max, skip_a, second_skips_or_none(m, skip_b), m);
+    for (int l = 0; l < kLanes; ++l) {
+      const int r = l < m ? l : 0;
+      const RayShear s(rays[r].d);
+      const Vec3 o = rays[r].o;
+      INFO("count " << m << " lane " << l);
+      CHECK(static_cast<float>(P.sx[l]) == s.sx);
+      CHECK(static_cast<float>(P.sy[l]) == s.sy);
+      CHECK(static_cast<float>(P.sz[l]) == s.sz);
+      CHECK(static_cast<float>(P.ox[l]) == o[s.kx]);
+      CHECK(static_cast<float>(P.oy[l]) == o[s.ky]);
+      CHECK(static_cast<float>(P.oz[l]) == o[s.kz]);
+      CHECK(static_cast<float>(P.t_max[l]) == (l < m ? t_max[l] : -kInfinity));
+      CHECK(static_cast<float>(P.skip_a[l]) == (l < m && skip_a[l] != ~0u ? static_cast<float>(skip_a[l]) : -1.f));
+      CHECK(static_cast<float>(P.skip_b[l]) == (l < m && m % 2 == 0 && skip_b[l] != ~0u ? static_cast<float>(skip_b[l]) : -1.f));
+    }
+  }
+}

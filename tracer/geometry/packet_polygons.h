@@ -23,7 +23,9 @@
 // - Uniform packets. Where all rays of a packet share their axis permutation (camera rays do), the corner's
 //   coordinates are broadcast instead of chosen lane by lane.
 #pragma once
+#include <bit>
 #include <cstdint>
+#include <utility>
 
 #include "core/ray.h"
 #include "geometry/simd_polygons.h"
@@ -61,25 +63,83 @@ template <class T>
   return r;
 }
 
+// kLanes rays side by side in memory are 6·kLanes floats, component c of ray l at 6l + c: six vectors, and each
+// component is a fixed permutation of them. Vector extensions that GCC (12 on) and clang share spell it for any
+// width: each pair of vectors shuffled into the lanes they hold, then the three results merged lane by lane (with
+// AVX-512, permutes of two sources and masked moves); the generic simd type has no such shuffle.
+using RawFloats = float __attribute__((vector_size(sizeof(float) * kLanes)));
+static_assert(sizeof(Ray) == 6 * sizeof(float) && sizeof(vfloat) == sizeof(RawFloats));
+
+// Which pair of the six vectors (0, 1, 2) holds component C of lane l, its index within that pair (any index where
+// another pair holds it), and the merges' choices: the second operand's lane (kLanes + l) where the lane is from
+// the second or third pair.
+template <int C>
+constexpr int ray_source_pair(int l) {
+  return (6 * l + C) / (2 * kLanes);
+}
+template <int C, int Pair>
+constexpr int ray_index_in_pair(int l) {
+  return ray_source_pair<C>(l) == Pair ? 6 * l + C - 2 * Pair * kLanes : 0;
+}
+template <int C, int Pair>
+constexpr int ray_merge_index(int l) {
+  return ray_source_pair<C>(l) == Pair ? kLanes + l : l;
+}
+
+// Component C (0–2: the origin's x, y, z; 3–5: the direction's) of the kLanes rays held in v.
+template <int C, size_t... L>
+[[gnu::always_inline]] inline vfloat ray_component(const RawFloats (&v)[6], std::index_sequence<L...>) {
+  const RawFloats p0 = __builtin_shufflevector(v[0], v[1], ray_index_in_pair<C, 0>(static_cast<int>(L))...);
+  const RawFloats p1 = __builtin_shufflevector(v[2], v[3], ray_index_in_pair<C, 1>(static_cast<int>(L))...);
+  const RawFloats p2 = __builtin_shufflevector(v[4], v[5], ray_index_in_pair<C, 2>(static_cast<int>(L))...);
+  const RawFloats first_two = __builtin_shufflevector(p0, p1, ray_merge_index<C, 1>(static_cast<int>(L))...);
+  return std::bit_cast<vfloat>(__builtin_shufflevector(first_two, p2, ray_merge_index<C, 2>(static_cast<int>(L))...));
+}
+
+// A skip list as floats: −1 for none (~0u or no list), else the index (exact below 2^24).
+[[gnu::always_inline]] inline vfloat skip_floats(const uint32_t* skip) {
+  using vuint = stdx::rebind_simd_t<uint32_t, vfloat>;
+  if (!skip) return vfloat(-1.f);
+  const vuint u(skip, stdx::element_aligned);
+  vfloat f = stdx::static_simd_cast<vfloat>(u);
+  // The mask carried over by its bits (libstdc++'s __to_bitset / __from_bitset: masks of two element types do not convert).
+  stdx::where(vmask::__from_bitset((u == ~0u).__to_bitset()), f) = -1.f;
+  return f;
+}
+
 }  // namespace packet_detail
 
 inline void RayPacket::load(const Ray* rays, const float* t_max_in, const uint32_t* skip_a_in,
                             const uint32_t* skip_b_in, int n) {
   using packet_detail::pick;
   count = n;
-  // Each vector built lane by lane from registers: writing the lanes to memory one float at a time and reading
-  // them back as a vector stalls on store-to-load forwarding.
-  const auto at = [&](int l) { return l < n ? l : 0; };
-  const vfloat o[3] = {vfloat([&](int l) { return rays[at(l)].o.x; }), vfloat([&](int l) { return rays[at(l)].o.y; }),
-                       vfloat([&](int l) { return rays[at(l)].o.z; })};
-  const vfloat d[3] = {vfloat([&](int l) { return rays[at(l)].d.x; }), vfloat([&](int l) { return rays[at(l)].d.y; }),
-                       vfloat([&](int l) { return rays[at(l)].d.z; })};
-  t_max = vfloat([&](int l) { return l < n ? t_max_in[l] : -kInfinity; });
-  const auto skip_lane = [&](const uint32_t* skip, int l) {
-    return l < n && skip && skip[l] != ~0u ? static_cast<float>(skip[l]) : -1.f;
-  };
-  skip_a = vfloat([&](int l) { return skip_lane(skip_a_in, l); });
-  skip_b = vfloat([&](int l) { return skip_lane(skip_b_in, l); });
+  // A partial packet is completed first: its inactive lanes copy lane 0's ray (so that they share its axis
+  // permutation), search (0, −inf) and skip nothing.
+  Ray pad_rays[kLanes];
+  float pad_t[kLanes];
+  uint32_t pad_a[kLanes], pad_b[kLanes];
+  if (n < kLanes) {
+    for (int l = 0; l < kLanes; ++l) {
+      const bool on = l < n;
+      pad_rays[l] = rays[on ? l : 0];
+      pad_t[l] = on ? t_max_in[l] : -kInfinity;
+      pad_a[l] = on && skip_a_in ? skip_a_in[l] : ~0u;
+      pad_b[l] = on && skip_b_in ? skip_b_in[l] : ~0u;
+    }
+    rays = pad_rays, t_max_in = pad_t, skip_a_in = pad_a, skip_b_in = skip_b_in ? pad_b : nullptr;
+  }
+  packet_detail::RawFloats raw[6];
+  const float* flat = reinterpret_cast<const float*>(rays);
+  for (int i = 0; i < 6; ++i)
+    raw[i] = std::bit_cast<packet_detail::RawFloats>(vfloat(flat + i * kLanes, stdx::element_aligned));
+  constexpr auto lanes = std::make_index_sequence<kLanes>{};
+  const vfloat o[3] = {packet_detail::ray_component<0>(raw, lanes), packet_detail::ray_component<1>(raw, lanes),
+                       packet_detail::ray_component<2>(raw, lanes)};
+  const vfloat d[3] = {packet_detail::ray_component<3>(raw, lanes), packet_detail::ray_component<4>(raw, lanes),
+                       packet_detail::ray_component<5>(raw, lanes)};
+  t_max = vfloat(t_max_in, stdx::element_aligned);
+  skip_a = packet_detail::skip_floats(skip_a_in);
+  skip_b = packet_detail::skip_floats(skip_b_in);
   const vfloat ax = stdx::abs(d[0]), ay = stdx::abs(d[1]), az = stdx::abs(d[2]);
   // max_dimension: x > y ? (x > z ? 0 : 2) : (y > z ? 1 : 2); then kx = kz + 1, ky = kx + 1 (mod 3).
   const M x_gt_y = ax > ay;
