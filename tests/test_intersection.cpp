@@ -840,7 +840,8 @@ TEST_CASE("packet: a loaded packet holds each ray's shear set-up in its lane and
       CHECK(static_cast<float>(P.oz[l]) == o[s.kz]);
       CHECK(static_cast<float>(P.t_max[l]) == (l < m ? t_max[l] : -kInfinity));
       CHECK(static_cast<float>(P.skip_a[l]) == (l < m && skip_a[l] != ~0u ? static_cast<float>(skip_a[l]) : -1.f));
-      CHECK(static_cast<float>(P.skip_b[l]) == (l < m && m % 2 == 0 && skip_b[l] != ~0u ? static_cast<float>(skip_b[l]) : -1.f));
+      const bool second = l < m && m % 2 == 0 && skip_b[l] != ~0u;
+      CHECK(static_cast<float>(P.skip_b[l]) == (second ? static_cast<float>(skip_b[l]) : -1.f));
     }
   }
 }

@@ -102,7 +102,8 @@ template <int C, size_t... L>
   if (!skip) return vfloat(-1.f);
   const vuint u(skip, stdx::element_aligned);
   vfloat f = stdx::static_simd_cast<vfloat>(u);
-  // The mask carried over by its bits (libstdc++'s __to_bitset / __from_bitset: masks of two element types do not convert).
+  // The mask carried over by its bits (libstdc++'s __to_bitset and __from_bitset): masks of two element types do
+  // not convert.
   stdx::where(vmask::__from_bitset((u == ~0u).__to_bitset()), f) = -1.f;
   return f;
 }
@@ -128,6 +129,9 @@ inline void RayPacket::load(const Ray* rays, const float* t_max_in, const uint32
     }
     rays = pad_rays, t_max_in = pad_t, skip_a_in = pad_a, skip_b_in = skip_b_in ? pad_b : nullptr;
   }
+  // The six vectors are read right after the caller stored the rays one by one, and wait for those stores to
+  // complete (store-to-load forwarding cannot serve a vector from several stores); lane-by-lane inserts, which
+  // need no such wait, cost more (docs/performance.md, session 49).
   packet_detail::RawFloats raw[6];
   const float* flat = reinterpret_cast<const float*>(rays);
   for (int i = 0; i < 6; ++i)
